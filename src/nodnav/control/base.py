@@ -1,0 +1,62 @@
+"""The controller interface: track a reference while keeping clear of others and walls.
+
+One controller instance belongs to one robot (it may keep warm-start state between steps).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ControlRequest:
+    """What a robot's controller knows at one control step."""
+
+    position: np.ndarray
+    """Current position p_{i,t} ``(2,)`` (m)."""
+    velocity: np.ndarray
+    """Current velocity v_{i,t} ``(2,)`` (m/s)."""
+    reference: np.ndarray
+    """Reference positions p^PRM over the horizon ``(K, 2)`` (m), at ``sample_times``."""
+    sample_times: np.ndarray
+    """Times after now at which ``reference`` and ``others`` are given ``(K,)`` (s), in (0, T_MPC]."""
+    others: np.ndarray
+    """Predicted positions p^pred_j of the other robots ``(m, K, 2)`` (m); m may be 0."""
+    other_radii: np.ndarray
+    """Radii of the other robots ``(m,)`` (m)."""
+
+
+@dataclass(frozen=True)
+class ControlResult:
+    """What a controller returns: never ``None``; on failure it still returns a safe command."""
+
+    success: bool
+    """Whether the optimisation produced a trajectory satisfying every constraint."""
+    reason: str
+    """Empty on success; otherwise what went wrong and what the robot did (e.g. braked)."""
+    velocity: np.ndarray
+    """Velocity command to apply over the next control step ``(2,)`` (m/s)."""
+    next_position: np.ndarray
+    """Position the robot reaches after one control step if it follows the plan ``(2,)`` (m)."""
+    next_velocity: np.ndarray
+    """Velocity at the end of the control step ``(2,)`` (m/s)."""
+    planned_positions: np.ndarray
+    """The controller's planned positions at the request's ``sample_times`` ``(K, 2)`` (m)."""
+    solve_time: float = 0.0
+    """Wall time of the solve (s)."""
+    info: dict = field(default_factory=dict)
+    """Controller-specific diagnostics (iterations, solver status)."""
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """A robot's motion controller."""
+
+    name: str
+
+    def control(self, request: ControlRequest) -> ControlResult:
+        """Compute the command for the next control step."""
+        ...

@@ -1,0 +1,192 @@
+"""The planner interface: joint trajectories for a passing order (Sections II-B-1, IV-A-2).
+
+Every planner takes a :class:`PlanRequest` and returns a :class:`PlanResult`; the closed loop,
+the CLI and the conformance tests use nothing else. Arrays are indexed by the robots of the
+request (0..n-1), which may be a subset of the scenario's robots (a robot and its game players).
+
+Orders that history has ruled out
+---------------------------------
+A robot that has already entered the corridor cannot be made to pass after one that has not.
+The request carries ``entered``: the robots that have entered, in the order they did. A planner
+never plans an impossible order; it plans :func:`feasible_order` instead, which keeps the
+realised entries at the front and the other robots in the requested relative order, and says so
+in the result (``order_planned`` differs from ``order``, ``repaired`` is true). Strategies that
+differ only in the part of the order already decided therefore get the same joint path, so the
+opinion layer sees them as equally consistent with what it observes: a well-defined signal,
+with no missing plans and no infinite deviations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from nodnav.scenario.world import World
+
+
+@dataclass(frozen=True)
+class JointTrajectory:
+    """A time-parameterised joint path of ``n`` robots sampled every ``dt``.
+
+    Between samples motion is linear (constant velocity); after the last sample every robot
+    stays where it is.
+    """
+
+    times: np.ndarray
+    """Sample times ``(K,)`` (s), starting at the request's time."""
+    positions: np.ndarray
+    """Positions ``(K, n, 2)`` (m)."""
+    velocities: np.ndarray
+    """Velocities ``(K, n, 2)`` (m/s); ``velocities[k]`` is the velocity on ``[t_k, t_{k+1})``."""
+
+    @property
+    def n_robots(self) -> int:
+        """Number of robots in the trajectory."""
+        return self.positions.shape[1]
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample (s)."""
+        return float(self.times[-1] - self.times[0])
+
+    def positions_at(self, t: np.ndarray | float) -> np.ndarray:
+        """Positions at times ``t`` by linear interpolation, shape ``t.shape + (n, 2)``; held after the end."""
+        t = np.asarray(t, dtype=float)
+        tt = np.clip(t, self.times[0], self.times[-1])
+        idx = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, len(self.times) - 1)
+        nxt = np.minimum(idx + 1, len(self.times) - 1)
+        span = self.times[nxt] - self.times[idx]
+        w = np.where(span > 0, (tt - self.times[idx]) / np.where(span > 0, span, 1.0), 0.0)
+        w = w[..., None, None]
+        return (1.0 - w) * self.positions[idx] + w * self.positions[nxt]
+
+    def velocities_at(self, t: np.ndarray | float) -> np.ndarray:
+        """Velocities at times ``t``, shape ``t.shape + (n, 2)``; zero after the end."""
+        t = np.asarray(t, dtype=float)
+        idx = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 1)
+        v = self.velocities[idx]
+        return np.where((t >= self.times[-1])[..., None, None], 0.0, v)
+
+    def subset(self, robots) -> "JointTrajectory":
+        """The trajectory of some of the robots only."""
+        robots = list(robots)
+        return JointTrajectory(self.times, self.positions[:, robots], self.velocities[:, robots])
+
+    @staticmethod
+    def from_positions(times: np.ndarray, positions: np.ndarray) -> "JointTrajectory":
+        """Build from positions, with velocities as forward differences (zero on the last sample)."""
+        times = np.asarray(times, dtype=float)
+        positions = np.asarray(positions, dtype=float)
+        vel = np.zeros_like(positions)
+        if len(times) > 1:
+            vel[:-1] = np.diff(positions, axis=0) / np.diff(times)[:, None, None]
+        return JointTrajectory(times, positions, vel)
+
+    @staticmethod
+    def hold(t0: float, positions: np.ndarray) -> "JointTrajectory":
+        """Every robot standing still at ``positions`` from ``t0`` on."""
+        p = np.asarray(positions, dtype=float)[None]
+        return JointTrajectory(np.array([float(t0)]), p, np.zeros_like(p))
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """One planning query: the robots concerned, where they are, where they go, and the order."""
+
+    world: World
+    """The environment."""
+    positions: np.ndarray
+    """Current positions ``(n, 2)`` (m)."""
+    velocities: np.ndarray
+    """Current velocities ``(n, 2)`` (m/s)."""
+    destinations: np.ndarray
+    """Destinations ``(n, 2)`` (m)."""
+    radii: np.ndarray
+    """Radii ``(n,)`` (m)."""
+    max_speeds: np.ndarray
+    """Speed limits ``(n,)`` (m/s)."""
+    order: tuple[int, ...]
+    """Requested passing order, a permutation of ``0..n-1``."""
+    entered: tuple[int, ...] = ()
+    """Robots that have already entered the corridor, in the order they entered."""
+    t0: float = 0.0
+    """Time of the request (s); the trajectory starts here."""
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """What a planner returns: never ``None``; on failure ``success`` is false and ``reason`` says why."""
+
+    success: bool
+    """Whether ``trajectory`` reaches every destination respecting ``order_planned``."""
+    reason: str
+    """Empty on plain success; why it failed, or what was repaired."""
+    cost: float
+    """Path cost (planner-specific; ``inf`` on failure)."""
+    trajectory: JointTrajectory
+    """The joint trajectory; on failure every robot holds its position."""
+    order: tuple[int, ...]
+    """The order that was requested."""
+    order_planned: tuple[int, ...]
+    """The order actually planned (see :func:`feasible_order`)."""
+    compute_time: float = 0.0
+    """Wall time spent answering the query (s)."""
+    info: dict = field(default_factory=dict)
+    """Planner-specific diagnostics."""
+
+    @property
+    def repaired(self) -> bool:
+        """Whether history ruled the requested order out and a feasible one was planned instead."""
+        return self.order_planned != self.order
+
+    @staticmethod
+    def failure(request: PlanRequest, reason: str, compute_time: float = 0.0) -> "PlanResult":
+        """A failed result: robots hold their positions."""
+        return PlanResult(False, reason, float("inf"), JointTrajectory.hold(request.t0, request.positions),
+                          tuple(request.order), feasible_order(request.order, request.entered), compute_time)
+
+
+@runtime_checkable
+class Planner(Protocol):
+    """A multi-robot path planner for a given passing order."""
+
+    name: str
+
+    def plan(self, request: PlanRequest) -> PlanResult:
+        """Plan a joint trajectory from the request's state to its destinations in its order."""
+        ...
+
+
+def feasible_order(order: tuple[int, ...], entered: tuple[int, ...]) -> tuple[int, ...]:
+    """The closest order that history still allows: robots that have entered the corridor first,
+    in the order they entered, then the others in the requested relative order."""
+    done = tuple(int(k) for k in entered)
+    return done + tuple(int(k) for k in order if int(k) not in done)
+
+
+def crossing_directions(world: World, positions: np.ndarray, destinations: np.ndarray) -> np.ndarray:
+    """Direction each robot crosses the corridor in: +1 left to right, -1 right to left, 0 none.
+
+    A robot inside the corridor crosses towards its destination's side.
+    """
+    from nodnav.scenario.world import LEFT, RIGHT
+
+    start = world.side_of(positions)
+    goal = world.side_of(destinations)
+    d = np.zeros(len(start), dtype=int)
+    d[(goal == RIGHT) & (start != RIGHT)] = 1
+    d[(goal == LEFT) & (start != LEFT)] = -1
+    return d
+
+
+def corridor_entry_order(world: World, trajectory: JointTrajectory) -> tuple[int, ...]:
+    """Robots in the order they first enter the corridor along a trajectory (ties by index).
+
+    A robot that is already inside at the first sample counts as entering at that time.
+    """
+    inside = world.in_corridor(trajectory.positions)  # (K, n)
+    first = np.where(inside.any(axis=0), inside.argmax(axis=0), np.iinfo(int).max)
+    entering = [k for k in np.argsort(first, kind="stable") if first[k] != np.iinfo(int).max]
+    return tuple(int(k) for k in entering)

@@ -1,0 +1,132 @@
+"""The environment E of the paper: a bounded plane with rectangular walls and one narrow corridor.
+
+Everything here is geometry on arrays; nothing knows about opinions, planners or controllers.
+Points are ``(..., 2)`` arrays in metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Sides of the corridor, as returned by :meth:`World.side_of`.
+LEFT, INSIDE, RIGHT = -1, 0, 1
+
+
+@dataclass(frozen=True)
+class Corridor:
+    """The single-file passage, an axis-aligned box."""
+
+    x_min: float
+    """Left end of the passage (m); the paper's left entrance is at x = -3."""
+    x_max: float
+    """Right end of the passage (m); the paper's right entrance is at x = 3."""
+    y_min: float
+    """Lower wall of the passage (m)."""
+    y_max: float
+    """Upper wall of the passage (m)."""
+
+    @property
+    def width(self) -> float:
+        """Clear width of the passage (m)."""
+        return self.y_max - self.y_min
+
+    @property
+    def length(self) -> float:
+        """Length of the passage (m)."""
+        return self.x_max - self.x_min
+
+
+@dataclass(frozen=True)
+class World:
+    """Free space ``E``: the box ``bounds`` minus the rectangles ``obstacles``, with one corridor.
+
+    The corridor is the passage between the two entrances; it is what the passing order is about.
+    Walls are given explicitly as ``obstacles`` so that a user can build other layouts.
+    """
+
+    bounds: tuple[float, float, float, float]
+    """Outer boundary ``(x_min, y_min, x_max, y_max)`` (m); robots stay inside it."""
+    obstacles: tuple[tuple[float, float, float, float], ...]
+    """Axis-aligned wall rectangles ``(x_min, y_min, x_max, y_max)`` (m)."""
+    corridor: Corridor
+    """The single-file passage."""
+    entrances: tuple[tuple[float, float], tuple[float, float]]
+    """Left and right entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0)."""
+
+    @property
+    def obstacle_array(self) -> np.ndarray:
+        """Walls as an ``(M, 4)`` array."""
+        return np.asarray(self.obstacles, dtype=float).reshape(-1, 4)
+
+    def clearance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance (m) from each point to the nearest wall or boundary; negative inside a wall."""
+        p = np.asarray(points, dtype=float)
+        x, y = p[..., 0], p[..., 1]
+        x0, y0, x1, y1 = self.bounds
+        d = np.minimum(np.minimum(x - x0, x1 - x), np.minimum(y - y0, y1 - y))
+        for ox0, oy0, ox1, oy1 in self.obstacles:
+            dx = np.maximum(ox0 - x, x - ox1)
+            dy = np.maximum(oy0 - y, y - oy1)
+            outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
+            inside = np.minimum(np.maximum(dx, dy), 0.0)
+            d = np.minimum(d, outside + inside)
+        return d
+
+    def is_free(self, points: np.ndarray, radius: float | np.ndarray) -> np.ndarray:
+        """Whether a disc of ``radius`` centred at each point lies in free space."""
+        return self.clearance(points) >= np.asarray(radius) - 1e-9
+
+    def side_of(self, points: np.ndarray) -> np.ndarray:
+        """``LEFT`` (-1) left of the corridor, ``INSIDE`` (0) between the entrances, ``RIGHT`` (+1)."""
+        x = np.asarray(points, dtype=float)[..., 0]
+        return np.where(x < self.corridor.x_min, LEFT, np.where(x > self.corridor.x_max, RIGHT, INSIDE))
+
+    def entrance_for(self, side: np.ndarray) -> np.ndarray:
+        """The entrance a robot approaching from ``side`` (-1 or +1) uses, shape ``(..., 2)``."""
+        ent = np.asarray(self.entrances, dtype=float)
+        return np.where((np.asarray(side) > 0)[..., None], ent[1], ent[0])
+
+    def corridor_distance(self, points: np.ndarray, approach_side: np.ndarray) -> np.ndarray:
+        """Distance d_{i,corridor} of eqs. (6) and (10) (m).
+
+        Euclidean distance to the entrance on the side the robot approaches from; zero once the
+        robot has passed that entrance and until it exits at the other end (Section III-A).
+        """
+        p = np.asarray(points, dtype=float)
+        side = np.asarray(approach_side)
+        ent = self.entrance_for(side)
+        dist = np.linalg.norm(p - ent, axis=-1)
+        x = p[..., 0]
+        passed_entrance = np.where(side > 0, x <= self.corridor.x_max, x >= self.corridor.x_min)
+        not_exited = (x >= self.corridor.x_min) & (x <= self.corridor.x_max)
+        return np.where(passed_entrance & not_exited, 0.0, dist)
+
+    def in_corridor(self, points: np.ndarray) -> np.ndarray:
+        """Whether each point is between the entrances (inside the single-file passage)."""
+        return self.side_of(points) == INSIDE
+
+
+def paper_world(
+    corridor_half_length: float = 3.0,
+    corridor_width: float = 0.7,
+    room_depth: float = 4.0,
+    room_height: float = 5.0,
+) -> World:
+    """The paper's layout: a corridor centred on the origin with an open room on each side.
+
+    The paper fixes only the entrances at (-3, 0) and (3, 0). The width 0.7 m admits one robot of
+    radius 0.2 m with 0.15 m to spare on each side but not two abreast (that needs 0.8 m); the
+    rooms, 4 m deep and 5 m high, leave room for four robots to wait and manoeuvre.
+    """
+    h = corridor_half_length
+    w = corridor_width / 2.0
+    ymax = room_height / 2.0
+    xmax = h + room_depth
+    return World(
+        bounds=(-xmax, -ymax, xmax, ymax),
+        obstacles=((-h, -ymax, h, -w), (-h, w, h, ymax)),
+        corridor=Corridor(x_min=-h, x_max=h, y_min=-w, y_max=w),
+        entrances=((-h, 0.0), (h, 0.0)),
+    )

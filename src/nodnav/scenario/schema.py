@@ -19,10 +19,11 @@ from typing import Any
 import numpy as np
 import yaml
 
+from nodnav.errors import NodnavError
 from nodnav.scenario.world import Corridor, World, paper_world
 
 
-class ScenarioError(ValueError):
+class ScenarioError(NodnavError, ValueError):
     """A scenario file or option is malformed; the message is one line saying what and how to fix."""
 
 
@@ -43,7 +44,9 @@ class OpinionParams:
     alpha_min: float = 0.05
     """Lower bound h of the step size alpha(t) = max(1/(t+1), h) of eq. (8); paper: 0.05."""
     init: str = "zero"
-    """Initial opinions: ``zero`` (z_ij(0) = 0) or ``distance`` (eqs. (10)-(11)); paper: zero."""
+    """Initial opinions: ``zero`` (z_ij(0) = 0), ``distance`` (eqs. (10)-(11)) or ``given`` (``z0``); paper: zero."""
+    z0: tuple[tuple[float, ...], ...] = ()
+    """With ``init: given``, the initial opinions z_i(0) of every robot, one row per robot (dimensionless)."""
     K2: float = 10.0
     """Scaling K_2 of the distance-based initial opinions, eq. (11) (dimensionless); paper: 10."""
     delta: float = 1.0
@@ -201,9 +204,9 @@ class Scenario:
 # Loading
 
 
-def _nearest(key: str, valid) -> str:
+def _nearest(key: str, valid, what: str = "valid keys") -> str:
     match = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.5)
-    return f"; did you mean '{match[0]}'?" if match else f"; valid keys: {', '.join(sorted(valid))}"
+    return f"; did you mean '{match[0]}'?" if match else f"; {what}: {', '.join(sorted(valid))}"
 
 
 def _check_keys(data: dict, valid, where: str) -> None:
@@ -259,8 +262,12 @@ def _params(cls, data: Any, where: str, overrides: dict | None = None):
             if not isinstance(value, str):
                 raise ScenarioError(f"{name}: expected text, got {value!r}")
             kwargs[key] = value
-        else:  # dict[str, float]
+        elif hint == dict[str, float]:
             kwargs[key] = {str(k): _number(v, f"{name}.{k}") for k, v in _mapping(value, name).items()}
+        else:  # a matrix of numbers, one row per robot
+            if not isinstance(value, (list, tuple)) or not all(isinstance(row, (list, tuple)) for row in value):
+                raise ScenarioError(f"{name}: expected a list of rows of numbers, got {value!r}")
+            kwargs[key] = tuple(_vector(row, len(row), f"{name}[{k}]") for k, row in enumerate(value))
     return cls(**kwargs)
 
 
@@ -335,13 +342,14 @@ def _check_geometry(world: World, robots: tuple[RobotSpec, ...]) -> None:
     for k, r in enumerate(robots, start=1):
         for key in ("origin", "destination"):
             p = np.array(getattr(r, key))
+            shown = list(getattr(r, key))
             x0, y0, x1, y1 = world.bounds
             if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1):
-                raise ScenarioError(f"robot {k}: {key} {list(p)} is outside the world bounds {list(world.bounds)}")
+                raise ScenarioError(f"robot {k}: {key} {shown} is outside the world bounds {list(world.bounds)}")
             clearance = float(world.clearance(p))
             if clearance < r.radius:
                 raise ScenarioError(
-                    f"robot {k}: {key} {list(p)} puts the robot (radius {r.radius} m) inside a wall "
+                    f"robot {k}: {key} {shown} puts the robot (radius {r.radius} m) inside a wall "
                     f"(clearance {clearance:.3f} m); move it at least {r.radius} m from every wall")
     for key in ("origin", "destination"):
         pts = np.array([getattr(r, key) for r in robots])
@@ -369,12 +377,16 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     robots = _robots(data["robots"], data.get("robot_defaults"))
     _check_geometry(world, robots)
     opinion = _params(OpinionParams, data.get("opinion"), "opinion")
-    if opinion.init not in ("zero", "distance"):
-        raise ScenarioError(f"opinion.init: expected 'zero' or 'distance', got {opinion.init!r}")
+    if opinion.init not in ("zero", "distance", "given"):
+        raise ScenarioError(f"opinion.init: expected 'zero', 'distance' or 'given', got {opinion.init!r}")
+    n_s = math.factorial(len(robots))
+    if opinion.init == "given" and (len(opinion.z0) != len(robots) or any(len(row) != n_s for row in opinion.z0)):
+        raise ScenarioError(f"opinion.z0: with init 'given', give {len(robots)} rows of {n_s} numbers (one row per robot)")
+    if opinion.init != "given" and opinion.z0:
+        raise ScenarioError("opinion.z0: only used with init 'given'; set opinion.init: given or remove z0")
     for p in ("d", "eta", "T"):
         if getattr(opinion, p) <= 0:
             raise ScenarioError(f"opinion.{p}: must be positive, got {getattr(opinion, p)}")
-    n_s = math.factorial(len(robots))
     for s in opinion.bias:
         if not (s.startswith("S") and s[1:].isdigit() and 1 <= int(s[1:]) <= n_s):
             raise ScenarioError(f"opinion.bias: unknown strategy '{s}'; use S1..S{n_s} for {len(robots)} robots")
@@ -391,6 +403,13 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     for p in ("dt", "horizon"):
         if getattr(controller, p) <= 0:
             raise ScenarioError(f"controller.{p}: must be positive, got {getattr(controller, p)}")
+    from nodnav.control import CONTROLLERS
+    from nodnav.planning import PLANNERS
+
+    if planner.name not in PLANNERS:
+        raise ScenarioError(f"planner.name: unknown planner '{planner.name}'{_nearest(planner.name, PLANNERS, 'planners')}")
+    if controller.name not in CONTROLLERS:
+        raise ScenarioError(f"controller.name: unknown controller '{controller.name}'{_nearest(controller.name, CONTROLLERS, 'controllers')}")
     if planner.dt <= 0:
         raise ScenarioError(f"planner.dt: must be positive, got {planner.dt}")
     ratio = opinion.T / controller.dt
@@ -420,7 +439,7 @@ def load_scenario(spec: str | Path) -> Scenario:
     else:
         path = Path(spec)
         if not path.exists():
-            hint = _nearest(spec, builtin_names()).replace("valid keys", "built-in scenarios")
+            hint = _nearest(spec, builtin_names(), "built-in scenarios")
             raise ScenarioError(f"{spec}: no such built-in scenario or file{hint}")
         text, source = path.read_text(), str(path)
     try:
@@ -447,7 +466,7 @@ def _to_raw(scenario: Scenario) -> dict:
         },
         "robots": [{**dataclasses.asdict(r), "origin": list(r.origin), "destination": list(r.destination)}
                    for r in scenario.robots],
-        "opinion": dataclasses.asdict(scenario.opinion),
+        "opinion": {**dataclasses.asdict(scenario.opinion), "z0": [list(r) for r in scenario.opinion.z0]},
         "game_players": "all" if scenario.game_players is None else scenario.game_players,
         "time_limit": scenario.time_limit,
         "planner": dataclasses.asdict(scenario.planner),

@@ -130,3 +130,27 @@ def paper_world(
         corridor=Corridor(x_min=-h, x_max=h, y_min=-w, y_max=w),
         entrances=((-h, 0.0), (h, 0.0)),
     )
+
+
+def distance_to_go(world: World, points: np.ndarray, destinations: np.ndarray, approach_side: np.ndarray) -> np.ndarray:
+    """Length (m) of the shortest route through the corridor's entrances to each destination.
+
+    A robot before the corridor goes via both entrances, one inside goes via the far entrance,
+    one past it goes straight; robots with no crossing (``approach_side`` on the destination's
+    side) go straight. Used to measure progress, not to plan.
+    """
+    p = np.asarray(points, dtype=float)
+    dest = np.asarray(destinations, dtype=float)
+    side = np.asarray(approach_side)
+    near = world.entrance_for(side)
+    far = world.entrance_for(-side)
+    straight = np.linalg.norm(dest - p, axis=-1)
+    tail = np.linalg.norm(dest - far, axis=-1)
+    via_far = np.linalg.norm(far - p, axis=-1) + tail
+    via_both = np.linalg.norm(near - p, axis=-1) + np.linalg.norm(far - near, axis=-1) + tail
+    where = world.side_of(p)
+    dest_side = world.side_of(dest)
+    crossing = dest_side == -side
+    before = crossing & (where == side)
+    inside = crossing & (where == INSIDE)
+    return np.where(before, via_both, np.where(inside, via_far, straight))

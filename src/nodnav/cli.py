@@ -1,0 +1,287 @@
+"""The ``nodnav`` command: parses arguments, calls the library, prints. No logic of its own."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from nodnav.errors import NodnavError
+
+
+def _cmd_scenarios(args: argparse.Namespace) -> int:
+    from nodnav.scenario.schema import builtin_names, load_scenario
+
+    for name in builtin_names():
+        s = load_scenario(name)
+        print(f"{name:10s} {s.n_robots} robots  {s.description}")
+    return 0
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.viz.scenario import save_gallery, save_scenario_figure
+
+    if args.scenario == "all":
+        path = save_gallery([load_scenario(n) for n in builtin_names()], args.out)
+    else:
+        path = save_scenario_figure(load_scenario(args.scenario), args.out)
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_heatmap(args: argparse.Namespace) -> int:
+    from nodnav.decision.heatmap import steady_state_selection, z_grid
+
+    if args.grid < 2:
+        raise NodnavError(f"--grid must be at least 2, got {args.grid}")
+    result = steady_state_selection(args.u, z_grid(args.grid))
+    if args.out:
+        from nodnav.viz.heatmap import plot_heatmap
+
+        plot_heatmap(result, args.out)
+    if args.json:
+        print(json.dumps({"u": args.u, "z_values": result.z_values.tolist(), "x11": result.x11.tolist()}))
+    else:
+        x = result.x11
+        print(f"u = {args.u}: lim x11 ranges over [{x.min():.4f}, {x.max():.4f}] on a {args.grid}x{args.grid} grid"
+              f"{'' if result.converged else ' (NOT converged)'}")
+        if args.out:
+            print(f"wrote {args.out}")
+    return 0
+
+
+def _parse_order(text: str, n: int) -> tuple[int, ...]:
+    try:
+        order = tuple(int(k) - 1 for k in text.split(","))
+    except ValueError:
+        raise NodnavError(f"--order: expected robot numbers separated by commas, e.g. 2,1,3; got {text!r}") from None
+    if sorted(order) != list(range(n)):
+        raise NodnavError(f"--order: expected a permutation of 1..{n} for this {n}-robot scenario, got {text!r}")
+    return order
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    from nodnav.planning import PlanRequest, make_planner
+    from nodnav.planning.base import corridor_entry_order
+    from nodnav.geometry import min_pair_distance
+    from nodnav.scenario.schema import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    if args.planner:
+        scenario = scenario.with_overrides(**{"planner.name": args.planner})
+    order = _parse_order(args.order, scenario.n_robots)
+    planner = make_planner(scenario.planner, scenario.world)
+    request = PlanRequest(world=scenario.world, positions=scenario.origins,
+                          velocities=np.zeros_like(scenario.origins), destinations=scenario.destinations,
+                          radii=scenario.radii, max_speeds=scenario.max_speeds, order=order)
+    result = planner.plan(request)
+    fine_times = np.arange(result.trajectory.times[0], result.trajectory.times[-1] + 1e-9, 0.02)
+    summary = {
+        "success": result.success,
+        "reason": result.reason,
+        "cost": result.cost if np.isfinite(result.cost) else None,
+        "min_separation_m": min_pair_distance(result.trajectory.positions_at(fine_times)),
+        "corridor_entry_order": [k + 1 for k in corridor_entry_order(scenario.world, result.trajectory)],
+        "duration_s": result.trajectory.duration,
+        "compute_time_ms": 1e3 * result.compute_time,
+        "planner": scenario.planner.name,
+    }
+    if args.out:
+        from nodnav.viz.plan import save_plan_figure
+
+        save_plan_figure(scenario, result, args.out)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        status = "ok" if result.success else f"FAILED: {result.reason}"
+        print(f"{scenario.name} order {args.order} with {summary['planner']}: {status}")
+        if result.success:
+            print(f"  cost {result.cost:.2f}, duration {result.trajectory.duration:.1f} s, "
+                  f"min separation {summary['min_separation_m']:.3f} m, "
+                  f"entry order {','.join(map(str, summary['corridor_entry_order']))}, "
+                  f"{summary['compute_time_ms']:.1f} ms")
+        if args.out:
+            print(f"wrote {args.out}")
+    return 0 if result.success else 1
+
+
+def _parse_bias(text: str) -> dict[str, float]:
+    bias = {}
+    for item in filter(None, text.split(",")):
+        name, _, value = item.partition("=")
+        try:
+            bias[name.strip()] = float(value)
+        except ValueError:
+            raise NodnavError(f"--bias: expected entries like S3=150, got {item!r}") from None
+    return bias
+
+
+def _parse_players(text: str) -> int | str:
+    if text == "all":
+        return "all"
+    try:
+        return int(text)
+    except ValueError:
+        raise NodnavError(f"--players: expected 'all' or a whole number, got {text!r}") from None
+
+
+def scenario_with_options(args: argparse.Namespace):
+    """The scenario named on the command line with the options that override its settings."""
+    from nodnav.scenario.schema import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    changes = {}
+    if getattr(args, "players", None) is not None:
+        changes["game_players"] = _parse_players(args.players)
+    if getattr(args, "init", None):
+        changes["opinion.init"] = args.init
+    if getattr(args, "bias", None) is not None:
+        changes["opinion.bias"] = _parse_bias(args.bias)
+    if getattr(args, "u", None) is not None:
+        changes["opinion.u"] = args.u
+    if getattr(args, "planner", None):
+        changes["planner.name"] = args.planner
+    if getattr(args, "noise", None) is not None:
+        changes["sim.observation_noise"] = args.noise
+    return scenario.with_overrides(**changes) if changes else scenario
+
+
+def write_trial_outputs(result, out: Path) -> list[Path]:
+    """History, snapshot figure and animation of a finished trial, into ``out``."""
+    from nodnav.viz.trial import save_animation, save_snapshots
+
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"{result.history.scenario.name}-{result.history.method}-seed{result.history.seed}"
+    written = [result.history.save(out / f"{stem}.npz"), save_snapshots(result.history, out / f"{stem}-snapshots.png")]
+    written += save_animation(result.history, out / f"{stem}.gif")
+    return written
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from nodnav.sim.simulator import run_trial
+
+    scenario = scenario_with_options(args)
+    bar = None
+    if not args.json:
+        bar = tqdm(total=round(scenario.time_limit, 1), unit="sim s", delay=2.0, leave=False,
+                   bar_format="{l_bar}{bar}| {n:.1f}/{total:.0f} sim s [{elapsed}<{remaining}]")
+
+    def progress(t: float, limit: float) -> None:
+        if t - bar.n >= 1.0 - 1e-9:  # redraw once per simulated second
+            bar.update(t - bar.n)
+
+    result = run_trial(scenario, args.method, args.seed, progress=progress if bar else None)
+    if bar:
+        bar.close()
+    written = write_trial_outputs(result, Path(args.out)) if args.out else []
+    summary = result.to_dict()
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        order = ",".join(map(str, summary["corridor_entry_order"])) or "-"
+        print(f"{scenario.name} seed {args.seed} ({args.method}, {scenario.n_players} game players): "
+              f"{result.outcome.upper()} at t = {result.sim_time:.1f} s (wall {result.wall_time:.1f} s)")
+        print(f"  corridor entry order {order}, strategy "
+              f"{'S' + str(summary['strategy']) if summary['strategy'] else '-'}, consensus {summary['consensus']}, "
+              f"min separation {result.min_separation:.3f} m, MPC infeasible {result.mpc_infeasible}")
+        goals = ", ".join(f"{k + 1}: {t:.1f} s" if t is not None else f"{k + 1}: -"
+                          for k, t in enumerate(summary["time_to_goal_s"]))
+        print(f"  time to goal {goals}")
+        for path in written:
+            print(f"wrote {path}")
+    return 0
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from nodnav.sim.history import History
+    from nodnav.viz.trial import save_animation, save_snapshots
+
+    history = History.load(args.history)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = Path(args.history).stem
+    written = [save_snapshots(history, out / f"{stem}-snapshots.png")]
+    if not args.no_animation:
+        written += save_animation(history, out / f"{stem}.gif")
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``nodnav`` command."""
+    parser = argparse.ArgumentParser(prog="nodnav", description=__doc__.splitlines()[0].split(":")[0] + ": "
+                                     "opinion-driven multi-robot navigation through a narrow corridor")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("scenarios", help="list the built-in scenarios")
+    p.set_defaults(func=_cmd_scenarios)
+
+    p = sub.add_parser("show", help="draw a scenario (or 'all' for the gallery)")
+    p.add_argument("scenario", help="built-in name, YAML path, or 'all'")
+    p.add_argument("--out", required=True, help="PNG file to write")
+    p.set_defaults(func=_cmd_show)
+
+    p = sub.add_parser("heatmap", help="steady-state strategy selection of the pure NOD (Fig. 2a/2b)")
+    p.add_argument("--u", type=float, required=True, help="attention parameter u")
+    p.add_argument("--grid", type=int, default=41, help="grid points per axis over [-10, 10]")
+    p.add_argument("--out", help="PNG file to write")
+    p.add_argument("--json", action="store_true", help="print the grid as JSON")
+    p.set_defaults(func=_cmd_heatmap)
+
+    p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
+    p.add_argument("scenario", help="built-in name or YAML path")
+    p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
+    p.add_argument("--planner", help="planner name (default: the scenario's)")
+    p.add_argument("--out", help="PNG file to write")
+    p.add_argument("--json", action="store_true", help="print a JSON summary")
+    p.set_defaults(func=_cmd_plan)
+
+    p = sub.add_parser("run", help="simulate one trial of a scenario")
+    p.add_argument("scenario", help="built-in name or YAML path")
+    p.add_argument("--seed", type=int, default=1, help="trial seed (default 1)")
+    p.add_argument("--players", help="game players per robot: a number or 'all'")
+    p.add_argument("--init", choices=("zero", "distance"), help="initial opinions")
+    p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150")
+    p.add_argument("--u", type=float, help="attention parameter u")
+    p.add_argument("--planner", help="planner name (default: the scenario's)")
+    p.add_argument("--method", default="nod", help="navigation method (default nod)")
+    p.add_argument("--noise", type=float, help="observation noise standard deviation (m)")
+    p.add_argument("--out", help="directory for the history, snapshot figure and animation")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("replay", help="redraw the pictures of a saved trial history")
+    p.add_argument("history", help="a .npz history written by 'nodnav run --out'")
+    p.add_argument("--out", required=True, help="directory for the pictures")
+    p.add_argument("--no-animation", action="store_true", help="only the snapshot figure")
+    p.set_defaults(func=_cmd_replay)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``nodnav`` console command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except NodnavError as exc:
+        print(f"nodnav: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("nodnav: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,201 @@
+"""One robot running Algorithm 1 on its own observations.
+
+The agent sees the positions and velocities of the other robots (and knows their destinations,
+as the paper assumes); it never sees their opinions, probabilities or choices. Every period T
+it estimates the social terms (4) from the last window of observed motion against the joint
+paths it planned one period earlier, updates its opinion with (8), re-selects its game players
+(7), computes the strategy probabilities (3), samples its strategy, and plans the joint paths
+for every strategy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+from nodnav.decision.initial import distance_initial_opinions
+from nodnav.decision.opinion import opinion_update, step_size, strategy_probabilities
+from nodnav.decision.players import conflict_likelihood, select_game_players
+from nodnav.decision.strategies import consistency_weights, passing_orders, projected_order_ids
+from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions
+from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import LEFT, RIGHT
+
+
+@dataclass(frozen=True)
+class RobotView:
+    """What one robot observes at a decision time: everyone's recent motion, as it sees it."""
+
+    t: float
+    """Current time (s)."""
+    window_times: np.ndarray
+    """Sample times of the last window [t - T, t] ``(M,)`` (s)."""
+    window_states: np.ndarray
+    """Observed states (px, py, vx, vy) of every robot over the window ``(N_r, M, 4)``; own row is exact."""
+    entered: tuple[int, ...]
+    """Robots the observer has seen enter the corridor, in the order they did."""
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Current observed positions ``(N_r, 2)`` (m)."""
+        return self.window_states[:, -1, :2]
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """Current observed velocities ``(N_r, 2)`` (m/s)."""
+        return self.window_states[:, -1, 2:]
+
+
+@dataclass(frozen=True)
+class Decision:
+    """A robot's decision for the coming period: what it follows and what it expects of others."""
+
+    strategy: int
+    """Selected strategy index (0-based), or -1 for methods without strategies."""
+    robots: tuple[int, ...]
+    """Robots in the plan: the agent first, then its game players (scenario indices)."""
+    plan: PlanResult
+    """The joint plan for the selected strategy over ``robots``."""
+    opinions: np.ndarray
+    """Opinion state z_i after the update ``(N_s,)``."""
+    probabilities: np.ndarray
+    """Strategy probabilities x_i ``(N_s,)``."""
+    players: tuple[int, ...]
+    """Game players N_i(t)."""
+
+    @property
+    def own_trajectory(self) -> JointTrajectory:
+        """The agent's own reference path."""
+        return self.plan.trajectory.subset([0])
+
+
+class PlanCache:
+    """Plans already computed in this decision round, shared by agents that pose the same query.
+
+    The key is everything the planner reads, so a hit returns exactly what the agent would have
+    computed alone; the simulator clears the cache at every decision time.
+    """
+
+    def __init__(self, planner: Planner):
+        self.planner = planner
+        self._plans: dict[tuple, PlanResult] = {}
+        self.hits = 0
+        self.misses = 0
+
+    def clear(self) -> None:
+        """Forget every plan (called when the state of the world has moved on)."""
+        self._plans.clear()
+
+    def plan(self, request: PlanRequest) -> PlanResult:
+        """The planner's answer to ``request``, computed at most once per round."""
+        key = (request.order, request.entered, request.t0, request.positions.tobytes(),
+               request.velocities.tobytes(), request.destinations.tobytes(), request.radii.tobytes(),
+               request.max_speeds.tobytes())
+        result = self._plans.get(key)
+        if result is None:
+            self.misses += 1
+            result = self.planner.plan(request)
+            self._plans[key] = result
+        else:
+            self.hits += 1
+        return result
+
+
+def approach_sides(scenario: Scenario) -> np.ndarray:
+    """The side each robot approaches the corridor from (towards its destination)."""
+    direction = crossing_directions(scenario.world, scenario.origins, scenario.destinations)
+    origin_side = scenario.world.side_of(scenario.origins)
+    return np.where(direction > 0, LEFT, np.where(direction < 0, RIGHT, origin_side))
+
+
+class NODAgent:
+    """Robot ``index`` deciding with Nonlinear Opinion Dynamics (Algorithm 1).
+
+    ``n_players`` overrides the scenario's number of game players; ``social=False`` removes the
+    social term (u = 0), so the agent keeps its own preference (used by baselines).
+    """
+
+    def __init__(self, scenario: Scenario, index: int, rng: np.random.Generator, plans: PlanCache,
+                 *, n_players: int | None = None, social: bool = True):
+        self.scenario = scenario
+        self.index = index
+        self.rng = rng
+        self.plans = plans
+        self.params = scenario.opinion
+        self.orders = passing_orders(scenario.n_robots)
+        self.n_players = scenario.n_players if n_players is None else n_players
+        self.social = social
+        self.bias = self.params.bias_vector(len(self.orders))
+        self.sides = approach_sides(scenario)
+        self.z = self._initial_opinions()
+        self.previous: tuple[tuple[int, ...], list[PlanResult]] | None = None
+
+    def _initial_opinions(self) -> np.ndarray:
+        if self.params.init == "distance":
+            d = self.scenario.world.corridor_distance(self.scenario.origins, self.sides)
+            return distance_initial_opinions(d, self.orders, self.params.K2)
+        if self.params.init == "given":
+            return np.array(self.params.z0[self.index], dtype=float)
+        return np.zeros(len(self.orders))
+
+    def _update_opinion(self, view: RobotView) -> None:
+        """Eqs. (4), (9), (8): compare the others' observed motion with last period's plans."""
+        robots, plans = self.previous
+        players = robots[1:]
+        social = np.zeros(len(self.orders))
+        if players and self.social:
+            local = list(range(1, len(robots)))
+            planned = np.stack([
+                np.concatenate([p.trajectory.positions_at(view.window_times)[:, local],
+                                p.trajectory.velocities_at(view.window_times)[:, local]], axis=-1).transpose(1, 0, 2)
+                for p in plans])  # (N_s, N_k, M, 4)
+            observed = view.window_states[list(players)]
+            dt = float(view.window_times[1] - view.window_times[0])
+            z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
+            r = estimate_social_term(z_prime)
+            A = consistency_weights(self.orders, self.index, players)
+            social = A @ r.sum(axis=0)
+        u = self.params.u if self.social else 0.0
+        alpha = step_size(view.t, self.params.alpha_min)
+        self.z = opinion_update(self.z, social, u, self.params.d, self.bias, alpha)
+
+    def _select_players(self, view: RobotView) -> tuple[int, ...]:
+        """Eqs. (6)-(7) on the observed positions."""
+        d_corr = self.scenario.world.corridor_distance(view.positions, self.sides)
+        L = conflict_likelihood(view.positions, d_corr, self.params.delta)
+        return tuple(sorted(select_game_players(L, self.index, self.n_players)))
+
+    def plan_all(self, view: RobotView, robots: tuple[int, ...]) -> list[PlanResult]:
+        """The joint plan for every strategy, projected onto ``robots``; one query per distinct projection."""
+        s = self.scenario
+        idx = list(robots)
+        local_of = {k: m for m, k in enumerate(robots)}
+        positions = view.positions[idx].copy()
+        velocities = view.velocities[idx].copy()
+        entered = tuple(local_of[k] for k in view.entered if k in local_of)
+        ids = projected_order_ids(self.orders, robots)
+        by_class: dict[int, PlanResult] = {}
+        for j, order in enumerate(self.orders):
+            if ids[j] in by_class:
+                continue
+            local_order = tuple(local_of[int(k)] for k in order if int(k) in local_of)
+            request = PlanRequest(world=s.world, positions=positions, velocities=velocities,
+                                  destinations=s.destinations[idx], radii=s.radii[idx],
+                                  max_speeds=s.max_speeds[idx], order=local_order, entered=entered, t0=view.t)
+            by_class[ids[j]] = self.plans.plan(request)
+        return [by_class[ids[j]] for j in range(len(self.orders))]
+
+    def decide(self, view: RobotView) -> Decision:
+        """Algorithm 1, procedure RobotNavigation(t)."""
+        if self.previous is not None:
+            self._update_opinion(view)
+        players = self._select_players(view)
+        x = strategy_probabilities(self.z, self.params.eta)
+        strategy = int(self.rng.choice(len(x), p=x))
+        robots = (self.index, *players)
+        plans = self.plan_all(view, robots)
+        self.previous = (robots, plans)
+        return Decision(strategy=strategy, robots=robots, plan=plans[strategy], opinions=self.z.copy(),
+                        probabilities=x, players=players)

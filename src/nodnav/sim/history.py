@@ -1,0 +1,104 @@
+"""The full record of a trial, and its file format (replayable without re-simulating).
+
+A history is saved as one ``.npz`` file holding every array and, under the key ``meta``, a JSON
+document with the scenario (as a mapping that :func:`scenario_from_dict` reads back), the
+method, the seed, the events and the outcome.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from nodnav.errors import NodnavError
+from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
+
+FORMAT_VERSION = 1
+
+
+@dataclass
+class History:
+    """States at every control step and decisions at every opinion period, keyed by robot index."""
+
+    scenario: Scenario
+    """The scenario that was simulated."""
+    method: str
+    """Name of the navigation method."""
+    seed: int
+    """Seed of the trial."""
+    times: list[float] = field(default_factory=list)
+    """Control-step times (s)."""
+    positions: list[np.ndarray] = field(default_factory=list)
+    """True positions ``(N_r, 2)`` per control step (m)."""
+    velocities: list[np.ndarray] = field(default_factory=list)
+    """True velocities ``(N_r, 2)`` per control step (m/s)."""
+    decision_times: list[float] = field(default_factory=list)
+    """Times of the opinion updates (s)."""
+    opinions: list[np.ndarray] = field(default_factory=list)
+    """Opinion states z ``(N_r, N_s)`` per decision (NaN for methods without opinions)."""
+    probabilities: list[np.ndarray] = field(default_factory=list)
+    """Strategy probabilities x ``(N_r, N_s)`` per decision."""
+    strategies: list[np.ndarray] = field(default_factory=list)
+    """Selected strategy index per robot ``(N_r,)`` per decision (0-based; -1 when none)."""
+    players: list[np.ndarray] = field(default_factory=list)
+    """Game-player mask ``(N_r, N_r)`` per decision: ``players[i, k]`` when k is in N_i."""
+    events: list[dict] = field(default_factory=list)
+    """Discrete events: MPC infeasibility, plan failures, corridor entries, the outcome."""
+    entry_order: list[int] = field(default_factory=list)
+    """Robots (0-based) in the order they entered the corridor."""
+    outcome: str = ""
+    """The trial's outcome once finished."""
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every per-step and per-decision series as stacked arrays."""
+        n, ns = self.scenario.n_robots, len(self.opinions[0]) if self.opinions else 0
+        return {
+            "times": np.asarray(self.times, dtype=float),
+            "positions": np.asarray(self.positions, dtype=float).reshape(-1, n, 2),
+            "velocities": np.asarray(self.velocities, dtype=float).reshape(-1, n, 2),
+            "decision_times": np.asarray(self.decision_times, dtype=float),
+            "opinions": np.asarray(self.opinions, dtype=float).reshape(len(self.decision_times), n, -1)
+            if ns else np.zeros((0, n, 0)),
+            "probabilities": np.asarray(self.probabilities, dtype=float).reshape(len(self.decision_times), n, -1)
+            if ns else np.zeros((0, n, 0)),
+            "strategies": np.asarray(self.strategies, dtype=int).reshape(-1, n),
+            "players": np.asarray(self.players, dtype=bool).reshape(-1, n, n),
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the history to ``path`` (``.npz``)."""
+        meta = {"format": FORMAT_VERSION, "scenario": scenario_to_dict(self.scenario), "method": self.method,
+                "seed": self.seed, "events": self.events, "entry_order": self.entry_order,
+                "outcome": self.outcome}
+        path = Path(path)
+        with open(path, "wb") as fh:
+            np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **self.arrays())
+        return path
+
+    @staticmethod
+    def load(path: str | Path) -> "History":
+        """Read a history written by :meth:`save`."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+                arrays = {k: data[k] for k in data.files if k != "meta"}
+        except (OSError, ValueError, KeyError) as exc:
+            raise NodnavError(f"{path}: not a nodnav history file ({exc})") from None
+        if meta.get("format") != FORMAT_VERSION:
+            raise NodnavError(f"{path}: history format {meta.get('format')} is not {FORMAT_VERSION}; re-run the trial")
+        h = History(scenario=scenario_from_dict(meta["scenario"]), method=meta["method"], seed=meta["seed"])
+        h.times = list(arrays["times"])
+        h.positions = list(arrays["positions"])
+        h.velocities = list(arrays["velocities"])
+        h.decision_times = list(arrays["decision_times"])
+        h.opinions = list(arrays["opinions"])
+        h.probabilities = list(arrays["probabilities"])
+        h.strategies = list(arrays["strategies"])
+        h.players = list(arrays["players"])
+        h.events = meta["events"]
+        h.entry_order = meta["entry_order"]
+        h.outcome = meta["outcome"]
+        return h

@@ -1,0 +1,289 @@
+"""The closed loop: decisions every opinion period T, control and physics every control step.
+
+:class:`Simulation` has one visible shape, like a Gymnasium environment: :meth:`Simulation.step`
+advances one control step (calling the method's decision rule first when a period starts) and
+says whether the trial is over. :func:`run_trial` runs a whole trial and returns a
+:class:`TrialResult`.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from nodnav.decision.strategies import passing_orders, strategy_index
+from nodnav.geometry import min_pair_distance
+from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import INSIDE, distance_to_go
+from nodnav.sim.agent import RobotView, approach_sides
+from nodnav.sim.history import History
+from nodnav.sim.methods import make_method
+
+log = logging.getLogger(__name__)
+
+OUTCOMES = ("success", "collision", "deadlock", "timeout")
+
+#: Sub-steps at which contacts are checked between two control steps (motion is linear there).
+CONTACT_SUBSTEPS = 4
+
+
+@dataclass
+class TrialResult:
+    """The outcome and figures of one trial; ``history`` holds everything that happened."""
+
+    outcome: str
+    """One of ``success``, ``collision``, ``deadlock``, ``timeout``."""
+    sim_time: float
+    """Simulated time when the trial ended (s)."""
+    wall_time: float
+    """Wall-clock time the trial took (s)."""
+    makespan: float
+    """Time at which the last robot arrived (s); NaN unless every robot arrived."""
+    min_separation: float
+    """Smallest centre-to-centre distance between any two robots during the trial (m)."""
+    collisions: int
+    """Number of robot pairs or robot-wall contacts found at the step that ended the trial."""
+    entry_order: tuple[int, ...]
+    """Robots (0-based) in the order they entered the corridor."""
+    strategy: int
+    """Index (0-based) of the realised passing order among all strategies; -1 if incomplete."""
+    consensus: bool
+    """Whether every robot's last selected strategy was the same."""
+    time_to_goal: tuple[float, ...]
+    """Time each robot first reached its destination (s); NaN if it did not."""
+    mpc_infeasible: int
+    """Number of control steps at which an MPC found no feasible trajectory and braked."""
+    plan_failures: int
+    """Number of selected plans that failed (the robot then held its position)."""
+    history: History = field(repr=False)
+    """The full record."""
+    metrics: dict = field(default_factory=dict)
+    """Further per-trial metrics (see :mod:`nodnav.experiments.metrics`)."""
+
+    @property
+    def success(self) -> bool:
+        """Whether every robot reached its destination without collision."""
+        return self.outcome == "success"
+
+    def to_dict(self) -> dict:
+        """A JSON-ready summary with robots and strategies numbered from 1, as the paper does."""
+        def num(x):
+            return None if x is None or not np.isfinite(x) else round(float(x), 6)
+
+        return {
+            "scenario": self.history.scenario.name,
+            "method": self.history.method,
+            "seed": self.history.seed,
+            "outcome": self.outcome,
+            "success": self.success,
+            "sim_time_s": num(self.sim_time),
+            "wall_time_s": num(self.wall_time),
+            "makespan_s": num(self.makespan),
+            "min_separation_m": num(self.min_separation),
+            "collisions": self.collisions,
+            "corridor_entry_order": [k + 1 for k in self.entry_order],
+            "strategy": self.strategy + 1 if self.strategy >= 0 else None,
+            "consensus": self.consensus,
+            "time_to_goal_s": [num(x) for x in self.time_to_goal],
+            "mpc_infeasible": self.mpc_infeasible,
+            "plan_failures": self.plan_failures,
+            **{k: v for k, v in self.metrics.items()},
+        }
+
+
+def trial_generators(seed: int, n_robots: int) -> tuple[list[np.random.Generator], list[np.random.Generator]]:
+    """Independent generators for one trial: one per robot for its decisions, one per robot for its sensing."""
+    children = np.random.SeedSequence(seed).spawn(2 * n_robots)
+    gens = [np.random.default_rng(c) for c in children]
+    return gens[:n_robots], gens[n_robots:]
+
+
+class Simulation:
+    """One trial of ``scenario`` with ``method``, seeded by ``seed``."""
+
+    def __init__(self, scenario: Scenario, method: str = "nod", seed: int = 0, planner=None):
+        self.scenario = scenario
+        self.seed = int(seed)
+        n = scenario.n_robots
+        decision_rngs, self.sensor_rngs = trial_generators(self.seed, n)
+        self.method = make_method(method, scenario, decision_rngs, planner)
+        ctrl = scenario.controller
+        self.dt = ctrl.dt
+        self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
+        self.sides = approach_sides(scenario)
+        self.k = 0
+        self.t = 0.0
+        self.positions = scenario.origins.copy()
+        self.velocities = np.zeros_like(self.positions)
+        # Each robot's own record of what it observed (noisy for the others), newest last.
+        self.observed = [[self._observe(i)] for i in range(n)]
+        self.entered_seen = [[] for _ in range(n)]
+        self.entered_true: list[int] = []
+        self._update_entries()
+        self.arrival = np.full(n, np.nan)
+        self.best_to_go = distance_to_go(scenario.world, self.positions, scenario.destinations, self.sides)
+        self.last_progress = 0.0
+        self.min_distance = min_pair_distance(self.positions)
+        self.outcome = ""
+        self.collisions = 0
+        self.mpc_infeasible = 0
+        self.plan_failures = 0
+        self.history = History(scenario=scenario, method=self.method.name, seed=self.seed)
+        self._record_state()
+
+    # -- sensing -------------------------------------------------------------------------------
+
+    def _observe(self, observer: int) -> np.ndarray:
+        """States (px, py, vx, vy) of every robot as ``observer`` sees them now ``(N_r, 4)``."""
+        states = np.concatenate([self.positions, self.velocities], axis=1)
+        sigma = self.scenario.sim.observation_noise
+        if sigma > 0:
+            noise = self.sensor_rngs[observer].normal(0.0, sigma, size=states.shape)
+            noise[observer] = 0.0
+            states = states + noise
+        return states
+
+    def _update_entries(self) -> None:
+        """Corridor entries, from the truth and from each robot's own observations.
+
+        A robot counts as entered from the first step it is seen inside the corridor; one seen
+        back on the side it came from has backed out and no longer counts.
+        """
+        world = self.scenario.world
+        for log_, positions in [(self.entered_true, self.positions)] + [
+                (self.entered_seen[i], self.observed[i][-1][:, :2]) for i in range(self.scenario.n_robots)]:
+            side = world.side_of(positions)
+            for k in range(self.scenario.n_robots):
+                if side[k] == INSIDE and k not in log_:
+                    log_.append(k)
+                elif side[k] == self.sides[k] and k in log_ and self.sides[k] != INSIDE:
+                    log_.remove(k)
+
+    def views(self) -> dict[int, RobotView]:
+        """Every robot's view of the last opinion period."""
+        m = self.steps_per_decision + 1
+        times = self.t - self.dt * np.arange(m)[::-1]
+        out = {}
+        for i in range(self.scenario.n_robots):
+            window = self.observed[i][-m:]
+            if len(window) < m:  # before one whole period has passed, pad with the first sample
+                window = [window[0]] * (m - len(window)) + window
+            out[i] = RobotView(t=self.t, window_times=times, window_states=np.stack(window, axis=1),
+                               entered=tuple(self.entered_seen[i]))
+        return out
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def step(self) -> bool:
+        """Advance one control step; return whether the trial is over."""
+        if self.outcome:
+            return True
+        views = self.views()
+        if self.k % self.steps_per_decision == 0:
+            self._decide(views)
+        results = self.method.act(self.t, views)
+        previous = self.positions.copy()
+        for i, res in results.items():
+            if not res.success:
+                self.mpc_infeasible += 1
+                self.history.events.append({"t": round(self.t, 6), "robot": i, "kind": "mpc", "reason": res.reason})
+            self.positions[i] = res.next_position
+            self.velocities[i] = res.next_velocity
+        self.k += 1
+        self.t = self.k * self.dt
+        for i in range(self.scenario.n_robots):
+            self.observed[i].append(self._observe(i))
+            del self.observed[i][: -(self.steps_per_decision + 2)]
+        self._update_entries()
+        self._record_state()
+        self._judge(previous)
+        return bool(self.outcome)
+
+    def _decide(self, views: dict[int, RobotView]) -> None:
+        decisions = self.method.decide(views)
+        n, h = self.scenario.n_robots, self.history
+        ns = len(passing_orders(n))
+        opinions = np.full((n, ns), np.nan)
+        probs = np.full((n, ns), np.nan)
+        strategies = np.full(n, -1)
+        players = np.zeros((n, n), dtype=bool)
+        for i, d in decisions.items():
+            opinions[i], probs[i], strategies[i] = d.opinions, d.probabilities, d.strategy
+            players[i, list(d.players)] = True
+            if not d.plan.success:
+                self.plan_failures += 1
+                h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})
+        h.decision_times.append(self.t)
+        h.opinions.append(opinions)
+        h.probabilities.append(probs)
+        h.strategies.append(strategies)
+        h.players.append(players)
+
+    def _record_state(self) -> None:
+        self.history.times.append(self.t)
+        self.history.positions.append(self.positions.copy())
+        self.history.velocities.append(self.velocities.copy())
+
+    def _judge(self, previous: np.ndarray) -> None:
+        s, world = self.scenario, self.scenario.world
+        tol = s.sim.collision_tolerance
+        w = np.linspace(0.0, 1.0, CONTACT_SUBSTEPS + 1)[1:, None, None]
+        path = (1 - w) * previous[None] + w * self.positions[None]  # (substeps, N_r, 2)
+        self.min_distance = min(self.min_distance, min_pair_distance(path))
+        gaps = path[:, :, None, :] - path[:, None, :, :]
+        overlap = np.linalg.norm(gaps, axis=-1) < (s.radii[:, None] + s.radii[None, :]) - tol
+        pair_hits = int(np.triu(overlap.any(axis=0), k=1).sum())
+        wall_hits = int((world.clearance(path) < s.radii[None] - tol).any(axis=0).sum())
+        if pair_hits or wall_hits:
+            self.collisions = pair_hits + wall_hits
+            self._finish("collision")
+            return
+        to_go = distance_to_go(world, self.positions, s.destinations, self.sides)
+        arrived = np.linalg.norm(self.positions - s.destinations, axis=1) <= s.sim.goal_tolerance
+        self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
+        if arrived.all():
+            self._finish("success")
+            return
+        improved = to_go < self.best_to_go - s.sim.progress_epsilon
+        if improved.any():
+            self.best_to_go = np.where(improved, to_go, self.best_to_go)
+            self.last_progress = self.t
+        if self.t - self.last_progress >= s.sim.deadlock_time:
+            self._finish("deadlock")
+        elif self.t >= s.time_limit - 1e-9:
+            self._finish("timeout")
+
+    def _finish(self, outcome: str) -> None:
+        self.outcome = outcome
+        self.history.outcome = outcome
+        self.history.entry_order = list(self.entered_true)
+        self.history.events.append({"t": round(self.t, 6), "kind": "outcome", "reason": outcome})
+        log.info("trial %s seed %d: %s at t = %.1f s", self.scenario.name, self.seed, outcome, self.t)
+
+    def result(self, wall_time: float) -> TrialResult:
+        """The trial's result (call once :meth:`step` has returned true)."""
+        n = self.scenario.n_robots
+        order = tuple(self.entered_true)
+        strategy = strategy_index(order) if len(order) == n else -1
+        last = self.history.strategies[-1] if self.history.strategies else np.full(n, -1)
+        consensus = bool(last[0] >= 0 and np.all(last == last[0]))
+        makespan = float(np.nanmax(self.arrival)) if self.outcome == "success" else float("nan")
+        return TrialResult(outcome=self.outcome, sim_time=self.t, wall_time=wall_time, makespan=makespan,
+                           min_separation=self.min_distance, collisions=self.collisions, entry_order=order,
+                           strategy=strategy, consensus=consensus, time_to_goal=tuple(float(a) for a in self.arrival),
+                           mpc_infeasible=self.mpc_infeasible, plan_failures=self.plan_failures, history=self.history)
+
+
+def run_trial(scenario: Scenario, method: str = "nod", seed: int = 0, planner=None,
+              progress: Callable[[float, float], None] | None = None) -> TrialResult:
+    """Simulate one trial to its end; ``progress(t, time_limit)`` is called after every step."""
+    start = time.perf_counter()
+    sim = Simulation(scenario, method, seed, planner)
+    while not sim.step():
+        if progress is not None:
+            progress(sim.t, scenario.time_limit)
+    return sim.result(time.perf_counter() - start)

@@ -1,0 +1,83 @@
+"""Drawing the world and a scenario the way the paper's configuration figure does."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle, Rectangle
+
+from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import World
+
+#: Robot colours in the paper's order: robot 1 red, 2 blue, 3 green, 4 orange, then more.
+ROBOT_COLORS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
+
+
+def robot_color(k: int) -> str:
+    """Colour of robot index ``k`` (0-based)."""
+    return ROBOT_COLORS[k % len(ROBOT_COLORS)]
+
+
+def new_figure(width: float, height: float) -> Figure:
+    """A figure rendered by the Agg backend, independent of pyplot's global state."""
+    fig = Figure(figsize=(width, height))
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def draw_world(ax: Axes, world: World, *, entrances: bool = True) -> None:
+    """Walls in grey, the corridor shaded, entrances as small black diamonds."""
+    x0, y0, x1, y1 = world.bounds
+    ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="0.2", linewidth=1.5))
+    for ox0, oy0, ox1, oy1 in world.obstacles:
+        ax.add_patch(Rectangle((ox0, oy0), ox1 - ox0, oy1 - oy0, facecolor="0.55", edgecolor="0.3"))
+    c = world.corridor
+    ax.add_patch(Rectangle((c.x_min, c.y_min), c.length, c.width, facecolor="#fff3c4", edgecolor="none", zorder=0))
+    if entrances:
+        ent = np.asarray(world.entrances)
+        ax.plot(ent[:, 0], ent[:, 1], "kD", markersize=4, zorder=3)
+    ax.set_xlim(x0 - 0.2, x1 + 0.2)
+    ax.set_ylim(y0 - 0.2, y1 + 0.2)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+
+
+def draw_scenario(ax: Axes, scenario: Scenario, *, labels: bool = True) -> None:
+    """Origins as coloured circles of the robot's size, destinations as X marks of the same colour."""
+    draw_world(ax, scenario.world)
+    for k, robot in enumerate(scenario.robots):
+        color = robot_color(k)
+        ax.add_patch(Circle(robot.origin, robot.radius, facecolor=color, edgecolor="k", alpha=0.85, zorder=4))
+        ax.plot(*robot.destination, marker="x", color=color, markersize=10, markeredgewidth=2.5, zorder=4)
+        if labels:
+            ax.annotate(str(k + 1), robot.origin, ha="center", va="center", color="white", fontsize=8,
+                        fontweight="bold", zorder=5)
+    ax.set_title(scenario.name + (f"\n{scenario.description}" if scenario.description else ""), fontsize=8)
+
+
+def save_scenario_figure(scenario: Scenario, path: str | Path) -> Path:
+    """Write a PNG of one scenario."""
+    fig = new_figure(7.0, 3.2)
+    draw_scenario(fig.add_subplot(1, 1, 1), scenario)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    return Path(path)
+
+
+def save_gallery(scenarios: list[Scenario], path: str | Path, columns: int = 2) -> Path:
+    """Write a PNG with every scenario in a grid, like the paper's configuration figure."""
+    rows = int(np.ceil(len(scenarios) / columns))
+    fig = new_figure(6.0 * columns, 2.9 * rows)
+    for k, scenario in enumerate(scenarios):
+        ax = fig.add_subplot(rows, columns, k + 1)
+        draw_scenario(ax, scenario)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return Path(path)

@@ -16,7 +16,7 @@ import numpy as np
 
 from nodnav.decision.estimation import estimate_social_term, estimated_opinions
 from nodnav.decision.initial import distance_initial_opinions
-from nodnav.decision.opinion import opinion_update, step_size, strategy_probabilities
+from nodnav.decision.opinion import opinion_update, social_sum, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import consistency_weights, passing_orders, projected_order_ids
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions
@@ -156,7 +156,7 @@ class NODAgent:
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime)
             A = consistency_weights(self.orders, self.index, players)
-            social = A @ r.sum(axis=0)
+            social = social_sum(r, np.ones((1, len(players))), A)[0]
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self.bias, alpha)

@@ -1,0 +1,53 @@
+"""Estimating the other robots' opinions from their observed motion, eq. (4) (Section II-B-3).
+
+Robot ``i`` cannot read robot ``k``'s opinions. It compares what ``k`` actually did over the last
+window ``[t - T, t]`` with what its planner predicted ``k`` would do under each strategy; the
+smaller the deviation, the more ``k`` is taken to favour that strategy. The saturated relative
+estimate ``r^l_ik = R(zbar'_kl)`` then stands in for ``R(zbar_kl)`` in eq. (5), through
+:func:`nodnav.decision.opinion.social_sum`, which applies the weights ``A^{jl}_ik``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodnav.decision.opinion import relative_opinions, saturation
+
+
+def estimated_opinions(observed: np.ndarray, planned: np.ndarray, dt: float, K1: float = 5.0) -> np.ndarray:
+    """Estimated opinions ``z'_kj = -K1 int_{t-T}^t ||X_k(tau) - X_k^{(i,j)}(tau)||^2 dtau``, eq. (4a).
+
+    Parameters
+    ----------
+    observed : ``(N_k, M, D)`` states ``X_k = (p_x, p_y, v_x, v_y)`` (``D = 4``) of the observed
+        robots, sampled every ``dt`` from ``t - T`` to ``t`` with both ends included
+        (``T = (M - 1) dt``).
+    planned : ``(N_s, N_k, M, D)`` the states the planner predicted for them under each strategy,
+        at the same instants.
+    dt : sampling interval (s).
+    K1 : scaling factor (1 / (m^2 s)); paper: 5.
+
+    Returns
+    -------
+    ``(N_k, N_s)`` array of ``z'_kj <= 0``; the integral uses the trapezoidal rule, exact for
+    deviations that vary linearly between samples.
+    """
+    observed = np.asarray(observed, dtype=float)
+    planned = np.asarray(planned, dtype=float)
+    if observed.ndim != 3:
+        raise ValueError(f"observed must have shape (N_k, M, D), got {observed.shape}")
+    if planned.ndim != 4 or planned.shape[1:] != observed.shape:
+        raise ValueError(f"planned must have shape (N_s,) + {observed.shape}, got {planned.shape}")
+    if dt <= 0:
+        raise ValueError(f"dt must be positive, got {dt}")
+    squared = np.sum((planned - observed[None]) ** 2, axis=-1)  # (N_s, N_k, M)
+    return -K1 * np.trapezoid(squared, dx=dt, axis=-1).T
+
+
+def estimate_social_term(z_prime: np.ndarray) -> np.ndarray:
+    """Estimated social scores ``r_kl = R(zbar'_kl)``, with ``zbar'`` from eq. (4b) and ``R`` from (9).
+
+    ``z_prime`` is ``(N_k, N_s)`` from :func:`estimated_opinions`; the result has the same shape,
+    values in ``[0, 1]``, largest for the strategy whose prediction matched best.
+    """
+    return saturation(relative_opinions(z_prime))

@@ -1,0 +1,61 @@
+"""Game-player selection by conflict likelihood, eqs. (6)-(7) (Section III-A)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def conflict_likelihood(positions: np.ndarray, corridor_distances: np.ndarray, delta: float = 1.0) -> np.ndarray:
+    """Conflict likelihoods ``L_ij = 1/(d_ij + delta) + 1/(d_i,corr + d_j,corr + delta)``, eq. (6).
+
+    Parameters
+    ----------
+    positions : ``(N, 2)`` robot positions (m); ``d_ij`` is their Euclidean distance.
+    corridor_distances : ``(N,)`` distances ``d_i,corridor`` to the entrance each robot
+        approaches (m), zero inside the corridor (:meth:`nodnav.scenario.world.World.corridor_distance`).
+    delta : positive offset (m) keeping ``L`` finite and bounded by ``2 / delta``; paper: 1.
+
+    Returns
+    -------
+    ``(N, N)`` symmetric matrix with a zero diagonal (a robot is never its own game player).
+    """
+    if delta <= 0:
+        raise ValueError(f"delta must be positive, got {delta}")
+    p = np.asarray(positions, dtype=float)
+    c = np.asarray(corridor_distances, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 2 or c.shape != (p.shape[0],):
+        raise ValueError(f"positions must be (N, 2) and corridor_distances (N,), got {p.shape} and {c.shape}")
+    d = np.linalg.norm(p[:, None, :] - p[None, :, :], axis=-1)
+    L = 1.0 / (d + delta) + 1.0 / (c[:, None] + c[None, :] + delta)
+    np.fill_diagonal(L, 0.0)
+    return L
+
+
+def select_game_players(L: np.ndarray, i: int, k: int) -> tuple[int, ...]:
+    """The ``k`` game players ``N_i`` maximising ``sum_{j in N_i} L_ij``, eq. (7), in increasing order.
+
+    The maximising subset is the ``k`` largest ``L_ij`` with ``j != i``; equal likelihoods are
+    broken in favour of the lower index, so every robot evaluating ``L`` gets the same answer.
+    ``k = 0`` gives ``()``.
+    """
+    L = np.asarray(L, dtype=float)
+    n = L.shape[0]
+    if L.shape != (n, n):
+        raise ValueError(f"L must be square, got shape {L.shape}")
+    if not 0 <= i < n:
+        raise ValueError(f"robot {i} is not among the {n} robots")
+    if not 0 <= k <= n - 1:
+        raise ValueError(f"k must be between 0 and {n - 1}, got {k}")
+    others = np.delete(np.arange(n), i)
+    ranked = others[np.argsort(-L[i, others], kind="stable")]
+    return tuple(sorted(int(j) for j in ranked[:k]))
+
+
+def game_player_mask(L: np.ndarray, k: int) -> np.ndarray:
+    """Every robot's game players at once: ``(N, N)`` boolean, ``mask[i, j]`` true when ``j`` is in
+    ``N_i`` as chosen by :func:`select_game_players`. Not symmetric in general."""
+    n = np.asarray(L).shape[0]
+    mask = np.zeros((n, n), dtype=bool)
+    for i in range(n):
+        mask[i, list(select_game_players(L, i, k))] = True
+    return mask

@@ -1,0 +1,105 @@
+"""Opinion estimation from observed motion, eq. (4)."""
+
+import numpy as np
+import pytest
+
+from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+
+
+def straight_line(start, velocity, times):
+    """States (px, py, vx, vy) of constant-velocity motion, shape (M, 4)."""
+    start, velocity = np.asarray(start, float), np.asarray(velocity, float)
+    p = start[None, :] + times[:, None] * velocity[None, :]
+    return np.concatenate([p, np.broadcast_to(velocity, p.shape)], axis=1)
+
+
+@pytest.fixture
+def window():
+    T, M = 1.0, 11
+    return np.linspace(0.0, T, M), T / (M - 1)
+
+
+def test_matching_prediction_scores_zero_and_highest(window):
+    times, dt = window
+    observed = np.stack([straight_line([-4, 0], [1, 0], times), straight_line([4, 1], [-0.5, 0], times)])
+    planned = np.stack([
+        np.stack([straight_line([-4, 0], [0, 0], times), straight_line([4, 1], [-0.5, 0], times)]),
+        observed,  # strategy 1 predicted both robots exactly
+        np.stack([straight_line([-4, 0.2], [1, 0], times), straight_line([4, 1], [0, 0], times)]),
+    ])
+    z = estimated_opinions(observed, planned, dt, K1=5.0)
+    assert z.shape == (2, 3)
+    assert np.all(z <= 0)
+    np.testing.assert_array_equal(z[:, 1], 0.0)
+    np.testing.assert_array_equal(z[1, 0], 0.0)  # robot 1's prediction under strategy 0 was exact too
+    r = estimate_social_term(z)
+    assert np.all(r[:, 1] == r.max(axis=1))
+    assert np.all((r >= 0) & (r <= 1))
+
+
+@pytest.mark.parametrize("T,M", [(1.0, 11), (2.5, 6), (0.3, 2)])
+def test_constant_offset_gives_minus_K1_e2_T(T, M):
+    # ||X - X'||^2 = e^2 at every instant, so the integral is exactly -K1 e^2 T.
+    times = np.linspace(0.0, T, M)
+    e = np.array([0.3, -0.4])  # |e| = 0.5
+    observed = straight_line([1, 2], [0.7, -0.2], times)[None]
+    planned = observed.copy()
+    planned[..., :2] += e
+    z = estimated_opinions(observed, planned[None], T / (M - 1), K1=5.0)
+    np.testing.assert_allclose(z, [[-5.0 * 0.25 * T]], rtol=1e-14)
+
+
+def test_velocity_deviation_counts_like_position():
+    times = np.linspace(0.0, 2.0, 21)
+    observed = straight_line([0, 0], [1, 0], times)[None]
+    planned = observed.copy()
+    planned[..., 2:] += np.array([0.0, 0.2])  # velocity off by 0.2 m/s, positions as observed
+    z = estimated_opinions(observed, planned[None], 0.1, K1=2.0)
+    np.testing.assert_allclose(z, [[-2.0 * 0.04 * 2.0]], rtol=1e-13)
+
+
+def test_linearly_growing_deviation_matches_the_trapezoid_formula():
+    # Deviation c*tau in x over [0, T]: the exact integral is c^2 T^3 / 3; the trapezoidal rule
+    # with step h adds c^2 T h^2 / 6 (its error term (T h^2 / 12) f'' with f'' = 2 c^2).
+    c, T, M = 0.8, 1.5, 16
+    h = T / (M - 1)
+    times = np.linspace(0.0, T, M)
+    observed = straight_line([0, 0], [1, 0], times)[None]
+    planned = observed.copy()
+    planned[..., 0] += c * times
+    planned[..., 2] += c  # the planned velocity differs by c as well
+    z = estimated_opinions(observed, planned[None], h, K1=1.0)
+    expected = -(c**2 * T**3 / 3 + c**2 * T * h**2 / 6 + c**2 * T)
+    np.testing.assert_allclose(z, [[expected]], rtol=1e-13)
+
+
+def test_larger_deviation_means_lower_estimate(window):
+    times, dt = window
+    observed = straight_line([0, 0], [1, 0], times)[None]
+    offsets = np.array([0.0, 0.1, 0.5, 1.0])
+    planned = np.stack([observed + np.array([0, off, 0, 0]) for off in offsets])
+    z = estimated_opinions(observed, planned, dt)
+    assert np.all(np.diff(z[0]) < 0)
+    np.testing.assert_allclose(z[0], -5.0 * offsets**2 * 1.0, rtol=1e-13)
+
+
+def test_social_term_hand_values():
+    # z' = (0, -2, -4): mean -2, zbar' = (2, 0, -2), r = R(zbar').
+    r = estimate_social_term(np.array([[0.0, -2.0, -4.0]]))
+    R2 = 0.5 * (np.tanh(2.0) + 1)
+    np.testing.assert_allclose(r, [[R2, 0.5, 1 - R2]], rtol=1e-14)
+
+
+def test_social_term_is_shift_invariant_per_robot():
+    z = np.array([[-1.0, -3.0], [-10.0, -10.0]])
+    np.testing.assert_allclose(estimate_social_term(z - np.array([[5.0], [2.0]])), estimate_social_term(z))
+    np.testing.assert_allclose(estimate_social_term(z)[1], [0.5, 0.5])
+
+
+def test_shape_errors_are_reported():
+    with pytest.raises(ValueError):
+        estimated_opinions(np.zeros((2, 5, 4)), np.zeros((3, 2, 4, 4)), 0.1)
+    with pytest.raises(ValueError):
+        estimated_opinions(np.zeros((5, 4)), np.zeros((3, 5, 4)), 0.1)
+    with pytest.raises(ValueError):
+        estimated_opinions(np.zeros((2, 5, 4)), np.zeros((3, 2, 5, 4)), 0.0)

@@ -1,0 +1,91 @@
+"""The closed loop: outcomes, reproducibility, consensus, and the record it keeps."""
+
+import json
+
+import numpy as np
+import pytest
+
+from nodnav.scenario.schema import load_scenario, scenario_from_dict
+from nodnav.sim.history import History
+from nodnav.sim.simulator import Simulation, run_trial
+
+
+def test_head_on_pair_passes_without_collision():
+    result = run_trial(load_scenario("2r-case1"), seed=1)
+    assert result.outcome == "success"
+    assert result.min_separation >= 2 * 0.2
+    assert len(result.entry_order) == 2 and result.consensus
+    # The two robots cannot share the corridor: the second enters after the first has left.
+    h = result.history.arrays()
+    inside = np.abs(h["positions"][..., 0]) < 3.0
+    assert not (inside[:, 0] & inside[:, 1]).any()
+
+
+def test_single_robot_follows_its_plan_to_the_goal():
+    s = scenario_from_dict({"name": "alone", "robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}]})
+    result = run_trial(s, seed=3)
+    assert result.outcome == "success"
+    # Straight along the corridor axis at up to 1 m/s: 10 m cannot take less than 10 s,
+    # and accelerating at 2 m/s^2 costs only a fraction of a second more.
+    assert 10.0 - 0.15 <= result.time_to_goal[0] <= 11.5
+    path = result.history.arrays()["positions"][:, 0]
+    assert np.abs(path[:, 1]).max() < 0.05
+
+
+def test_same_seed_same_trial():
+    s = load_scenario("3r-case2")
+    a, b = run_trial(s, seed=7), run_trial(s, seed=7)
+    ha, hb = a.history.arrays(), b.history.arrays()
+    for key in ha:
+        assert np.array_equal(ha[key], hb[key], equal_nan=True), key
+    assert a.to_dict() | {"wall_time_s": 0} == b.to_dict() | {"wall_time_s": 0}
+
+
+def test_opposite_preferences_reach_consensus_with_large_u():
+    # Robot 1 prefers S1 = (1, 2), robot 2 prefers S2 = (2, 1): with u = 100 the social term
+    # dominates the initial disagreement and both settle on one order.
+    s = load_scenario("2r-case2").with_overrides(
+        **{"opinion.init": "given", "opinion.z0": [[3.0, 0.0], [0.0, 3.0]], "opinion.u": 100.0})
+    result = run_trial(s, seed=2)
+    assert result.consensus
+    assert result.outcome == "success"
+
+
+def test_json_summary_fields():
+    result = run_trial(load_scenario("2r-case2"), seed=1)
+    d = json.loads(json.dumps(result.to_dict()))
+    for key in ("outcome", "success", "sim_time_s", "wall_time_s", "makespan_s", "min_separation_m", "collisions",
+                "corridor_entry_order", "strategy", "consensus", "time_to_goal_s", "mpc_infeasible"):
+        assert key in d
+    assert sorted(d["corridor_entry_order"]) == [1, 2]
+    # The strategy is the paper's index of the realised order: S1 = (1,2), S2 = (2,1).
+    assert d["strategy"] == (1 if d["corridor_entry_order"] == [1, 2] else 2)
+
+
+def test_history_round_trip(tmp_path):
+    result = run_trial(load_scenario("2r-case1"), seed=4)
+    path = result.history.save(tmp_path / "h.npz")
+    loaded = History.load(path)
+    assert loaded.scenario == result.history.scenario
+    assert loaded.outcome == result.outcome and loaded.entry_order == result.history.entry_order
+    for key, value in result.history.arrays().items():
+        assert np.array_equal(loaded.arrays()[key], value, equal_nan=True)
+
+
+def test_collision_is_detected():
+    sim = Simulation(load_scenario("2r-case2"), seed=1)
+    sim.positions[1] = sim.positions[0] + np.array([0.3, 0.0])  # overlapping discs of radius 0.2
+    sim._judge(sim.positions.copy())
+    assert sim.outcome == "collision" and sim.collisions == 1
+
+
+def test_deadlock_is_declared_when_nobody_progresses():
+    s = load_scenario("2r-case1").with_overrides(**{"sim.deadlock_time": 2.0})
+    sim = Simulation(s, seed=1)
+    for _ in range(25):
+        sim.t += sim.dt
+        sim._judge(sim.positions.copy())
+        if sim.outcome:
+            break
+    assert sim.outcome == "deadlock"
+    assert sim.t == pytest.approx(2.0, abs=sim.dt)

@@ -1,0 +1,21 @@
+"""The README opens with the two commands, and CI runs exactly the second one."""
+
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _commands() -> list[str]:
+    lines = (ROOT / "README.md").read_text().splitlines()
+    return [lines[k + 1] for k, line in enumerate(lines) if line.strip() == "```bash"][:2]
+
+
+def test_readme_opens_with_main_job_and_tests():
+    main_job, tests = _commands()
+    assert "nodnav run" in main_job and "--out" in main_job
+    assert "pytest" in tests
+
+
+def test_ci_runs_the_readme_test_command():
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert _commands()[1] in ci

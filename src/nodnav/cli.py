@@ -215,6 +215,26 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from nodnav.experiments.study import load_study, study_from_dict
+    from nodnav.experiments.sweep import run_sweep
+
+    options = {k: v for k, v in {"name": args.name, "scenarios": args.scenarios, "players": args.players,
+                                 "init": args.init, "bias": args.bias, "planners": args.planners,
+                                 "methods": args.methods, "trials": args.trials}.items() if v is not None}
+    spec = load_study(args.study, overrides=options) if args.study else study_from_dict(options, "command line")
+    summary = run_sweep(spec, args.db, jobs=args.jobs, scheduler=args.scheduler, quiet=args.quiet,
+                        retry_errors=args.retry_errors)
+    for note in summary.notes:
+        print(f"note: {note}", file=sys.stderr)
+    outcomes = ", ".join(f"{k} {v}" for k, v in sorted(summary.outcomes.items()))
+    print(f"{spec.name}: {summary.total} trials, {summary.done} run, {summary.skipped} already stored, "
+          f"{summary.errors} errors in {summary.wall_time:.1f} s ({outcomes}) -> {args.db}")
+    if not summary.success:
+        print(f"nodnav: {summary.reason}", file=sys.stderr)
+    return 0 if summary.success else 1
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``nodnav`` command."""
     parser = argparse.ArgumentParser(prog="nodnav", description=__doc__.splitlines()[0].split(":")[0] + ": "
@@ -258,6 +278,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("sweep", help="run many trials, resumably, into a results database")
+    p.add_argument("--study", help="YAML study file (the options below override its keys)")
+    p.add_argument("--name", help="study name (default: the study file's stem, else 'sweep')")
+    p.add_argument("--scenario", action="append", dest="scenarios", help="built-in name or YAML path (repeatable)")
+    p.add_argument("--players", action="append", help="game players K or 'all' (repeatable)")
+    p.add_argument("--init", action="append", choices=("zero", "distance"), help="initial opinions (repeatable)")
+    p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable)")
+    p.add_argument("--planner", action="append", dest="planners", help="planner (repeatable)")
+    p.add_argument("--method", action="append", dest="methods", help="navigation method (repeatable; default nod)")
+    p.add_argument("--trials", type=int, help="seeds 1..N for every combination (default 1)")
+    p.add_argument("--db", default="nodnav-results.sqlite", help="results database")
+    p.add_argument("--jobs", type=int, default=1, help="local worker processes")
+    p.add_argument("--scheduler", help="Dask scheduler address, e.g. tcp://host:8786 (needs nodnav[cluster])")
+    p.add_argument("--retry-errors", action="store_true", help="run trials stored as errors again")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("replay", help="redraw the pictures of a saved trial history")
     p.add_argument("history", help="a .npz history written by 'nodnav run --out'")

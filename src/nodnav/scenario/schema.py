@@ -204,7 +204,8 @@ class Scenario:
 # Loading
 
 
-def _nearest(key: str, valid, what: str = "valid keys") -> str:
+def nearest_hint(key: str, valid, what: str = "valid keys") -> str:
+    """'; did you mean X?' for the closest valid name, else the list of valid names."""
     match = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.5)
     return f"; did you mean '{match[0]}'?" if match else f"; {what}: {', '.join(sorted(valid))}"
 
@@ -212,7 +213,7 @@ def _nearest(key: str, valid, what: str = "valid keys") -> str:
 def _check_keys(data: dict, valid, where: str) -> None:
     for key in data:
         if key not in valid:
-            raise ScenarioError(f"{where}: unknown key '{key}'{_nearest(str(key), valid)}")
+            raise ScenarioError(f"{where}: unknown key '{key}'{nearest_hint(str(key), valid)}")
 
 
 def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
@@ -407,9 +408,9 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     from nodnav.planning import PLANNERS
 
     if planner.name not in PLANNERS:
-        raise ScenarioError(f"planner.name: unknown planner '{planner.name}'{_nearest(planner.name, PLANNERS, 'planners')}")
+        raise ScenarioError(f"planner.name: unknown planner '{planner.name}'{nearest_hint(planner.name, PLANNERS, 'planners')}")
     if controller.name not in CONTROLLERS:
-        raise ScenarioError(f"controller.name: unknown controller '{controller.name}'{_nearest(controller.name, CONTROLLERS, 'controllers')}")
+        raise ScenarioError(f"controller.name: unknown controller '{controller.name}'{nearest_hint(controller.name, CONTROLLERS, 'controllers')}")
     if planner.dt <= 0:
         raise ScenarioError(f"planner.dt: must be positive, got {planner.dt}")
     ratio = opinion.T / controller.dt
@@ -439,7 +440,7 @@ def load_scenario(spec: str | Path) -> Scenario:
     else:
         path = Path(spec)
         if not path.exists():
-            hint = _nearest(spec, builtin_names(), "built-in scenarios")
+            hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
             raise ScenarioError(f"{spec}: no such built-in scenario or file{hint}")
         text, source = path.read_text(), str(path)
     try:

@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from nodnav.decision.strategies import passing_orders, strategy_index
-from nodnav.geometry import min_pair_distance
+from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
@@ -44,7 +44,7 @@ class TrialResult:
     makespan: float
     """Time at which the last robot arrived (s); NaN unless every robot arrived."""
     min_separation: float
-    """Smallest centre-to-centre distance between any two robots during the trial (m)."""
+    """Smallest centre-to-centre distance between any two robots during the trial, exact between steps (m)."""
     collisions: int
     """Number of robot pairs or robot-wall contacts found at the step that ended the trial."""
     entry_order: tuple[int, ...]
@@ -91,7 +91,8 @@ class TrialResult:
             "time_to_goal_s": [num(x) for x in self.time_to_goal],
             "mpc_infeasible": self.mpc_infeasible,
             "plan_failures": self.plan_failures,
-            **{k: v for k, v in self.metrics.items()},
+            **{k: v for k, v in json_ready(self.metrics).items() if k not in ("makespan_s", "time_to_goal_s",
+                                                                           "min_separation_m")},
         }
 
 
@@ -127,7 +128,6 @@ class Simulation:
         self.arrival = np.full(n, np.nan)
         self.best_to_go = distance_to_go(scenario.world, self.positions, scenario.destinations, self.sides)
         self.last_progress = 0.0
-        self.min_distance = min_pair_distance(self.positions)
         self.outcome = ""
         self.collisions = 0
         self.mpc_infeasible = 0
@@ -233,7 +233,6 @@ class Simulation:
         tol = s.sim.collision_tolerance
         w = np.linspace(0.0, 1.0, CONTACT_SUBSTEPS + 1)[1:, None, None]
         path = (1 - w) * previous[None] + w * self.positions[None]  # (substeps, N_r, 2)
-        self.min_distance = min(self.min_distance, min_pair_distance(path))
         gaps = path[:, :, None, :] - path[:, None, :, :]
         overlap = np.linalg.norm(gaps, axis=-1) < (s.radii[:, None] + s.radii[None, :]) - tol
         pair_hits = int(np.triu(overlap.any(axis=0), k=1).sum())
@@ -272,10 +271,12 @@ class Simulation:
         last = self.history.strategies[-1] if self.history.strategies else np.full(n, -1)
         consensus = bool(last[0] >= 0 and np.all(last == last[0]))
         makespan = float(np.nanmax(self.arrival)) if self.outcome == "success" else float("nan")
+        metrics = compute_metrics(self.history)
         return TrialResult(outcome=self.outcome, sim_time=self.t, wall_time=wall_time, makespan=makespan,
-                           min_separation=self.min_distance, collisions=self.collisions, entry_order=order,
+                           min_separation=metrics["min_separation_m"], collisions=self.collisions, entry_order=order,
                            strategy=strategy, consensus=consensus, time_to_goal=tuple(float(a) for a in self.arrival),
-                           mpc_infeasible=self.mpc_infeasible, plan_failures=self.plan_failures, history=self.history)
+                           mpc_infeasible=self.mpc_infeasible, plan_failures=self.plan_failures, history=self.history,
+                           metrics=metrics)
 
 
 def run_trial(scenario: Scenario, method: str = "nod", seed: int = 0, planner=None,

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import logging
 import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
-from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
+from PIL import Image
 from matplotlib.patches import Circle
 
 from nodnav.decision.strategies import order_label, passing_orders, strategy_label
@@ -85,38 +86,75 @@ def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
     return Path(path)
 
 
+def _write_mp4(frames: list[np.ndarray], path: Path, fps: int) -> None:
+    """Encode RGB frames with the ffmpeg program (H.264, even dimensions)."""
+    h, w = frames[0].shape[:2]
+    cmd = ["ffmpeg", "-y", "-loglevel", "error", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}",
+           "-r", str(fps), "-i", "-", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p", str(path)]
+    subprocess.run(cmd, input=b"".join(f.tobytes() for f in frames), check=True)
+
+
 def save_animation(history: History, path: str | Path, fps: int = 10, stride: int = 2) -> list[Path]:
     """An animation of the trial as a GIF at ``path``, and an MP4 beside it when ffmpeg is available.
 
     ``stride`` control steps per frame; with the default 0.1 s step the GIF plays at twice real time.
+    The world is rendered once; each frame only redraws the robots, their trails and the player
+    arrows over it (blitting), which keeps a minute of simulation to a few seconds of drawing.
     """
     arrays = history.arrays()
     scenario = history.scenario
     orders = passing_orders(scenario.n_robots)
+    pos = arrays["positions"]
     fig = new_figure(7.0, 3.4)
     ax = fig.add_subplot(1, 1, 1)
-    frames = list(range(0, len(arrays["times"]), stride))
-    if frames[-1] != len(arrays["times"]) - 1:
-        frames.append(len(arrays["times"]) - 1)
-
-    def draw(k: int):
-        ax.clear()
-        draw_world(ax, scenario.world, entrances=False)
-        _draw_robots(ax, history, arrays, k)
+    draw_world(ax, scenario.world, entrances=False)
+    for i, robot in enumerate(scenario.robots):
+        ax.plot(*robot.destination, marker="x", color=robot_color(i), markersize=8, markeredgewidth=2)
+    ax.set_title(" ", fontsize=8)
+    fig.tight_layout()
+    canvas = fig.canvas
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    trails = [ax.plot([], [], "-", color=robot_color(i), linewidth=1.2, alpha=0.8, animated=True)[0]
+              for i in range(scenario.n_robots)]
+    discs = [ax.add_patch(Circle(pos[0, i], r.radius, facecolor=robot_color(i), edgecolor="k", zorder=4,
+                                 animated=True)) for i, r in enumerate(scenario.robots)]
+    title = ax.set_title("", fontsize=8, animated=True)
+    has_opinions = len(arrays["decision_times"]) > 0 and arrays["probabilities"].shape[-1] > 0
+    steps = list(range(0, len(arrays["times"]), stride))
+    if steps[-1] != len(arrays["times"]) - 1:
+        steps.append(len(arrays["times"]) - 1)
+    frames = []
+    for k in steps:
+        canvas.restore_region(background)
+        artists = []
+        for i in range(scenario.n_robots):
+            trails[i].set_data(pos[: k + 1, i, 0], pos[: k + 1, i, 1])
+            discs[i].center = pos[k, i]
+            artists += [trails[i], discs[i]]
         label = ""
-        if len(arrays["decision_times"]) and arrays["probabilities"].shape[-1]:
+        if len(arrays["decision_times"]):
             d = max(0, int(np.searchsorted(arrays["decision_times"], arrays["times"][k], side="right")) - 1)
-            label = "  ".join(f"{i + 1}:{order_label(orders[j])}" for i, j in enumerate(arrays["strategies"][d]) if j >= 0)
-        ax.set_title(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}", fontsize=8)
-        return []
-
-    anim = FuncAnimation(fig, draw, frames=frames, blit=False)
+            for i, row in enumerate(arrays["players"][d]):
+                for j in np.flatnonzero(row):
+                    artists.append(ax.annotate("", xy=pos[k, j], xytext=pos[k, i], zorder=5, animated=True, arrowprops={
+                        "arrowstyle": "->", "color": robot_color(i), "lw": 1.2, "shrinkA": 6, "shrinkB": 6}))
+            if has_opinions:
+                label = "  ".join(f"{i + 1}:{order_label(orders[j])}"
+                                  for i, j in enumerate(arrays["strategies"][d]) if j >= 0)
+        title.set_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}")
+        for artist in artists + [title]:
+            ax.draw_artist(artist)
+        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+        for artist in artists[2 * scenario.n_robots:]:
+            artist.remove()
     path = Path(path)
-    anim.save(path, writer=PillowWriter(fps=fps), dpi=80)
+    images = [Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE, colors=64) for f in frames]
+    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=False)
     written = [path]
     if shutil.which("ffmpeg"):
         mp4 = path.with_suffix(".mp4")
-        anim.save(mp4, writer=FFMpegWriter(fps=fps), dpi=100)
+        _write_mp4(frames, mp4, fps)
         written.append(mp4)
     else:
         log.info("ffmpeg not found: wrote the GIF only")

@@ -1,0 +1,176 @@
+"""Per-trial metrics computed from a trial's :class:`~nodnav.sim.history.History` alone.
+
+Every metric is defined in ``docs/metrics.md``; the functions here are that definition on
+arrays. Robots are indexed from 0 in the arrays; lists in the returned mapping hold one entry per
+robot in scenario order. Undefined values are NaN here and become ``None`` through
+:func:`json_ready`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from nodnav.scenario.world import INSIDE, World
+
+
+def arrival_times(times: np.ndarray, positions: np.ndarray, destinations: np.ndarray, tolerance: float) -> np.ndarray:
+    """First recorded time each robot is within ``tolerance`` of its destination, NaN if never ``(N_r,)`` (s).
+
+    ``times`` ``(K,)``, ``positions`` ``(K, N_r, 2)``, ``destinations`` ``(N_r, 2)``.
+    """
+    arrived = np.linalg.norm(positions - destinations[None], axis=-1) <= tolerance  # (K, N_r)
+    first = np.argmax(arrived, axis=0)
+    return np.where(arrived.any(axis=0), times[first], np.nan)
+
+
+def path_lengths(positions: np.ndarray) -> np.ndarray:
+    """Length of each robot's recorded polyline ``(N_r,)`` (m), positions ``(K, N_r, 2)``."""
+    return np.linalg.norm(np.diff(positions, axis=0), axis=-1).sum(axis=0)
+
+
+def min_separation(positions: np.ndarray) -> float:
+    """Smallest centre-to-centre distance between any two robots over the whole motion (m).
+
+    Between two recorded states each robot moves on a straight segment at constant speed, so the
+    relative position of a pair is ``r(s) = r0 + s d`` for ``s`` in [0, 1] and its closest
+    approach is at ``s* = clip(-(r0 . d) / |d|^2, 0, 1)``: the minimum is exact, not sampled.
+    Infinite for fewer than two robots.
+    """
+    p = np.asarray(positions, dtype=float)
+    n = p.shape[1]
+    if n < 2:
+        return math.inf
+    a, b = np.triu_indices(n, k=1)
+    rel = p[:, a] - p[:, b]  # (K, pairs, 2)
+    if len(rel) == 1:
+        return float(np.linalg.norm(rel, axis=-1).min())
+    r0, d = rel[:-1], np.diff(rel, axis=0)
+    dd = np.einsum("kpi,kpi->kp", d, d)
+    s = np.clip(-np.einsum("kpi,kpi->kp", r0, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    return float(np.linalg.norm(r0 + s[..., None] * d, axis=-1).min())
+
+
+def corridor_crossings(times: np.ndarray, x: np.ndarray, world: World) -> tuple[np.ndarray, np.ndarray]:
+    """Entry and exit times of every complete crossing of the corridor by one robot (s).
+
+    ``x`` ``(K,)`` is the robot's recorded abscissa. A crossing is a pair of consecutive recorded
+    samples outside the corridor, on opposite sides, with only samples inside the corridor between
+    them. Entry and exit are the times the straight segment between samples passes the entrance
+    line (x_min or x_max) it goes through, by linear interpolation. A robot that enters and backs
+    out, or starts inside, makes no crossing.
+    """
+    side = world.side_of(np.stack([x, np.zeros_like(x)], axis=-1))
+    outside = np.flatnonzero(side != INSIDE)
+    k1, k2 = outside[:-1], outside[1:]
+    crossing = side[k1] == -side[k2]
+    k1, k2 = k1[crossing], k2[crossing]
+    c = world.corridor
+    entry_x = np.where(side[k1] < 0, c.x_min, c.x_max)
+    exit_x = np.where(side[k2] < 0, c.x_min, c.x_max)
+
+    def cross_time(k: np.ndarray, line: np.ndarray) -> np.ndarray:
+        w = (line - x[k]) / (x[k + 1] - x[k])
+        return times[k] + w * (times[k + 1] - times[k])
+
+    return cross_time(k1, entry_x), cross_time(k2 - 1, exit_x)
+
+
+def flow_rate(times: np.ndarray, positions: np.ndarray, world: World) -> tuple[int, float]:
+    """Robots that crossed the corridor, and the flow rate through it (robots/s).
+
+    Flow rate = (number of robots with at least one crossing) / (latest crossing exit - earliest
+    crossing entry), over the crossings of :func:`corridor_crossings`; NaN when no robot crossed.
+    """
+    entries, exits, crossed = [], [], 0
+    for i in range(positions.shape[1]):
+        t_in, t_out = corridor_crossings(times, positions[:, i, 0], world)
+        if len(t_in):
+            crossed += 1
+            entries.append(t_in.min())
+            exits.append(t_out.max())
+    if not crossed:
+        return 0, math.nan
+    return crossed, float(crossed / (max(exits) - min(entries)))
+
+
+def smoothness(velocities: np.ndarray) -> float:
+    """Mean over robots and control steps of ``|v_{k+1} - v_k|`` (m/s); NaN with fewer than two steps.
+
+    ``velocities`` ``(K, N_r, 2)``.
+    """
+    if len(velocities) < 2:
+        return math.nan
+    return float(np.linalg.norm(np.diff(velocities, axis=0), axis=-1).mean())
+
+
+def opinion_switches(strategies: np.ndarray) -> np.ndarray:
+    """Changes of each robot's selected strategy between consecutive decisions ``(N_r,)``.
+
+    ``strategies`` ``(D, N_r)`` holds the selected strategy index per decision.
+    """
+    return (np.diff(strategies, axis=0) != 0).sum(axis=0)
+
+
+def time_to_consensus(decision_times: np.ndarray, strategies: np.ndarray) -> float:
+    """First decision time from which every robot selected the same strategy at every later decision (s).
+
+    NaN when the robots disagree at the last decision, when there were no decisions, or when the
+    method selects no strategies (index -1).
+    """
+    if len(strategies) == 0:
+        return math.nan
+    agree = np.all(strategies == strategies[:, :1], axis=1) & (strategies[:, 0] >= 0)
+    if not agree[-1]:
+        return math.nan
+    disagree = np.flatnonzero(~agree)
+    start = disagree[-1] + 1 if len(disagree) else 0
+    return float(decision_times[start])
+
+
+def compute_metrics(history) -> dict:
+    """Every metric of ``docs/metrics.md`` for one finished trial (a :class:`~nodnav.sim.history.History`).
+
+    Scalars are floats (NaN when undefined) or ints; per-robot metrics are lists in robot order.
+    """
+    s = history.scenario
+    a = history.arrays()
+    times, positions, velocities = a["times"], a["positions"], a["velocities"]
+    goal = arrival_times(times, positions, s.destinations, s.sim.goal_tolerance)
+    lengths = path_lengths(positions)
+    straight = np.linalg.norm(s.destinations - s.origins, axis=-1)
+    ratio = np.divide(lengths, straight, out=np.full_like(lengths, np.nan), where=straight > 0)
+    crossed, flow = flow_rate(times, positions, s.world)
+    switches = opinion_switches(a["strategies"])
+    makespan = float(goal.max()) if history.outcome == "success" and np.isfinite(goal).all() else math.nan
+    return {
+        "makespan_s": makespan,
+        "time_to_goal_s": [float(t) for t in goal],
+        "path_length_m": [float(v) for v in lengths],
+        "path_deviation_m": [float(v) for v in lengths - straight],
+        "path_ratio": [float(v) for v in ratio],
+        "min_separation_m": min_separation(positions),
+        "robots_crossed": crossed,
+        "flow_rate_rps": flow,
+        "smoothness_mps": smoothness(velocities),
+        "opinion_switches": int(switches.sum()),
+        "opinion_switches_per_robot": [int(v) for v in switches],
+        "time_to_consensus_s": time_to_consensus(a["decision_times"], a["strategies"]),
+    }
+
+
+def json_ready(value):
+    """``value`` with every non-finite float (NaN, inf) replaced by ``None``, recursively, and
+    NumPy scalars and arrays turned into Python numbers and lists."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value

@@ -1,0 +1,334 @@
+"""The results database: one SQLite file, one row per trial, enough to write a report from.
+
+Tables
+------
+``trials``
+    One row per trial, keyed by :func:`trial_key` (a hash of the full configuration and the
+    seed). It holds the configuration as JSON, the factors of the sweep as plain columns
+    (scenario, robots, method, planner, players, init, bias, seed), the outcome, the headline
+    numbers as columns (success, makespan, min_separation, strategy, consensus, sim_time,
+    wall_time), the whole summary and the metrics as JSON, the nodnav version and a timestamp.
+``study_trials``
+    Which trials belong to which study. A trial is run once and shared by every study whose
+    cross product contains it, so a study's results are the rows linked to it here.
+``studies``
+    Each study's specification as JSON, as it was last run.
+
+Durability: the file is in WAL mode with ``synchronous=FULL``, and each trial (its row and its
+link to the study) is written in one transaction, so a process killed at any instant leaves every
+committed trial whole and no partial row.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import sqlite3
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from nodnav.errors import NodnavError
+
+DEFAULT_DB = "nodnav-results.sqlite"
+
+OUTCOMES = ("success", "collision", "deadlock", "timeout", "error")
+
+SCHEMA_VERSION = 1
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS trials (
+    key            TEXT PRIMARY KEY,
+    study          TEXT NOT NULL,
+    scenario       TEXT NOT NULL,
+    n_robots       INTEGER NOT NULL,
+    method         TEXT NOT NULL,
+    planner        TEXT NOT NULL,
+    players        INTEGER NOT NULL,
+    init           TEXT NOT NULL,
+    bias           TEXT NOT NULL,
+    seed           INTEGER NOT NULL,
+    config         TEXT NOT NULL,
+    outcome        TEXT NOT NULL,
+    error          TEXT,
+    success        INTEGER NOT NULL,
+    makespan       REAL,
+    min_separation REAL,
+    strategy       INTEGER,
+    consensus      INTEGER,
+    sim_time       REAL,
+    wall_time      REAL,
+    summary        TEXT NOT NULL,
+    metrics        TEXT NOT NULL,
+    version        TEXT NOT NULL,
+    created        TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS trials_factors ON trials (scenario, players, init, bias, planner, method);
+CREATE TABLE IF NOT EXISTS study_trials (
+    study TEXT NOT NULL,
+    key   TEXT NOT NULL REFERENCES trials (key),
+    PRIMARY KEY (study, key)
+);
+CREATE TABLE IF NOT EXISTS studies (
+    name    TEXT PRIMARY KEY,
+    spec    TEXT NOT NULL,
+    updated TEXT NOT NULL
+);
+"""
+
+#: Columns that :meth:`ResultStore.records` and :meth:`ResultStore.outcome_counts` filter and group on.
+FACTOR_COLUMNS = ("scenario", "n_robots", "method", "planner", "players", "init", "bias", "seed", "outcome",
+                  "version", "success", "strategy", "consensus")
+
+
+class StoreError(NodnavError):
+    """The results database cannot be used; the message says why in one line."""
+
+
+def canonical_json(value) -> str:
+    """``value`` as compact JSON with sorted keys: equal configurations give equal text."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def bias_label(bias: dict[str, float]) -> str:
+    """A bias mapping as text, e.g. ``S3=150,S5=150`` in strategy order; empty for no bias."""
+    items = sorted((int(k[1:]), float(v)) for k, v in bias.items() if float(v) != 0.0)
+    return ",".join(f"S{j}={v:g}" for j, v in items)
+
+
+def trial_config(scenario_mapping: dict, method: str) -> dict:
+    """The configuration that determines a trial, apart from its seed.
+
+    ``scenario_mapping`` comes from :func:`nodnav.scenario.schema.scenario_to_dict`.
+    """
+    return {"scenario": scenario_mapping, "method": method}
+
+
+def trial_key(config: dict, seed: int) -> str:
+    """Hash (SHA-256, hex) of everything that determines a trial's result: configuration and seed.
+
+    The scenario's description does not change the trial and is left out; game players ``all``
+    and ``N_r - 1`` are the same trial and hash alike.
+    """
+    scenario = dict(config["scenario"])
+    scenario.pop("description", None)
+    if scenario.get("game_players") == "all":
+        scenario["game_players"] = len(scenario["robots"]) - 1
+    return hashlib.sha256(canonical_json({**config, "scenario": scenario, "seed": int(seed)}).encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class TrialRecord:
+    """One stored trial, as a report reads it."""
+
+    key: str
+    """Trial key, :func:`trial_key`."""
+    study: str
+    """Study that first ran the trial."""
+    scenario: str
+    """Scenario name."""
+    n_robots: int
+    """Number of robots N_r."""
+    method: str
+    """Navigation method."""
+    planner: str
+    """Planner name."""
+    players: int
+    """Effective number of game players per robot (N_r - 1 for 'all')."""
+    init: str
+    """Initial-opinion mode."""
+    bias: str
+    """Bias as text, :func:`bias_label` (empty for none)."""
+    seed: int
+    """Trial seed."""
+    config: dict
+    """The full configuration, :func:`trial_config`."""
+    outcome: str
+    """``success``, ``collision``, ``deadlock``, ``timeout`` or ``error``."""
+    error: str | None
+    """One-line error message when the outcome is ``error``."""
+    summary: dict
+    """The trial's JSON summary (``TrialResult.to_dict()``; for an error, the traceback)."""
+    metrics: dict
+    """The trial's metrics (see ``docs/metrics.md``)."""
+    version: str
+    """nodnav version that ran the trial."""
+    created: str
+    """When the trial was stored (ISO 8601, UTC)."""
+
+    @property
+    def success(self) -> bool:
+        """Whether every robot arrived without collision."""
+        return self.outcome == "success"
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def _where(study: str | None, filters: dict) -> tuple[str, list]:
+    clauses, params = [], []
+    if study is not None:
+        clauses.append("key IN (SELECT key FROM study_trials WHERE study = ?)")
+        params.append(study)
+    for column, value in filters.items():
+        if column not in FACTOR_COLUMNS:
+            raise StoreError(f"cannot filter on '{column}'; use one of {', '.join(FACTOR_COLUMNS)}")
+        values = list(value) if isinstance(value, (list, tuple, set, frozenset)) else [value]
+        clauses.append(f"{column} IN ({', '.join('?' * len(values))})")
+        params.extend(values)
+    return (" WHERE " + " AND ".join(clauses)) if clauses else "", params
+
+
+class ResultStore:
+    """An open results database; use as a context manager or call :meth:`close`.
+
+    Only one process should write (the sweep's parent); any number may read at the same time.
+    """
+
+    def __init__(self, path: str | Path = DEFAULT_DB):
+        self.path = Path(path)
+        try:
+            self._db = sqlite3.connect(self.path, isolation_level=None, timeout=30.0)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=FULL")
+            version = self._db.execute("PRAGMA user_version").fetchone()[0]
+            if version not in (0, SCHEMA_VERSION):
+                raise StoreError(f"{self.path}: results database of schema {version}, this nodnav reads "
+                                 f"{SCHEMA_VERSION}; use another --db file")
+            self._db.executescript(_SCHEMA)
+            self._db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(f"{self.path}: not a usable results database ({exc})") from None
+
+    def __enter__(self) -> "ResultStore":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection (every trial is already committed)."""
+        self._db.close()
+
+    # -- writing -----------------------------------------------------------------------------
+
+    def add_trial(self, *, key: str, study: str, config: dict, seed: int, outcome: str, summary: dict,
+                  metrics: dict, version: str, error: str | None = None) -> None:
+        """Store one finished trial and link it to ``study``, in one transaction.
+
+        ``summary`` is ``TrialResult.to_dict()`` (JSON-ready), from which the headline columns
+        are taken; ``config`` is :func:`trial_config`. A trial already stored under ``key`` is
+        replaced (the study that first ran it is kept).
+        """
+        if outcome not in OUTCOMES:
+            raise StoreError(f"unknown outcome '{outcome}'; expected one of {', '.join(OUTCOMES)}")
+        sc = config["scenario"]
+        n = len(sc["robots"])
+        players = n - 1 if sc["game_players"] == "all" else int(sc["game_players"])
+
+        def flag(v):
+            return None if v is None else int(bool(v))
+
+        strategy = summary.get("strategy")
+        row = {
+            "key": key, "study": study, "scenario": sc["name"], "n_robots": n, "method": config["method"],
+            "planner": sc["planner"]["name"], "players": players, "init": sc["opinion"]["init"],
+            "bias": bias_label(sc["opinion"]["bias"]), "seed": int(seed), "config": canonical_json(config),
+            "outcome": outcome, "error": error, "success": int(outcome == "success"),
+            "makespan": summary.get("makespan_s"), "min_separation": summary.get("min_separation_m"),
+            "strategy": None if strategy is None else int(strategy), "consensus": flag(summary.get("consensus")),
+            "sim_time": summary.get("sim_time_s"), "wall_time": summary.get("wall_time_s"),
+            "summary": canonical_json(summary), "metrics": canonical_json(metrics), "version": version,
+            "created": _now(),
+        }
+        columns = ", ".join(row)
+        with self._transaction():
+            first = self._db.execute("SELECT study FROM trials WHERE key = ?", (key,)).fetchone()
+            if first is not None:
+                row["study"] = first[0]
+            self._db.execute(f"INSERT OR REPLACE INTO trials ({columns}) VALUES ({', '.join('?' * len(row))})",
+                             list(row.values()))
+            self._db.execute("INSERT OR IGNORE INTO study_trials (study, key) VALUES (?, ?)", (study, key))
+
+    def link(self, study: str, keys) -> None:
+        """Record that the already stored trials ``keys`` belong to ``study`` (one transaction)."""
+        with self._transaction():
+            self._db.executemany("INSERT OR IGNORE INTO study_trials (study, key) VALUES (?, ?)",
+                                 [(study, k) for k in keys])
+
+    def save_study(self, name: str, spec: dict) -> None:
+        """Store (or replace) a study's specification."""
+        with self._transaction():
+            self._db.execute("INSERT OR REPLACE INTO studies (name, spec, updated) VALUES (?, ?, ?)",
+                             (name, canonical_json(spec), _now()))
+
+    @contextmanager
+    def _transaction(self):
+        self._db.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+        self._db.execute("COMMIT")
+
+    # -- reading -----------------------------------------------------------------------------
+
+    def stored(self, keys) -> dict[str, str]:
+        """The outcome of each of ``keys`` that is stored."""
+        keys = list(keys)
+        out = {}
+        for start in range(0, len(keys), 500):  # keep below SQLite's limit on parameters
+            chunk = keys[start:start + 500]
+            out.update(self._db.execute(f"SELECT key, outcome FROM trials WHERE key IN ({', '.join('?' * len(chunk))})",
+                                        chunk).fetchall())
+        return out
+
+    def records(self, study: str | None = None, **filters) -> list[TrialRecord]:
+        """Stored trials of ``study`` (all studies if ``None``) matching ``filters``, in factor then seed order.
+
+        A filter is a column of :data:`FACTOR_COLUMNS` and a value or a list of accepted values,
+        e.g. ``records("paper", scenario="3r-case2", players=[1, 2])``.
+        """
+        where, params = _where(study, filters)
+        names = [f.name for f in dataclasses.fields(TrialRecord)]
+        rows = self._db.execute(f"SELECT {', '.join(names)} FROM trials{where} "
+                                "ORDER BY scenario, players, init, bias, planner, method, seed", params).fetchall()
+        out = []
+        for row in rows:
+            d = dict(zip(names, row))
+            for k in ("config", "summary", "metrics"):
+                d[k] = json.loads(d[k])
+            out.append(TrialRecord(**d))
+        return out
+
+    def outcome_counts(self, by=("scenario", "players"), study: str | None = None, **filters) -> dict[tuple, dict[str, int]]:
+        """Number of trials of each outcome per group of the columns ``by``.
+
+        ``{("3r-case2", 2): {"success": 38, "deadlock": 2}, ...}``; outcomes with no trial are left out.
+        """
+        by = tuple(by)
+        for column in by:
+            if column not in FACTOR_COLUMNS:
+                raise StoreError(f"cannot group by '{column}'; use some of {', '.join(FACTOR_COLUMNS)}")
+        where, params = _where(study, filters)
+        group = ", ".join(by)
+        select = f"{group}, " if by else ""
+        rows = self._db.execute(f"SELECT {select}outcome, COUNT(*) FROM trials{where} "
+                                f"GROUP BY {select}outcome ORDER BY {select}outcome", params).fetchall()
+        out: dict[tuple, dict[str, int]] = {}
+        for row in rows:
+            out.setdefault(tuple(row[:len(by)]), {})[row[len(by)]] = row[len(by) + 1]
+        return out
+
+    def studies(self) -> dict[str, dict]:
+        """Every stored study's specification, by name."""
+        return {name: json.loads(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
+
+    def count(self, study: str | None = None, **filters) -> int:
+        """Number of stored trials of ``study`` matching ``filters``."""
+        where, params = _where(study, filters)
+        return self._db.execute(f"SELECT COUNT(*) FROM trials{where}", params).fetchone()[0]

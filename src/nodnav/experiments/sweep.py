@@ -1,0 +1,257 @@
+"""Resumable parallel sweeps: expand a study's cross product, run what is not stored yet, store results.
+
+Trials run in worker processes (joblib's loky backend, ``jobs`` of them) or on a Dask cluster
+(joblib's ``dask`` backend on a ``distributed.Client`` connected to ``scheduler``). Workers only
+compute; each result comes back to this process, which commits it to the results database in a
+transaction of its own as soon as it arrives. Killing the sweep at any moment therefore loses at
+most the trials that were still running, and running it again does only those.
+
+Every trial is seeded by its own seed and nothing else, so the stored results do not depend on
+the number of workers or the order in which trials finish.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import logging
+import math
+import sys
+import time
+import traceback
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from joblib import Parallel, delayed, parallel_config
+from tqdm import tqdm
+
+import nodnav
+from nodnav.errors import NodnavError
+from nodnav.experiments.metrics import json_ready
+from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
+from nodnav.experiments.study import SweepSpec
+from nodnav.scenario.schema import Scenario, load_scenario, scenario_to_dict
+
+log = logging.getLogger(__name__)
+
+__all__ = ["SweepSpec", "TrialSpec", "Expansion", "TrialOutput", "SweepSummary", "expand", "execute_trial", "run_sweep"]
+
+
+@dataclass(frozen=True)
+class TrialSpec:
+    """One trial of a sweep: what to simulate, with which seed, under which key."""
+
+    key: str
+    """:func:`~nodnav.experiments.store.trial_key` of the configuration and seed."""
+    scenario: Scenario
+    """The scenario with the sweep's overrides applied."""
+    method: str
+    """Navigation method."""
+    seed: int
+    """Trial seed."""
+    config: dict = field(repr=False)
+    """:func:`~nodnav.experiments.store.trial_config` of the trial."""
+
+
+@dataclass(frozen=True)
+class Expansion:
+    """The distinct trials of a sweep, in cross-product order, and the combinations left out."""
+
+    trials: tuple[TrialSpec, ...]
+    """Trials, each key once."""
+    notes: tuple[str, ...]
+    """One line per combination skipped because it does not apply to a scenario."""
+
+
+@dataclass(frozen=True)
+class TrialOutput:
+    """What a worker sends back for one trial (JSON-ready)."""
+
+    key: str
+    """Trial key."""
+    outcome: str
+    """The trial's outcome, or ``error``."""
+    summary: dict
+    """``TrialResult.to_dict()``, or for an error its message, traceback and wall time."""
+    metrics: dict
+    """``TrialResult.metrics`` (empty for an error)."""
+    error: str | None
+    """One-line message when the trial raised."""
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """What a sweep did."""
+
+    study: str
+    """Study name."""
+    db_path: str
+    """The results database."""
+    total: int
+    """Distinct trials in the study."""
+    done: int
+    """Trials run and stored by this sweep."""
+    skipped: int
+    """Trials already stored, not run again."""
+    errors: int
+    """Trials of this sweep that raised (stored with outcome ``error``)."""
+    outcomes: dict[str, int]
+    """Outcomes of the trials run by this sweep."""
+    wall_time: float
+    """Wall-clock time of the sweep (s)."""
+    notes: tuple[str, ...] = ()
+    """Combinations that did not apply to a scenario and were left out."""
+
+    @property
+    def success(self) -> bool:
+        """Whether every trial of this sweep ran without raising."""
+        return self.errors == 0
+
+    @property
+    def reason(self) -> str:
+        """One line saying what happened."""
+        return (f"{self.study}: {self.done} trials run, {self.skipped} already stored, {self.errors} errors "
+                f"({self.total} in the study) in {self.wall_time:.1f} s")
+
+
+def expand(spec: SweepSpec) -> Expansion:
+    """Every trial of ``spec``: scenarios x players x init x bias x planners x methods x seeds 1..trials.
+
+    A game-player count outside 0..N_r - 1, or a bias naming a strategy beyond N_r!, does not
+    apply to a scenario: that combination is left out with a note (and logged). ``all`` is
+    N_r - 1 players; combinations that give the same trial are kept once.
+    """
+    trials: dict[str, TrialSpec] = {}
+    notes: list[str] = []
+    for name in spec.scenarios:
+        base = load_scenario(name)
+        n, n_s = base.n_robots, math.factorial(base.n_robots)
+        players_axis = []
+        for players in spec.players:
+            if isinstance(players, int) and players > n - 1:
+                notes.append(f"{base.name}: players {players} skipped ({n} robots allow 0..{n - 1})")
+            else:
+                players_axis.append(players)
+        bias_axis = []
+        for bias in spec.bias:
+            if bias and max(int(s[1:]) for s, _ in bias) > n_s:
+                label = ",".join(f"{s}={v:g}" for s, v in bias)
+                notes.append(f"{base.name}: bias {label} skipped ({n} robots have strategies S1..S{n_s})")
+            else:
+                bias_axis.append(bias)
+        for players, init, bias, planner in itertools.product(players_axis, spec.init, bias_axis, spec.planners):
+            changes: dict = {}
+            if players is not None:
+                changes["game_players"] = players
+            if init is not None:  # initial opinions given in the scenario file give way to the mode
+                changes["opinion.init"] = init
+                changes["opinion.z0"] = []
+            if bias is not None:
+                changes["opinion.bias"] = dict(bias)
+            if planner is not None:
+                changes["planner.name"] = planner
+            scenario = base.with_overrides(**changes) if changes else base
+            mapping = scenario_to_dict(scenario)
+            for method in spec.methods:
+                config = trial_config(mapping, method)
+                for seed in range(1, spec.trials + 1):
+                    key = trial_key(config, seed)
+                    trials.setdefault(key, TrialSpec(key, scenario, method, seed, config))
+    for note in notes:
+        log.info("%s", note)
+    return Expansion(trials=tuple(trials.values()), notes=tuple(notes))
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
+
+
+def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int, key: str) -> TrialOutput:
+    """Run one trial in a worker; an exception becomes an ``error`` output instead of propagating.
+
+    ``trial_fn(scenario, method, seed)`` returns an object with ``outcome``, ``metrics`` and
+    ``to_dict()`` (a :class:`~nodnav.sim.simulator.TrialResult`).
+    """
+    start = time.perf_counter()
+    try:
+        result = trial_fn(scenario, method, seed)
+        return TrialOutput(key=key, outcome=result.outcome, summary=json_ready(result.to_dict()),
+                           metrics=json_ready(result.metrics), error=None)
+    except Exception as exc:  # a failing trial is a result to store, not the end of the sweep
+        message = _one_line(exc)
+        summary = {"outcome": "error", "error": message, "traceback": traceback.format_exc(),
+                   "wall_time_s": time.perf_counter() - start}
+        return TrialOutput(key=key, outcome="error", summary=summary, metrics={}, error=message)
+
+
+def _default_trial_fn() -> Callable:
+    from nodnav.sim.simulator import run_trial
+
+    return run_trial
+
+
+def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, scheduler: str | None = None,
+              quiet: bool = False, *, trial_fn: Callable | None = None, retry_errors: bool = False,
+              connect_timeout: float = 30.0) -> SweepSummary:
+    """Run every trial of ``spec`` that ``db_path`` does not hold yet and store each result as it arrives.
+
+    ``jobs`` worker processes run trials locally; with ``scheduler`` (a Dask scheduler address
+    such as ``tcp://10.0.0.5:8786``, reached within ``connect_timeout`` seconds) they run on that
+    cluster instead, whose workers must have nodnav installed. ``trial_fn`` replaces
+    :func:`~nodnav.sim.simulator.run_trial` (the workers must be able to unpickle it). Trials
+    stored with outcome ``error`` are run again only with ``retry_errors``. A progress bar on
+    stderr shows trials done, rate and time left unless ``quiet``.
+    """
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise NodnavError(f"jobs: expected a whole number >= 1, got {jobs!r}")
+    start = time.perf_counter()
+    fn = trial_fn if trial_fn is not None else _default_trial_fn()
+    expansion = expand(spec)
+    with contextlib.ExitStack() as stack:
+        if scheduler is not None:
+            stack.enter_context(_dask_client(scheduler, connect_timeout))
+            stack.enter_context(parallel_config(backend="dask"))
+        store = stack.enter_context(ResultStore(db_path))
+        store.save_study(spec.name, spec.to_dict())
+        stored = store.stored(t.key for t in expansion.trials)
+        keep = {k for k, outcome in stored.items() if not (retry_errors and outcome == "error")}
+        store.link(spec.name, keep)
+        todo = [t for t in expansion.trials if t.key not in keep]
+        by_key = {t.key: t for t in todo}
+        log.info("%s: %d trials, %d stored, %d to run", spec.name, len(expansion.trials), len(keep), len(todo))
+        outcomes: Counter[str] = Counter()
+        if todo:
+            bar = stack.enter_context(tqdm(total=len(todo), unit="trial", file=sys.stderr, disable=quiet,
+                                           dynamic_ncols=True, desc=spec.name, smoothing=0.1))
+            tasks = (delayed(execute_trial)(fn, t.scenario, t.method, t.seed, t.key) for t in todo)
+            # Under the dask backend n_jobs=-1 means every worker thread of the cluster.
+            parallel = Parallel(n_jobs=jobs if scheduler is None else -1, return_as="generator_unordered",
+                                batch_size=1)
+            for out in parallel(tasks):
+                trial = by_key[out.key]
+                store.add_trial(key=out.key, study=spec.name, config=trial.config, seed=trial.seed,
+                                outcome=out.outcome, summary=out.summary, metrics=out.metrics,
+                                version=nodnav.__version__, error=out.error)
+                outcomes[out.outcome] += 1
+                bar.update(1)
+                if out.error:
+                    log.warning("%s seed %d: %s", trial.scenario.name, trial.seed, out.error)
+                    bar.set_postfix(errors=outcomes["error"])
+    return SweepSummary(study=spec.name, db_path=str(db_path), total=len(expansion.trials), done=sum(outcomes.values()),
+                        skipped=len(keep), errors=outcomes["error"], outcomes=dict(outcomes),
+                        wall_time=time.perf_counter() - start, notes=expansion.notes)
+
+
+def _dask_client(scheduler: str, timeout: float):
+    """A client of the Dask scheduler at ``scheduler``; joblib's dask backend runs on it."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise NodnavError("running on a Dask cluster needs dask and distributed: pip install 'nodnav[cluster]'") from None
+    try:
+        return Client(scheduler, timeout=timeout)
+    except (OSError, TimeoutError) as exc:
+        raise NodnavError(f"cannot reach the Dask scheduler at {scheduler} ({_one_line(exc)})") from None

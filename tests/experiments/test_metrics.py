@@ -1,0 +1,228 @@
+"""Metrics against hand computations on synthetic histories (docs/metrics.md)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from nodnav.experiments.metrics import (compute_metrics, corridor_crossings, flow_rate, json_ready,
+                                        min_separation, opinion_switches, smoothness, time_to_consensus)
+from nodnav.scenario.schema import scenario_from_dict
+from nodnav.scenario.world import paper_world
+from nodnav.sim.history import History
+
+DT = 0.1
+
+
+def _scenario(origins, destinations, goal_tolerance=0.12):
+    return scenario_from_dict({
+        "name": "synthetic",
+        "robots": [{"origin": list(o), "destination": list(d)} for o, d in zip(origins, destinations)],
+        "sim": {"goal_tolerance": goal_tolerance},
+    })
+
+
+def _history(scenario, times, positions, velocities=None, decision_times=(), strategies=(), outcome="success"):
+    positions = np.asarray(positions, dtype=float)
+    if velocities is None:
+        velocities = np.gradient(positions, times, axis=0)
+    h = History(scenario=scenario, method="nod", seed=0, outcome=outcome)
+    h.times = list(times)
+    h.positions = list(positions)
+    h.velocities = list(np.asarray(velocities, dtype=float))
+    h.decision_times = list(decision_times)
+    h.strategies = [np.asarray(s) for s in strategies]
+    return h
+
+
+def _two_straight_robots(outcome="success"):
+    """Robot 1: (-5, 0) -> (5, 0) at 1 m/s; robot 2: (5, 0.1) -> (0, 0.1) at 0.5 m/s; both stop at t = 10, end at 12."""
+    t = np.round(np.arange(0, 121) * DT, 10)
+    s = np.minimum(t, 10.0)
+    p1 = np.stack([-5.0 + s, np.zeros_like(s)], axis=-1)
+    p2 = np.stack([5.0 - 0.5 * s, np.full_like(s, 0.1)], axis=-1)
+    sc = _scenario([(-5, 0), (5, 0.1)], [(5, 0), (0, 0.1)])
+    return _history(sc, t, np.stack([p1, p2], axis=1), outcome=outcome)
+
+
+def test_straight_lines_at_constant_speed():
+    m = compute_metrics(_two_straight_robots())
+    # Robot 1 is within 0.12 m of x = 5 once x >= 4.88, i.e. t >= 9.88: first sample 9.9 s.
+    # Robot 2 is within 0.12 m of x = 0 once 5 - 0.5 t <= 0.12, i.e. t >= 9.76: first sample 9.8 s.
+    assert m["time_to_goal_s"] == pytest.approx([9.9, 9.8])
+    assert m["makespan_s"] == pytest.approx(9.9)
+    # Straight motion: lengths equal the straight distances 10 m and 5 m.
+    assert m["path_length_m"] == pytest.approx([10.0, 5.0])
+    assert m["path_deviation_m"] == pytest.approx([0.0, 0.0], abs=1e-9)
+    assert m["path_ratio"] == pytest.approx([1.0, 1.0])
+    # At time t the gap is (10 - 1.5 t, 0.1) until t = 10, so the closest approach is at t = 20/3,
+    # between samples, where the distance is exactly the 0.1 m lateral offset.
+    assert m["min_separation_m"] == pytest.approx(0.1, abs=1e-12)
+
+
+def test_makespan_is_undefined_unless_the_trial_succeeded():
+    m = compute_metrics(_two_straight_robots(outcome="collision"))
+    assert math.isnan(m["makespan_s"])
+    assert m["time_to_goal_s"] == pytest.approx([9.9, 9.8])
+
+
+def test_u_shaped_square_path():
+    # Three sides of a 2 m square from (-6, -1) to (-6, 1): length 6 m against 2 m straight.
+    side = np.linspace(0, 2, 21)
+    pts = np.concatenate([
+        np.stack([-6 + side, -1 + 0 * side], -1),
+        np.stack([-4 + 0 * side[1:], -1 + side[1:]], -1),
+        np.stack([-4 - side[1:], 1 + 0 * side[1:]], -1),
+    ])
+    other = np.tile([[5.0, 0.0]], (len(pts), 1))
+    sc = _scenario([(-6, -1), (5, 0)], [(-6, 1), (5.5, 0)])
+    t = np.arange(len(pts)) * DT
+    m = compute_metrics(_history(sc, t, np.stack([pts, other], axis=1), outcome="timeout"))
+    assert m["path_length_m"][0] == pytest.approx(6.0)
+    assert m["path_deviation_m"][0] == pytest.approx(4.0)
+    assert m["path_ratio"][0] == pytest.approx(3.0)
+    # The parked robot moved nowhere: length 0, deviation minus its 0.5 m straight distance.
+    assert m["path_length_m"][1] == 0.0
+    assert m["path_deviation_m"][1] == pytest.approx(-0.5)
+    # Within 0.12 m of (-6, 1) from the sample at (-5.9, 1), the one before the last.
+    assert m["time_to_goal_s"][0] == pytest.approx(t[-2])
+    assert math.isnan(m["time_to_goal_s"][1])
+
+
+def test_min_separation_is_exact_between_samples():
+    # Head-on pair on parallel lines 0.5 m apart, closing at 2 m/s; they are level at t = 1.025 s,
+    # which is no sample time. Exact minimum: 0.5 m. Best sample (t = 1.0): sqrt(0.05^2 + 0.5^2).
+    t = np.arange(0, 21) * DT
+    a = np.stack([-1.0 + t, 0 * t], -1)
+    b = np.stack([1.05 - t, 0.5 + 0 * t], -1)
+    p = np.stack([a, b], axis=1)
+    sampled = math.hypot(0.05, 0.5)
+    assert min_separation(p) == pytest.approx(0.5, abs=1e-12)
+    assert min_separation(p) < sampled - 1e-3
+    # A pair that never approaches: the minimum is the first sample.
+    assert min_separation(np.stack([a, a + [0, 3]], axis=1)) == pytest.approx(3.0)
+    assert min_separation(p[:, :1]) == math.inf
+
+
+def test_min_separation_of_three_robots_takes_the_closest_pair():
+    t = np.arange(0, 11) * DT
+    still = np.zeros((len(t), 2))
+    # Robot 2 passes robot 1 at 0.3 m; robot 3 stays 2 m away from both.
+    passing = np.stack([-0.55 + t, 0.3 + 0 * t], -1)
+    far = np.tile([0.0, 2.0], (len(t), 1))
+    p = np.stack([still, passing, far], axis=1)
+    assert min_separation(p) == pytest.approx(0.3, abs=1e-12)
+
+
+def test_corridor_crossing_times_are_interpolated():
+    world = paper_world()
+    # x = -5 + t crosses x = -3 at t = 2 and x = 3 at t = 8; a coarse 0.3 s step falls on neither.
+    t = np.arange(0, 35) * 0.3
+    t_in, t_out = corridor_crossings(t, -5.0 + t, world)
+    assert t_in == pytest.approx([2.0]) and t_out == pytest.approx([8.0])
+    # Enters and backs out: no crossing.
+    x = -5.0 + 3.0 - np.abs(t - 3.0)
+    assert len(corridor_crossings(t, x, world)[0]) == 0
+    # Starts inside the corridor and leaves: no crossing.
+    assert len(corridor_crossings(t, 0.0 + t, world)[0]) == 0
+
+
+def test_flow_rate_of_two_robots_one_after_the_other():
+    world = paper_world()
+    t = np.arange(0, 201) * DT
+    # Robot 1 crosses left to right: in at 2 s, out at 8 s. Robot 2 waits at x = 6 until 8 s, then
+    # crosses right to left at 1 m/s: in at 11 s, out at 17 s. Robot 3 enters at 1 s and backs out.
+    x1 = -5.0 + np.minimum(t, 10.0)
+    x2 = 6.0 - np.clip(t - 8.0, 0.0, 12.0)
+    x3 = -4.0 + np.where(t < 2.0, t, np.maximum(4.0 - t, -1.0))
+    p = np.stack([np.stack([x, 0 * t], -1) for x in (x1, x2, x3)], axis=1)
+    crossed, rate = flow_rate(t, p, world)
+    assert crossed == 2
+    assert rate == pytest.approx(2.0 / (17.0 - 2.0))
+    none_crossed, undefined = flow_rate(t, p[:, 2:], world)
+    assert none_crossed == 0 and math.isnan(undefined)
+
+
+def test_smoothness_hand_computed():
+    # Robot 1 turns once from (1, 0) to (0, 1) m/s: one change of |(-1, 1)| = sqrt 2.
+    # Robot 2 keeps (0.5, 0.5) m/s. Mean over 2 robots x 9 steps: sqrt(2) / 18.
+    v1 = np.array([[1.0, 0.0]] * 5 + [[0.0, 1.0]] * 5)
+    v2 = np.array([[0.5, 0.5]] * 10)
+    assert smoothness(np.stack([v1, v2], axis=1)) == pytest.approx(math.sqrt(2) / 18)
+    assert math.isnan(smoothness(v1[:1, None]))
+
+
+def test_smoothness_of_uniform_circular_motion():
+    # Speed 1 m/s on a circle, turning omega = 0.5 rad/s: every step the velocity turns by
+    # omega dt, so |dv| = 2 sin(omega dt / 2) exactly.
+    omega = 0.5
+    t = np.arange(0, 50) * DT
+    v = np.stack([-np.sin(omega * t), np.cos(omega * t)], -1)[:, None]
+    assert smoothness(v) == pytest.approx(2 * math.sin(omega * DT / 2), rel=1e-12)
+
+
+STRATEGIES = np.array([[0, 2, 1],
+                       [0, 2, 0],
+                       [1, 2, 0],
+                       [1, 1, 1],
+                       [1, 1, 1]])
+
+
+def test_opinion_switches_count_changes_per_robot():
+    # Robot 1: 0,0,1,1,1 -> 1 change; robot 2: 2,2,2,1,1 -> 1; robot 3: 1,0,0,1,1 -> 2.
+    assert opinion_switches(STRATEGIES).tolist() == [1, 1, 2]
+    assert opinion_switches(STRATEGIES[:1]).tolist() == [0, 0, 0]
+
+
+def test_time_to_consensus_is_the_start_of_the_last_agreement():
+    times = np.arange(5) * 1.0
+    assert time_to_consensus(times, STRATEGIES) == 3.0
+    # Agreement at the start, lost, then regained: the regained one counts.
+    s = np.array([[4, 4], [4, 5], [5, 5], [5, 5]])
+    assert time_to_consensus(times[:4], s) == 2.0
+    assert time_to_consensus(times[:2], np.array([[1, 1], [1, 1]])) == 0.0
+    assert math.isnan(time_to_consensus(times[:2], np.array([[1, 1], [1, 0]])))
+    assert math.isnan(time_to_consensus(times[:2], np.full((2, 2), -1)))
+    assert math.isnan(time_to_consensus(times[:0], np.zeros((0, 2), dtype=int)))
+
+
+def test_compute_metrics_decisions_and_json():
+    h = _two_straight_robots()
+    h.decision_times = [0.0, 1.0, 2.0]
+    h.strategies = [np.array([0, 1]), np.array([1, 1]), np.array([1, 1])]
+    m = compute_metrics(h)
+    assert m["opinion_switches"] == 1 and m["opinion_switches_per_robot"] == [1, 0]
+    assert m["time_to_consensus_s"] == 1.0
+    # Robot 1 crosses (in at 2 s, out at 8 s); robot 2 stops at x = 0 inside the corridor.
+    assert m["robots_crossed"] == 1 and m["flow_rate_rps"] == pytest.approx(1 / 6)
+    text = json.dumps(json_ready(m), allow_nan=False)
+    assert json.loads(text)["makespan_s"] == pytest.approx(9.9)
+
+
+def test_json_ready_replaces_non_finite_values():
+    value = {"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)], "c": np.int64(3),
+             "d": np.array([np.nan, 1.0]), "e": np.bool_(True), "f": "text", "g": None}
+    out = json_ready(value)
+    assert out == {"a": None, "b": [1.0, None, 2.5], "c": 3, "d": [None, 1.0], "e": True, "f": "text", "g": None}
+    assert type(out["c"]) is int and type(out["e"]) is bool
+    json.dumps(out, allow_nan=False)
+
+
+def test_metrics_of_a_real_trial_agree_with_the_simulator():
+    from nodnav.scenario.schema import load_scenario
+    from nodnav.sim.simulator import CONTACT_SUBSTEPS, run_trial
+
+    result = run_trial(load_scenario("2r-case1"), seed=2)
+    m = compute_metrics(result.history)
+    # The simulator records arrivals while it runs; the metric finds them again in the history.
+    assert m["time_to_goal_s"] == pytest.approx(list(result.time_to_goal), nan_ok=True)
+    if result.success:
+        assert m["makespan_s"] == pytest.approx(result.makespan)
+    # The simulator samples each step at CONTACT_SUBSTEPS points; robots close at most 2 m/s, so
+    # its minimum exceeds the exact one by at most half a sub-step of relative motion.
+    half_substep = 0.5 * 2 * 1.0 * result.history.scenario.controller.dt / CONTACT_SUBSTEPS
+    assert result.min_separation - half_substep <= m["min_separation_m"] <= result.min_separation + 1e-12
+    if result.success:
+        assert m["robots_crossed"] == 2
+    json.dumps(json_ready(m), allow_nan=False)

@@ -187,10 +187,27 @@ def test_time_to_consensus_is_the_start_of_the_last_agreement():
     assert math.isnan(time_to_consensus(times[:0], np.zeros((0, 2), dtype=int)))
 
 
+def test_time_to_consensus_counts_only_the_open_part_of_the_order():
+    # Three robots; S1 = (1,2,3), S3 = (2,1,3), S4 = (2,3,1). Robot 2 enters after the second
+    # decision. Before that robots choose S1 / S3 (disagreeing on who goes first); after it,
+    # S3 and S4 still disagree on 1 versus 3 but S3 and S1 agree (1 before 3).
+    times = np.arange(4) * 1.0
+    s = np.array([[0, 2, 2], [2, 2, 2], [2, 0, 2], [3, 2, 3]])
+    undecided = np.array([[1, 1, 1], [1, 1, 1], [1, 0, 1], [1, 0, 1]], dtype=bool)
+    assert math.isnan(time_to_consensus(times, s, undecided))
+    s[3] = [2, 0, 0]
+    assert time_to_consensus(times, s, undecided) == 1.0
+    # Once fewer than two robots are left to enter, later decisions do not count.
+    undecided[3] = [1, 0, 0]
+    s[3] = [5, 4, 3]
+    assert time_to_consensus(times, s, undecided) == 1.0
+
+
 def test_compute_metrics_decisions_and_json():
     h = _two_straight_robots()
     h.decision_times = [0.0, 1.0, 2.0]
     h.strategies = [np.array([0, 1]), np.array([1, 1]), np.array([1, 1])]
+    h.undecided = [np.array([True, True])] * 3
     m = compute_metrics(h)
     assert m["opinion_switches"] == 1 and m["opinion_switches_per_robot"] == [1, 0]
     assert m["time_to_consensus_s"] == 1.0

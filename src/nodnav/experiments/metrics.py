@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from nodnav.decision.strategies import orders_agree, passing_orders
 from nodnav.scenario.world import INSIDE, World
 
 
@@ -113,20 +114,35 @@ def opinion_switches(strategies: np.ndarray) -> np.ndarray:
     return (np.diff(strategies, axis=0) != 0).sum(axis=0)
 
 
-def time_to_consensus(decision_times: np.ndarray, strategies: np.ndarray) -> float:
-    """First decision time from which every robot selected the same strategy at every later decision (s).
+def time_to_consensus(decision_times: np.ndarray, strategies: np.ndarray, undecided: np.ndarray | None = None) -> float:
+    """First decision time from which the robots agreed at every later decision while an order was still open (s).
 
-    NaN when the robots disagree at the last decision, when there were no decisions, or when the
-    method selects no strategies (index -1).
+    Without ``undecided``, robots agree when they selected the same strategy. With
+    ``undecided`` ``(D, N_r)``, the robots that had not yet entered the corridor at each decision,
+    they agree when their selections prescribe the same order for those robots
+    (:func:`~nodnav.decision.strategies.orders_agree`), and decisions with fewer than two such
+    robots are left out (the order was settled). NaN when they disagree at the last decision
+    that counts, when there is none, or when the method selects no strategies (index -1).
     """
+    strategies = np.asarray(strategies)
     if len(strategies) == 0:
         return math.nan
-    agree = np.all(strategies == strategies[:, :1], axis=1) & (strategies[:, 0] >= 0)
+    if undecided is None:
+        agree = np.all(strategies == strategies[:, :1], axis=1) & (strategies[:, 0] >= 0)
+        times = np.asarray(decision_times)
+    else:
+        orders = passing_orders(strategies.shape[1])
+        open_ = np.asarray(undecided, dtype=bool)
+        counts = open_.sum(axis=1) >= 2
+        if not counts.any():
+            return math.nan
+        agree = np.array([orders_agree(orders, s, np.flatnonzero(o)) for s, o in zip(strategies[counts], open_[counts])])
+        times = np.asarray(decision_times)[counts]
     if not agree[-1]:
         return math.nan
     disagree = np.flatnonzero(~agree)
     start = disagree[-1] + 1 if len(disagree) else 0
-    return float(decision_times[start])
+    return float(times[start])
 
 
 def compute_metrics(history) -> dict:
@@ -156,7 +172,7 @@ def compute_metrics(history) -> dict:
         "smoothness_mps": smoothness(velocities),
         "opinion_switches": int(switches.sum()),
         "opinion_switches_per_robot": [int(v) for v in switches],
-        "time_to_consensus_s": time_to_consensus(a["decision_times"], a["strategies"]),
+        "time_to_consensus_s": time_to_consensus(a["decision_times"], a["strategies"], a["undecided"]),
     }
 
 

@@ -88,6 +88,8 @@ class PlannerParams:
     """Time step of the planned joint trajectory (s)."""
     margin: float = 0.05
     """Extra separation kept by the planner beyond 2 r_robot (m)."""
+    waiting: str = "early"
+    """Fast planner: a yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
     w1: float = 0.4
     """Weight w_1 of the proximity penalty in the PRM* path cost (1/m); paper: 0.4."""
     varsigma: float = 0.1
@@ -411,6 +413,8 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
         raise ScenarioError(f"planner.name: unknown planner '{planner.name}'{nearest_hint(planner.name, PLANNERS, 'planners')}")
     if controller.name not in CONTROLLERS:
         raise ScenarioError(f"controller.name: unknown controller '{controller.name}'{nearest_hint(controller.name, CONTROLLERS, 'controllers')}")
+    if planner.waiting not in ("early", "late"):
+        raise ScenarioError(f"planner.waiting: expected 'early' or 'late', got {planner.waiting!r}")
     if planner.dt <= 0:
         raise ScenarioError(f"planner.dt: must be positive, got {planner.dt}")
     ratio = opinion.T / controller.dt

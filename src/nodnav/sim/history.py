@@ -45,6 +45,8 @@ class History:
     """Selected strategy index per robot ``(N_r,)`` per decision (0-based; -1 when none)."""
     players: list[np.ndarray] = field(default_factory=list)
     """Game-player mask ``(N_r, N_r)`` per decision: ``players[i, k]`` when k is in N_i."""
+    undecided: list[np.ndarray] = field(default_factory=list)
+    """Robots that had not yet entered the corridor ``(N_r,)`` per decision: the order still open."""
     events: list[dict] = field(default_factory=list)
     """Discrete events: MPC infeasibility, plan failures, corridor entries, the outcome."""
     entry_order: list[int] = field(default_factory=list)
@@ -66,6 +68,7 @@ class History:
             if ns else np.zeros((0, n, 0)),
             "strategies": np.asarray(self.strategies, dtype=int).reshape(-1, n),
             "players": np.asarray(self.players, dtype=bool).reshape(-1, n, n),
+            "undecided": np.asarray(self.undecided, dtype=bool).reshape(-1, n),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -98,6 +101,7 @@ class History:
         h.probabilities = list(arrays["probabilities"])
         h.strategies = list(arrays["strategies"])
         h.players = list(arrays["players"])
+        h.undecided = list(arrays["undecided"])
         h.events = meta["events"]
         h.entry_order = meta["entry_order"]
         h.outcome = meta["outcome"]

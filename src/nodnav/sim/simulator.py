@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from nodnav.decision.strategies import passing_orders, strategy_index
+from nodnav.decision.strategies import orders_agree, passing_orders, strategy_index
 from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, distance_to_go
@@ -52,7 +52,8 @@ class TrialResult:
     strategy: int
     """Index (0-based) of the realised passing order among all strategies; -1 if incomplete."""
     consensus: bool
-    """Whether every robot's last selected strategy was the same."""
+    """Whether the robots' selections agreed on the order of the robots still to enter, at the
+    last decision when at least two had not entered the corridor."""
     time_to_goal: tuple[float, ...]
     """Time each robot first reached its destination (s); NaN if it did not."""
     mpc_infeasible: int
@@ -222,6 +223,7 @@ class Simulation:
         h.probabilities.append(probs)
         h.strategies.append(strategies)
         h.players.append(players)
+        h.undecided.append(~np.isin(np.arange(n), self.entered_true))
 
     def _record_state(self) -> None:
         self.history.times.append(self.t)
@@ -263,13 +265,21 @@ class Simulation:
         self.history.events.append({"t": round(self.t, 6), "kind": "outcome", "reason": outcome})
         log.info("trial %s seed %d: %s at t = %.1f s", self.scenario.name, self.seed, outcome, self.t)
 
+    def _consensus(self) -> bool:
+        """Whether the robots agreed on the order of those still to enter, at the last decision
+        at which at least two had not entered (the last moment the order was open)."""
+        orders = passing_orders(self.scenario.n_robots)
+        for selected, undecided in zip(reversed(self.history.strategies), reversed(self.history.undecided)):
+            if undecided.sum() >= 2:
+                return orders_agree(orders, selected, np.flatnonzero(undecided))
+        return False
+
     def result(self, wall_time: float) -> TrialResult:
         """The trial's result (call once :meth:`step` has returned true)."""
         n = self.scenario.n_robots
         order = tuple(self.entered_true)
         strategy = strategy_index(order) if len(order) == n else -1
-        last = self.history.strategies[-1] if self.history.strategies else np.full(n, -1)
-        consensus = bool(last[0] >= 0 and np.all(last == last[0]))
+        consensus = self._consensus()
         makespan = float(np.nanmax(self.arrival)) if self.outcome == "success" else float("nan")
         metrics = compute_metrics(self.history)
         return TrialResult(outcome=self.outcome, sim_time=self.t, wall_time=wall_time, makespan=makespan,

@@ -1,0 +1,411 @@
+"""Free-space geometry for disc robots among axis-aligned walls: exact distances, visibility
+graphs, shortest paths, and arc-length grids.
+
+A disc robot of radius ``r`` fits at a point when the point is at least ``r`` from every wall
+and from the world's boundary, i.e. when it lies outside every wall grown by ``r`` (a rounded
+rectangle). Shortest paths among rounded rectangles wrap around their arcs; here every arc is
+replaced by the two vertices of a circumscribing octagon (a rectangle with 45-degree chamfers
+whose chamfer is tangent to the arc), so a shortest path is a polyline through such vertices,
+found on a visibility graph. Visibility is decided with exact segment-to-rectangle and
+segment-to-point distances, never by sampling, so a polyline returned here is collision-free
+along its whole length. Other robots standing still are discs, handled the same way (a disc is
+a rectangle of zero size).
+
+The walls-only graph of one (world, radius, inflation) never changes, so
+:class:`VisibilityGraph` builds it once and keeps its all-pairs shortest paths; a query without
+discs then costs a few vectorised distance evaluations, and many such queries are answered
+together by :meth:`VisibilityGraph.shortest_paths` (the latest answers are remembered).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.csgraph import shortest_path
+
+from nodnav.scenario.world import World
+
+#: Numerical slack of every distance comparison (m).
+TOL = 1e-9
+#: How many recent wall-only shortest paths a :class:`VisibilityGraph` keeps.
+MEMO_SIZE = 1024
+#: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
+_TAN_EIGHTH = math.sqrt(2.0) - 1.0
+
+
+def point_box_distance(points: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Euclidean distance from each point to each closed box (0 inside), shape ``(P, B)``.
+
+    ``boxes`` are rows ``(x_min, y_min, x_max, y_max)``.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    return np.sqrt(_point_box_d2(p, b[:, :2], b[:, 2:]))
+
+
+def _point_box_d2(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    px, py = p[:, 0:1], p[:, 1:2]
+    gx = np.maximum(np.maximum(lo[:, 0] - px, px - hi[:, 0]), 0.0)
+    gy = np.maximum(np.maximum(lo[:, 1] - py, py - hi[:, 1]), 0.0)
+    return gx * gx + gy * gy
+
+
+def segment_point_distance(a: np.ndarray, b: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Distance from each segment ``a[s] -> b[s]`` to each point, shape ``(S, P)``.
+
+    The closest point of a segment is the projection clamped to the segment; a segment of zero
+    length is a point.
+    """
+    a = np.asarray(a, dtype=float).reshape(-1, 2)
+    b = np.asarray(b, dtype=float).reshape(-1, 2)
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    return np.sqrt(_segment_point_d2(a, b - a, p))
+
+
+def _segment_point_d2(a: np.ndarray, d: np.ndarray, p: np.ndarray) -> np.ndarray:
+    ax, ay, dx, dy = a[:, 0:1], a[:, 1:2], d[:, 0:1], d[:, 1:2]
+    rx, ry = p[:, 0] - ax, p[:, 1] - ay
+    t = (rx * dx + ry * dy) / np.maximum(dx * dx + dy * dy, 1e-300)
+    np.clip(t, 0.0, 1.0, out=t)
+    ex, ey = rx - t * dx, ry - t * dy
+    return ex * ex + ey * ey
+
+
+def segments_hit_boxes(a: np.ndarray, b: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Whether each closed segment meets each closed box, shape ``(S, B)`` (slab clipping)."""
+    a = np.asarray(a, dtype=float).reshape(-1, 2)
+    b = np.asarray(b, dtype=float).reshape(-1, 2)
+    bx = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    return _hit(a, b - a, bx[:, :2], bx[:, 2:])
+
+
+def _hit(a: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    # A zero step becomes a tiny one: the slab then spans (-huge, huge) when the segment lies
+    # inside it and sits entirely beyond [0, 1] when it does not, which is the right answer.
+    d = d.copy()
+    d[d == 0.0] = 1e-300
+    inv = 1.0 / d
+    ax, ay, ix, iy = a[:, 0:1], a[:, 1:2], inv[:, 0:1], inv[:, 1:2]
+    x1, x2 = (lo[:, 0] - ax) * ix, (hi[:, 0] - ax) * ix
+    y1, y2 = (lo[:, 1] - ay) * iy, (hi[:, 1] - ay) * iy
+    t_in = np.maximum(np.minimum(x1, x2), np.minimum(y1, y2))
+    t_out = np.minimum(np.maximum(x1, x2), np.maximum(y1, y2))
+    return (t_in <= t_out) & (t_in <= 1.0) & (t_out >= 0.0)
+
+
+def segment_box_distance(a: np.ndarray, b: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """Exact distance from each segment to each closed box (0 when they meet), shape ``(S, B)``.
+
+    Between two disjoint convex polygons the distance is attained at a vertex of one of them,
+    so it is the least of the segment's endpoints to the box and the box's corners to the segment.
+    """
+    a = np.asarray(a, dtype=float).reshape(-1, 2)
+    b = np.asarray(b, dtype=float).reshape(-1, 2)
+    bx = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    return np.sqrt(_segment_box_d2(a, b, bx))
+
+
+def _segment_box_d2(a: np.ndarray, b: np.ndarray, bx: np.ndarray) -> np.ndarray:
+    lo, hi = bx[:, :2], bx[:, 2:]
+    d = b - a
+    ends = _point_box_d2(np.vstack([a, b]), lo, hi)
+    corners = bx[:, [[0, 1], [2, 1], [2, 3], [0, 3]]].reshape(-1, 2)
+    to_corners = _segment_point_d2(a, d, corners).reshape(len(a), len(bx), 4).min(axis=2)
+    d2 = np.minimum(np.minimum(ends[:len(a)], ends[len(a):]), to_corners)
+    d2[_hit(a, d, lo, hi)] = 0.0
+    return d2
+
+
+def bounds_distance(points: np.ndarray, bounds: tuple[float, float, float, float]) -> np.ndarray:
+    """Distance from each point to the world's outer boundary (negative outside), shape ``(P,)``."""
+    p = np.asarray(points, dtype=float).reshape(-1, 2)
+    x0, y0, x1, y1 = bounds
+    return np.minimum(np.minimum(p[:, 0] - x0, x1 - p[:, 0]), np.minimum(p[:, 1] - y0, y1 - p[:, 1]))
+
+
+def segment_clearance(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Least clearance along each segment ``a[s] -> b[s]``: distance to the nearest wall or to the
+    boundary, exactly (0 when the segment touches a wall), shape ``(S,)``.
+
+    The distance to the (convex) boundary is a concave function along a segment, so its least
+    value is at an endpoint.
+    """
+    a = np.asarray(a, dtype=float).reshape(-1, 2)
+    b = np.asarray(b, dtype=float).reshape(-1, 2)
+    ends = bounds_distance(np.vstack([a, b]), world.bounds)
+    d = np.minimum(ends[:len(a)], ends[len(a):])
+    walls = world.obstacle_array
+    if len(walls):
+        d = np.minimum(d, np.sqrt(_segment_box_d2(a, b, walls).min(axis=1)))
+    return d
+
+
+def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.ndarray:
+    """Vertices of the octagons that circumscribe each box grown by ``inflation``, ``(B * 8, 2)``.
+
+    Each corner arc of radius ``R`` around corner ``W`` is replaced by the chamfer tangent to it
+    at 45 degrees, which meets the grown sides at ``W + R (1, tan(pi/8))`` and
+    ``W + R (tan(pi/8), 1)`` (and mirror images). A box of zero size gives the regular octagon
+    circumscribing a disc of radius ``R``. Vertices are listed counter-clockwise per box.
+    """
+    bx = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    r = np.broadcast_to(np.asarray(inflation, dtype=float), (len(bx),))[:, None]
+    t = _TAN_EIGHTH * r
+    x0, y0, x1, y1 = bx[:, 0:1], bx[:, 1:2], bx[:, 2:3], bx[:, 3:4]
+    xs = np.hstack([x1 + r, x1 + r, x1 + t, x0 - t, x0 - r, x0 - r, x0 - t, x1 + t])
+    ys = np.hstack([y0 - t, y1 + t, y1 + r, y1 + r, y1 + t, y0 - t, y0 - r, y0 - r])
+    return np.stack([xs, ys], axis=-1).reshape(-1, 2)
+
+
+def polyline_point_distance(polyline: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Distance from each point to a polyline ``(V, 2)``, shape ``(P,)``."""
+    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    if len(poly) == 1:
+        return np.linalg.norm(np.asarray(points, dtype=float).reshape(-1, 2) - poly[0], axis=1)
+    return segment_point_distance(poly[:-1], poly[1:], points).min(axis=0)
+
+
+def polyline_length(polyline: np.ndarray) -> float:
+    """Length of a polyline ``(V, 2)`` (m)."""
+    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    return float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+
+
+@dataclass(frozen=True)
+class ArcGrid:
+    """Points along a polyline, no farther apart than a given spacing, every vertex included."""
+
+    points: np.ndarray
+    """Grid points ``(N, 2)`` from the start to the end of the polyline (m)."""
+    arc_length: np.ndarray
+    """Arc length of each grid point from the start ``(N,)`` (m)."""
+
+
+def arc_length_grid(polyline: np.ndarray, spacing: float) -> ArcGrid:
+    """Split every segment of ``polyline`` into equal pieces of length at most ``spacing``.
+
+    Keeping the vertices as grid points means that moving between neighbouring grid points
+    never cuts a corner of the polyline.
+    """
+    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    seg = np.diff(poly, axis=0)
+    lengths = np.linalg.norm(seg, axis=1)
+    keep = lengths > 0
+    poly_start, seg, lengths = poly[:-1][keep], seg[keep], lengths[keep]
+    if len(seg) == 0:
+        return ArcGrid(poly[:1].copy(), np.zeros(1))
+    pieces = np.maximum(np.ceil(lengths / spacing - 1e-9), 1).astype(int)
+    owner = np.repeat(np.arange(len(seg)), pieces)
+    frac = (np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)) / pieces[owner]
+    pts = poly_start[owner] + frac[:, None] * seg[owner]
+    s0 = np.concatenate([[0.0], np.cumsum(lengths)])
+    arc = s0[owner] + frac * lengths[owner]
+    return ArcGrid(np.vstack([pts, poly[-1]]), np.concatenate([arc, [s0[-1]]]))
+
+
+@dataclass(frozen=True)
+class GeometricPath:
+    """A collision-free polyline for one disc robot, or why there is none."""
+
+    success: bool
+    """Whether a path was found."""
+    reason: str
+    """Empty on success; otherwise why no path exists."""
+    points: np.ndarray
+    """Vertices ``(V, 2)`` from start to goal (m); just the start on failure."""
+    length: float
+    """Length of the polyline (m); ``inf`` on failure."""
+
+
+class VisibilityGraph:
+    """Shortest collision-free paths of a disc robot of one radius in one world.
+
+    Vertices are the chamfered-octagon corners of the walls grown by ``radius + inflation``
+    that lie in free space; an edge joins two vertices when the segment between them keeps at
+    least ``radius + inflation`` from every wall. The start and the goal are joined to vertices
+    whose segment keeps ``min(radius + inflation, clearance of the endpoint)`` (a robot already
+    squeezed against a wall may leave it but never go closer). Discs (other robots standing
+    still) are avoided with the same construction when a query passes them.
+    """
+
+    def __init__(self, world: World, radius: float, inflation: float = 0.0):
+        self.world = world
+        self.radius = float(radius)
+        self.inflation = float(inflation)
+        self.clearance = self.radius + self.inflation
+        walls = world.obstacle_array
+        v = chamfered_vertices(walls, self.clearance) if len(walls) else np.zeros((0, 2))
+        v = v[world.clearance(v) >= self.clearance - TOL] if len(v) else v
+        self.vertices = np.unique(np.round(v, 12), axis=0) if len(v) else v
+        m = len(self.vertices)
+        weights = np.zeros((m, m))
+        if m > 1:
+            i, j = np.triu_indices(m, 1)
+            ok = segment_clearance(world, self.vertices[i], self.vertices[j]) >= self.clearance - TOL
+            lengths = np.linalg.norm(self.vertices[i] - self.vertices[j], axis=1)
+            weights[i[ok], j[ok]] = lengths[ok]
+            weights[j[ok], i[ok]] = lengths[ok]
+        if m:
+            self._dist, self._pred = shortest_path(weights, method="D", directed=False, return_predecessors=True)
+        else:
+            self._dist, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
+        self._plain: dict[tuple, GeometricPath] = {}
+
+    def shortest_path(self, start: np.ndarray, goal: np.ndarray, discs: np.ndarray | None = None,
+                      disc_radii: np.ndarray | None = None) -> GeometricPath:
+        """Shortest collision-free polyline from ``start`` to ``goal``.
+
+        ``discs`` ``(m, 2)`` with ``disc_radii`` ``(m,)`` are round obstacles for the robot's
+        centre (another robot's position with the required centre distance). A disc that
+        already contains the start or the goal is shrunk to pass just inside it: the robot may
+        not get closer to it, but can leave. Discs are added lazily, only those the current
+        shortest path crosses, so a query that meets no disc costs as much as one without.
+        """
+        start = np.asarray(start, dtype=float).reshape(2)
+        goal = np.asarray(goal, dtype=float).reshape(2)
+        path = self.shortest_paths(start[None], goal[None])[0]
+        if not path.success or discs is None or not len(discs):
+            return path
+        centres = np.asarray(discs, dtype=float).reshape(-1, 2)
+        radii = np.asarray(disc_radii, dtype=float).reshape(-1)
+        radii = np.minimum(radii, np.minimum(np.hypot(*(centres - start).T), np.hypot(*(centres - goal).T)) - 1e-6)
+        keep = radii > 0
+        centres, radii = centres[keep], radii[keep]
+        active = np.zeros(len(centres), dtype=bool)
+        c_start, c_goal = self.world.clearance(np.array([start, goal]))
+        while True:
+            crossed = ~active & (polyline_point_distance(path.points, centres) < radii - TOL)
+            if not crossed.any():
+                return path
+            active |= crossed
+            path = self._search_with_discs(start, goal, min(self.clearance, c_start) - TOL,
+                                           min(self.clearance, c_goal) - TOL, centres[active], radii[active])
+            if not path.success:
+                return path
+
+    def shortest_paths(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
+        """Shortest paths among the walls alone for many start and goal pairs ``(m, 2)`` at once.
+
+        These are asked for again and again (every passing order from one state starts with
+        them), so the most recent ones are kept.
+        """
+        starts = np.asarray(starts, dtype=float).reshape(-1, 2)
+        goals = np.asarray(goals, dtype=float).reshape(-1, 2)
+        keys = [(s.tobytes(), g.tobytes()) for s, g in zip(starts, goals)]
+        missing = [i for i, key in enumerate(keys) if key not in self._plain]
+        if missing:
+            for i, path in zip(missing, self._walls_only(starts[missing], goals[missing])):
+                if len(self._plain) >= MEMO_SIZE:
+                    del self._plain[next(iter(self._plain))]
+                self._plain[keys[i]] = path
+        return [self._plain[key] for key in keys]
+
+    # -----------------------------------------------------------------------------------------
+
+    def _fail(self, start: np.ndarray, reason: str) -> GeometricPath:
+        return GeometricPath(False, reason, start[None].copy(), float("inf"))
+
+    def _walls_only(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
+        m, v = len(starts), self.vertices
+        nv = len(v)
+        clear = self.world.clearance(np.vstack([starts, goals]))
+        c_start, c_goal = clear[:m], clear[m:]
+        thr_start = np.minimum(self.clearance, c_start) - TOL
+        thr_goal = np.minimum(self.clearance, c_goal) - TOL
+        a = np.vstack([starts, np.repeat(starts, nv, axis=0), np.repeat(goals, nv, axis=0)])
+        b = np.vstack([goals, np.tile(v, (2 * m, 1))])
+        seg = segment_clearance(self.world, a, b)
+        direct = seg[:m] >= np.minimum(thr_start, thr_goal)
+        if nv:
+            from_start = seg[m:m + m * nv].reshape(m, nv) >= thr_start[:, None]
+            to_goal = seg[m + m * nv:].reshape(m, nv) >= thr_goal[:, None]
+            d_start = np.where(from_start, np.hypot(v[:, 0] - starts[:, 0:1], v[:, 1] - starts[:, 1:2]), np.inf)
+            d_goal = np.where(to_goal, np.hypot(v[:, 0] - goals[:, 0:1], v[:, 1] - goals[:, 1:2]), np.inf)
+            total = (d_start[:, :, None] + self._dist[None] + d_goal[:, None, :]).reshape(m, -1)
+            best = total.argmin(axis=1)
+            cost = total[np.arange(m), best]
+        paths = []
+        for i in range(m):
+            start, goal = starts[i], goals[i]
+            if c_start[i] < 0.0:
+                paths.append(self._fail(start, f"start {_fmt(start)} is inside a wall or outside the world"))
+            elif c_goal[i] < self.radius - TOL:
+                paths.append(self._fail(start, f"goal {_fmt(goal)} is not in free space: clearance "
+                                               f"{c_goal[i]:.3f} m < radius {self.radius:.3f} m"))
+            elif direct[i]:
+                paths.append(_path(np.array([start, goal])))
+            elif not nv or not np.isfinite(cost[i]):
+                paths.append(self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)}"))
+            else:
+                first, last = divmod(int(best[i]), nv)
+                chain = [last]
+                while chain[-1] != first:
+                    chain.append(self._pred[first, chain[-1]])
+                paths.append(_path(np.vstack([start, v[chain[::-1]], goal])))
+        return paths
+
+    def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii) -> GeometricPath:
+        base = self.vertices
+        if len(base):
+            base = base[(np.linalg.norm(base[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)]
+        ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        ring_ok = self.world.clearance(ring) >= self.clearance - TOL
+        ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
+        nodes = np.vstack([start, goal, base, ring[ring_ok]])
+        thr = np.full(len(nodes), self.clearance - TOL)
+        thr[0], thr[1] = thr_start, thr_goal
+        i, j = np.triu_indices(len(nodes), 1)
+        ok = segment_clearance(self.world, nodes[i], nodes[j]) >= np.minimum(thr[i], thr[j])
+        ok &= (segment_point_distance(nodes[i], nodes[j], centres) >= radii - TOL).all(axis=1)
+        i, j = i[ok], j[ok]
+        chain = shortest_chain(len(nodes), i, j, np.linalg.norm(nodes[i] - nodes[j], axis=1), 0, 1)
+        if not chain:
+            return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
+                                     f"around {len(centres)} standing robot(s)")
+        return _path(nodes[chain])
+
+
+def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int, target: int) -> list[int]:
+    """Nodes of a shortest path from ``source`` to ``target`` in an undirected graph with edges
+    ``(i[e], j[e])`` of ``length[e]`` (Dijkstra with a binary heap); empty if unreachable.
+
+    Written out rather than taken from ``scipy.sparse.csgraph`` because these graphs have a few
+    dozen nodes, where checking and converting the input would cost more than the search.
+    """
+    adjacent: list[list[tuple[float, int]]] = [[] for _ in range(n_nodes)]
+    for a, b, w in zip(i.tolist(), j.tolist(), length.tolist()):
+        adjacent[a].append((w, b))
+        adjacent[b].append((w, a))
+    dist = [math.inf] * n_nodes
+    prev = [-1] * n_nodes
+    dist[source] = 0.0
+    heap = [(0.0, source)]
+    while heap:
+        d, u = heapq.heappop(heap)
+        if u == target:
+            break
+        if d > dist[u]:
+            continue
+        for w, v in adjacent[u]:
+            if d + w < dist[v]:
+                dist[v] = d + w
+                prev[v] = u
+                heapq.heappush(heap, (d + w, v))
+    if not math.isfinite(dist[target]):
+        return []
+    chain = [target]
+    while chain[-1] != source:
+        chain.append(prev[chain[-1]])
+    return chain[::-1]
+
+
+def _path(points: np.ndarray) -> GeometricPath:
+    points.setflags(write=False)
+    return GeometricPath(True, "", points, polyline_length(points))
+
+
+def _fmt(p: np.ndarray) -> str:
+    return f"({p[0]:.3f}, {p[1]:.3f})"

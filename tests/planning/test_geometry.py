@@ -1,0 +1,266 @@
+"""Free-space geometry against hand computations, analytical shortest paths and dense sampling."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.sparse.csgraph import dijkstra
+
+from nodnav.planning.geometry import (
+    VisibilityGraph,
+    shortest_chain,
+    arc_length_grid,
+    bounds_distance,
+    chamfered_vertices,
+    point_box_distance,
+    polyline_length,
+    polyline_point_distance,
+    segment_box_distance,
+    segment_clearance,
+    segment_point_distance,
+    segments_hit_boxes,
+)
+from nodnav.scenario.world import Corridor, World, paper_world
+
+UNIT_BOX = np.array([[-1.0, -1.0, 1.0, 1.0]])
+
+
+def open_world(half: float = 10.0) -> World:
+    """A square room without walls (the corridor fields are unused here)."""
+    return World(bounds=(-half, -half, half, half), obstacles=(),
+                 corridor=Corridor(-0.5, 0.5, -0.5, 0.5), entrances=((-0.5, 0.0), (0.5, 0.0)))
+
+
+def dense(a, b, n=4001):
+    """Points densely along each segment, ``(S, n, 2)``."""
+    t = np.linspace(0.0, 1.0, n)
+    return a[:, None] + t[None, :, None] * (b - a)[:, None]
+
+
+def test_point_box_distance_hand_values():
+    pts = np.array([[0.0, 0.0], [3.0, 0.0], [2.0, 2.0], [0.5, -4.0]])
+    # inside; 2 m right of the right side; sqrt(2) from corner (1,1); 3 m below the bottom side.
+    assert point_box_distance(pts, UNIT_BOX)[:, 0] == pytest.approx([0.0, 2.0, math.sqrt(2.0), 3.0])
+
+
+def test_segment_point_distance_hand_values():
+    a, b = np.array([[0.0, 0.0], [1.0, 1.0]]), np.array([[2.0, 0.0], [1.0, 1.0]])
+    pts = np.array([[1.0, 1.0], [3.0, 0.0], [-1.0, -1.0], [1.0, 4.0]])
+    d = segment_point_distance(a, b, pts)
+    # Segment (0,0)-(2,0): foot inside, past the end, before the start, foot inside.
+    assert d[0] == pytest.approx([1.0, 1.0, math.sqrt(2.0), 4.0])
+    # A zero-length segment is the point (1,1).
+    assert d[1] == pytest.approx([0.0, math.sqrt(5.0), math.sqrt(8.0), 3.0])
+
+
+def test_segments_hit_boxes_cases():
+    a = np.array([[-2.0, 0.0], [-2.0, 2.0], [0.0, 3.0], [2.0, 0.0], [1.5, -3.0], [0.0, 0.0], [-3.0, 1.0]])
+    b = np.array([[2.0, 0.0], [2.0, 2.0], [0.0, 1.0], [0.0, 2.0], [1.5, 3.0], [0.1, 0.1], [-1.5, 1.0]])
+    # through; parallel above; vertical touching the top; diagonal touching corner (1,1);
+    # vertical beside; inside; horizontal stopping short.
+    assert segments_hit_boxes(a, b, UNIT_BOX)[:, 0].tolist() == [True, False, True, True, False, True, False]
+
+
+def test_segment_box_distance_hand_values():
+    a = np.array([[-2.0, 3.0], [3.0, 0.0], [2.0, 0.0], [0.0, 0.0], [4.0, -0.5]])
+    b = np.array([[2.0, 3.0], [0.0, 3.0], [0.0, 2.0], [0.5, 0.5], [4.0, 0.5]])
+    # 2 above the top; line x + y = 3 is (3 - 2)/sqrt(2) from corner (1,1); touching; inside;
+    # vertical segment 3 to the right of the right side.
+    d = segment_box_distance(a, b, UNIT_BOX)[:, 0]
+    assert d == pytest.approx([2.0, 1.0 / math.sqrt(2.0), 0.0, 0.0, 3.0])
+
+
+def test_segment_box_distance_matches_dense_sampling():
+    rng = np.random.default_rng(1)
+    a = rng.uniform(-4, 4, (400, 2))
+    b = a + rng.normal(0.0, 1.5, (400, 2))
+    a[:50, 0] = b[:50, 0]  # vertical
+    a[50:70] = b[50:70]  # points
+    boxes = np.array([[-1.0, -1.0, 1.0, 1.0], [1.5, -3.0, 2.5, 0.0]])
+    exact = segment_box_distance(a, b, boxes)
+    sampled = point_box_distance(dense(a, b).reshape(-1, 2), boxes).reshape(len(a), -1, 2).min(axis=1)
+    step = np.linalg.norm(b - a, axis=1)[:, None] / 4000
+    # The exact minimum is never above a sampled value and at most half a step below it.
+    assert np.all(exact <= sampled + 1e-12)
+    assert np.all(exact >= sampled - step / 2 - 1e-12)
+
+
+def test_segment_clearance_matches_world_clearance():
+    world = paper_world()
+    rng = np.random.default_rng(2)
+    a = rng.uniform([-6.8, -2.3], [6.8, 2.3], (300, 2))
+    b = a + rng.normal(0.0, 1.0, (300, 2))
+    b = np.clip(b, [-6.9, -2.4], [6.9, 2.4])
+    exact = segment_clearance(world, a, b)
+    sampled = world.clearance(dense(a, b)).min(axis=1)
+    step = np.linalg.norm(b - a, axis=1) / 4000
+    free = sampled > 0
+    assert np.all(exact[free] <= sampled[free] + 1e-12)
+    assert np.all(exact[free] >= sampled[free] - step[free] / 2 - 1e-12)
+    # Touching or crossing a wall gives zero.
+    assert np.all(exact[~free] <= 1e-12)
+
+
+def test_bounds_distance():
+    d = bounds_distance(np.array([[0.0, 0.0], [6.5, 2.0], [8.0, 0.0]]), (-7.0, -2.5, 7.0, 2.5))
+    assert d == pytest.approx([2.5, 0.5, -1.0])
+
+
+def test_chamfered_octagon_of_a_point_is_regular():
+    v = chamfered_vertices(np.array([[1.0, 2.0, 1.0, 2.0]]), 0.5)
+    r = np.linalg.norm(v - [1.0, 2.0], axis=1)
+    # Circumscribed about a circle of radius 0.5: every vertex at 0.5 / cos(pi/8).
+    assert r == pytest.approx(np.full(8, 0.5 / math.cos(math.pi / 8)))
+    # Every edge is tangent to the circle: its midpoint is exactly 0.5 from the centre.
+    mid = 0.5 * (v + np.roll(v, -1, axis=0))
+    assert np.linalg.norm(mid - [1.0, 2.0], axis=1) == pytest.approx(np.full(8, 0.5))
+
+
+def test_chamfered_box_edges_keep_the_inflation():
+    box = np.array([[-1.0, -1.0, 2.0, 0.5]])
+    v = chamfered_vertices(box, 0.3)
+    # Every edge of the octagon keeps exactly 0.3 from the box (sides and tangent chamfers).
+    d = segment_box_distance(v, np.roll(v, -1, axis=0), box)[:, 0]
+    assert d == pytest.approx(np.full(8, 0.3))
+
+
+def test_arc_length_grid():
+    poly = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.25], [1.0, 0.25]])
+    grid = arc_length_grid(poly, 0.3)
+    # 1 m in 4 pieces of 0.25, then 0.25 m in 1 piece; the duplicate point adds nothing.
+    assert grid.arc_length == pytest.approx([0.0, 0.25, 0.5, 0.75, 1.0, 1.25])
+    assert grid.points[4].tolist() == [1.0, 0.0]  # the corner is a grid point
+    assert grid.points[-1].tolist() == [1.0, 0.25]
+    step = np.linalg.norm(np.diff(grid.points, axis=0), axis=1)
+    assert np.all(step <= 0.3) and step.sum() == pytest.approx(polyline_length(poly))
+    single = arc_length_grid(np.array([[2.0, 3.0]]), 0.1)
+    assert single.points.tolist() == [[2.0, 3.0]] and single.arc_length.tolist() == [0.0]
+
+
+def test_polyline_point_distance():
+    poly = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0]])
+    d = polyline_point_distance(poly, np.array([[1.0, 1.0], [3.0, 1.0], [2.0, 3.0]]))
+    assert d == pytest.approx([1.0, 1.0, 1.0])
+
+
+def test_visible_goal_is_a_straight_line():
+    g = VisibilityGraph(paper_world(), 0.2, 0.025)
+    path = g.shortest_path(np.array([-5.5, 0.0]), np.array([5.5, 0.0]))
+    assert path.success and path.points.tolist() == [[-5.5, 0.0], [5.5, 0.0]]
+    assert path.length == pytest.approx(11.0)
+
+
+def test_path_through_the_corridor_matches_the_hand_construction():
+    world = paper_world()
+    r, e = 0.2, 0.025
+    g = VisibilityGraph(world, r, e)
+    path = g.shortest_path(np.array([-5.5, 1.5]), np.array([5.5, 1.5]))
+    # It enters the grown corridor at the lower chamfer vertices of the upper wall,
+    # (-/+ (3 + R tan(pi/8)), 0.35 - R) with R = r + e, and runs straight between them.
+    R = r + e
+    corner = np.array([3.0 + R * math.tan(math.pi / 8), 0.35 - R])
+    expected = 2 * np.linalg.norm(np.array([5.5, 1.5]) - corner) + 2 * corner[0]
+    assert path.success and path.length == pytest.approx(expected)
+    assert path.points[1] == pytest.approx(corner * [-1, 1])
+    pts = dense(path.points[:-1], path.points[1:])
+    assert world.clearance(pts).min() >= r + e - 1e-9
+
+
+def test_path_around_a_disc_is_near_the_analytic_optimum():
+    g = VisibilityGraph(open_world(), 0.2)
+    start, goal = np.array([-5.0, 0.0]), np.array([5.0, 0.0])
+    path = g.shortest_path(start, goal, discs=np.array([[0.0, 0.0]]), disc_radii=np.array([1.0]))
+    assert path.success
+    pts = dense(path.points[:-1], path.points[1:])
+    assert np.linalg.norm(pts, axis=-1).min() >= 1.0 - 1e-9
+
+    def around(rho):  # two tangents and the arc between them, around a circle of radius rho
+        return 2 * math.sqrt(25 - rho**2) + rho * (math.pi - 2 * math.acos(rho / 5))
+
+    # The octagon lies between the circle and the circle of radius 1/cos(pi/8).
+    assert around(1.0) <= path.length <= around(1.0 / math.cos(math.pi / 8)) + 1e-9
+
+
+def test_discs_off_the_path_are_ignored():
+    g = VisibilityGraph(open_world(), 0.2)
+    path = g.shortest_path(np.array([-5.0, 0.0]), np.array([5.0, 0.0]),
+                           discs=np.array([[0.0, 3.0]]), disc_radii=np.array([1.0]))
+    assert path.points.tolist() == [[-5.0, 0.0], [5.0, 0.0]]
+
+
+def test_start_inside_a_disc_may_leave_but_not_approach():
+    g = VisibilityGraph(open_world(), 0.2)
+    centre = np.array([[0.0, 0.0]])
+    path = g.shortest_path(np.array([-0.5, 0.0]), np.array([-5.0, 0.0]), discs=centre, disc_radii=np.array([1.0]))
+    assert path.success and path.points.tolist() == [[-0.5, 0.0], [-5.0, 0.0]]
+    # Going to the far side it must not come closer to the centre than where it starts.
+    path = g.shortest_path(np.array([-0.5, 0.0]), np.array([5.0, 0.0]), discs=centre, disc_radii=np.array([1.0]))
+    assert path.success
+    pts = dense(path.points[:-1], path.points[1:])
+    assert np.linalg.norm(pts, axis=-1).min() >= 0.5 - 1e-6
+
+
+def test_blocked_passage_fails_with_a_reason():
+    g = VisibilityGraph(paper_world(), 0.2, 0.025)
+    # A disc plugging the corridor: no way from one room to the other.
+    path = g.shortest_path(np.array([-5.0, 0.0]), np.array([5.0, 0.0]),
+                           discs=np.array([[0.0, 0.0]]), disc_radii=np.array([0.5]))
+    assert not path.success and "no collision-free path" in path.reason
+    assert path.length == float("inf") and path.points.tolist() == [[-5.0, 0.0]]
+
+
+def test_goal_in_a_wall_fails():
+    g = VisibilityGraph(paper_world(), 0.2)
+    path = g.shortest_path(np.array([-5.0, 0.0]), np.array([0.0, 1.0]))
+    assert not path.success and "not in free space" in path.reason
+    # Too close to the outer boundary for the robot's radius.
+    path = g.shortest_path(np.array([-5.0, 0.0]), np.array([-6.9, 0.0]))
+    assert not path.success and "clearance 0.100" in path.reason
+
+
+def test_start_squeezed_against_a_wall_can_leave():
+    world = paper_world()
+    g = VisibilityGraph(world, 0.2, 0.05)
+    start = np.array([0.0, 0.15])  # clearance exactly the radius, inside the 0.05 margin band
+    path = g.shortest_path(start, np.array([5.5, 0.0]))
+    assert path.success
+    pts = dense(path.points[:-1], path.points[1:])
+    assert world.clearance(pts).min() >= 0.2 - 1e-9
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_shortest_chain_matches_scipy(seed):
+    rng = np.random.default_rng(seed)
+    n = 25
+    i, j = np.triu_indices(n, 1)
+    keep = rng.random(len(i)) < 0.15
+    i, j = i[keep], j[keep]
+    w = rng.uniform(0.1, 2.0, len(i))
+    dense_w = np.zeros((n, n))
+    dense_w[i, j] = dense_w[j, i] = w
+    ref = dijkstra(dense_w, directed=False, indices=0)
+    lookup = {(a, b): x for a, b, x in zip(i, j, w)} | {(b, a): x for a, b, x in zip(i, j, w)}
+    for target in range(1, n):
+        chain = shortest_chain(n, i, j, w, 0, target)
+        if not np.isfinite(ref[target]):
+            assert chain == []
+            continue
+        assert chain[0] == 0 and chain[-1] == target
+        assert sum(lookup[(a, b)] for a, b in zip(chain, chain[1:])) == pytest.approx(ref[target])
+
+
+def test_batched_paths_are_valid_and_match_single_queries():
+    world = paper_world()
+    rng = np.random.default_rng(7)
+    pts = rng.uniform([-6.7, -2.2], [6.7, 2.2], (200, 2))
+    pts = pts[world.clearance(pts) >= 0.25][:40]
+    starts, goals = pts[:20], pts[20:40]
+    batch = VisibilityGraph(world, 0.2, 0.025).shortest_paths(starts, goals)
+    fresh = VisibilityGraph(world, 0.2, 0.025)
+    for s, g, path in zip(starts, goals, batch):
+        single = fresh.shortest_path(s, g)
+        assert path.success and single.success
+        assert np.array_equal(path.points, single.points)
+        assert path.length >= np.linalg.norm(g - s) - 1e-12
+        assert path.points[0].tolist() == s.tolist() and path.points[-1].tolist() == g.tolist()
+        assert world.clearance(dense(path.points[:-1], path.points[1:], 500)).min() >= 0.2 - 1e-9

@@ -1,0 +1,374 @@
+"""The fast planner's pieces against hand computations and brute-force references, and its
+behaviour on small situations whose answer is known."""
+
+import math
+
+import numpy as np
+import pytest
+
+from nodnav.planning.base import PlanRequest, corridor_entry_order
+from nodnav.planning.geometry import arc_length_grid
+from nodnav.planning.prioritized import (
+    Motion,
+    PrioritizedPlanner,
+    conflict_intervals,
+    corridor_passage,
+    earliest_arrival,
+    entry_cell,
+    free_cells,
+    separation_requirements,
+)
+from nodnav.scenario.schema import PlannerParams
+from nodnav.scenario.world import paper_world
+
+DT = 0.1
+
+
+@pytest.fixture(scope="module")
+def world():
+    return paper_world()
+
+
+@pytest.fixture(scope="module")
+def planner(world):
+    return PrioritizedPlanner(world, PlannerParams(dt=DT, margin=0.05))
+
+
+def request(world, pos, dest, order, entered=(), t0=0.0):
+    pos, dest = np.asarray(pos, float), np.asarray(dest, float)
+    n = len(pos)
+    return PlanRequest(world, pos, np.zeros_like(pos), dest, np.full(n, 0.2), np.ones(n), tuple(order), tuple(entered), t0)
+
+
+def min_gap(res, radii, factor=5):
+    """Least surface-to-surface gap over all pairs at a step ``factor`` times finer than the plan's."""
+    tr = res.trajectory
+    t = np.linspace(tr.times[0], tr.times[-1], factor * (len(tr.times) - 1) + 1)
+    p = tr.positions_at(t)
+    n = tr.n_robots
+    return min(np.linalg.norm(p[:, a] - p[:, b], axis=1).min() - radii[a] - radii[b]
+               for a in range(n) for b in range(a + 1, n))
+
+
+# ---------------------------------------------------------------------------------------------
+# separation_requirements
+
+
+def test_separation_requirements_hand_values():
+    pos = np.array([[0.0, 0.0], [3.0, 0.0], [3.42, 0.0], [6.0, 0.0]])
+    dest = pos + [0.0, 1.0]
+    req = separation_requirements(pos, dest, np.full(4, 0.2), np.ones(4), DT, 0.05)
+    # Far apart: r_a + r_b + margin = 0.45 (sqrt(0.4^2 + (2 * 1 * 0.1 / 2)^2) = 0.412 is smaller).
+    assert req[0, 1] == pytest.approx(0.45) and req[1, 0] == pytest.approx(0.45)
+    # Robots 1 and 2 stand 0.42 apart now: held to 0.42.
+    assert req[1, 2] == pytest.approx(0.42)
+    assert np.all(np.diag(req) == 0.0)
+    # No margin: the between-samples bound sqrt(0.16 + 0.01) takes over.
+    req0 = separation_requirements(pos[[0, 3]], dest[[0, 3]], np.full(2, 0.2), np.ones(2), DT, 0.0)
+    assert req0[0, 1] == pytest.approx(math.sqrt(0.17))
+
+
+def test_separation_requirements_never_below_contact():
+    pos = np.array([[0.0, 0.0], [0.3, 0.0]])  # already overlapping
+    req = separation_requirements(pos, pos + [[0, 3], [0, -3]], np.full(2, 0.2), np.ones(2), DT, 0.05)
+    assert req[0, 1] == pytest.approx(0.4)
+    # Destinations only 0.43 apart: both must be able to park there.
+    pos = np.array([[0.0, 0.0], [3.0, 0.0]])
+    req = separation_requirements(pos, np.array([[0.0, 2.0], [0.43, 2.0]]), np.full(2, 0.2), np.ones(2), DT, 0.05)
+    assert req[0, 1] == pytest.approx(0.43)
+
+
+# ---------------------------------------------------------------------------------------------
+# corridor bookkeeping
+
+
+def test_corridor_passage():
+    F, T = False, True
+    assert corridor_passage([F, F, T, T, F]) == (2, 4)
+    assert corridor_passage([T, T, F]) == (0, 2)
+    assert corridor_passage([F, T, F, T, T]) == (3, 5)  # the last stay counts
+    assert corridor_passage([F, F]) == (-1, -1)
+
+
+def test_entry_cell():
+    F, T = False, True
+    assert entry_cell([F, F, T, T, F]) == 2
+    assert entry_cell([T, T, F, F, T]) == 4  # starts inside: only a re-entry counts
+    assert entry_cell([T, T]) == -1
+    assert entry_cell([F, F]) == -1
+
+
+# ---------------------------------------------------------------------------------------------
+# conflict_intervals and free_cells
+
+
+def test_conflict_intervals_straight_line_by_hand():
+    # The other robot runs along y = 0 from x = 0 to x = 10, 0.1 m per step (samples t = 0..100).
+    path = np.array([[0.0, 0.0], [10.0, 0.0]])
+    arc = np.arange(101) * 0.1
+    samples = np.stack([arc, np.zeros_like(arc)], axis=1)
+    cells = np.array([[5.03, 0.3], [9.97, 0.3], [5.0, 2.0]])
+    cols, first, last = conflict_intervals(cells, [Motion(path, samples, arc)], [0.5])
+    got = {(int(c), int(f), int(min(l, 10**6))) for c, f, l in zip(cols, first, last)}
+    # Cell 0 is within 0.5 of x in (5.03 - 0.4, 5.03 + 0.4) = (4.63, 5.43): the steps whose
+    # stretch [0.1 t, 0.1 t + 0.1] meets it are t = 46..54. Cell 1 is within 0.5 of x in
+    # (9.57, 10]: steps 95..99 while moving, then 0.30 from the parking spot (10, 0) from step
+    # 100 for good. Cell 2 is never within 0.5.
+    assert (0, 46, 54) in got
+    assert (1, 95, 99) in got and (1, 100, 10**6) in got
+    assert all(c != 2 for c, _, _ in got)
+    free = free_cells(3, 120, [(cols, first, last)])
+    assert np.nonzero(~free[:, 0])[0].tolist() == list(range(46, 55))
+    assert np.nonzero(~free[:, 1])[0].tolist() == list(range(95, 120))
+
+
+def test_conflict_intervals_match_dense_sampling():
+    # A corner path walked with a random mix of waits, half and full steps; cells scattered around.
+    rng = np.random.default_rng(3)
+    path = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.5], [0.5, 2.5]])
+    grid = arc_length_grid(path, 0.05)
+    idx = np.minimum(np.cumsum(np.concatenate([[0], rng.choice([0, 1, 2], 120, p=[0.2, 0.3, 0.5])])), len(grid.points) - 1)
+    samples, arc = grid.points[idx], grid.arc_length[idx]
+    cells = rng.uniform([-0.5, -0.7], [2.8, 3.0], (150, 2))
+    required = 0.45
+    n_rows = len(samples) + 5
+    free = free_cells(len(cells), n_rows, [conflict_intervals(cells, [Motion(path, samples, arc)], [required])])
+
+    # Brute force: where the other robot can be during [t, t+1] -- the polyline stretch and the
+    # chord between the samples, densely sampled -- and the least distance to each cell.
+    u = np.linspace(0.0, 1.0, 200)
+    near = np.zeros((n_rows, len(cells)))
+    for t in range(n_rows):
+        if t + 1 < len(samples):
+            s = arc[t] + u * (arc[t + 1] - arc[t])
+            stretch = np.stack([np.interp(s, grid.arc_length, grid.points[:, 0]),
+                                np.interp(s, grid.arc_length, grid.points[:, 1])], axis=1)
+            chord = samples[t] + u[:, None] * (samples[t + 1] - samples[t])
+            where = np.vstack([stretch, chord])
+        else:
+            where = samples[-1:]
+        near[t] = np.linalg.norm(where[:, None] - cells[None], axis=2).min(axis=0)
+    # Every truly conflicting (step, cell) is blocked; nothing clearly clear is blocked.
+    assert not np.any(free & (near < required - 1e-3))
+    assert not np.any(~free & (near > required + 1e-3))
+
+
+def test_free_cells_by_hand():
+    cols, first, last = np.array([1, 0, 1]), np.array([2, 0, 3]), np.array([3, 0, 10**9])
+    free = free_cells(3, 5, [(cols, first, last)], entry=2, allowed=2)
+    expected = np.array([[0, 1, 0],
+                         [1, 1, 0],
+                         [1, 0, 1],
+                         [1, 0, 1],
+                         [1, 0, 1]], dtype=bool)
+    assert (free == expected).all()
+
+
+# ---------------------------------------------------------------------------------------------
+# earliest_arrival
+
+
+def brute_force_arrival(free, ok2):
+    """Reachable sets as Python sets and the earliest step at which the goal is reachable and
+    stays free (rows past the end repeat the last one)."""
+    n_rows, n = free.shape
+    row = lambda t: free[min(t, n_rows - 1)]
+    reach = [{0}]
+    for t in range(1, n_rows + 2 * n + 2):
+        nxt = {c + m for c in reach[-1] for m in (0, 1, 2)
+               if c + m < n and (m < 2 or ok2[c]) and row(t)[c + m]}
+        reach.append(nxt)
+    for t, r in enumerate(reach):
+        if n - 1 in r and all(row(s)[n - 1] for s in range(max(t, 1), n_rows + 1)):
+            return t, reach
+    return None, reach
+
+
+def check_timing(timing, free, ok2):
+    cells = timing.cells
+    n_rows, n = free.shape
+    assert cells[0] == 0 and cells[-1] == n - 1
+    moves = np.diff(cells)
+    assert np.all((moves >= 0) & (moves <= 2))
+    assert all(ok2[cells[t]] for t in np.nonzero(moves == 2)[0])
+    assert all(free[min(t, n_rows - 1), c] for t, c in enumerate(cells) if t > 0)
+
+
+def test_earliest_arrival_all_free():
+    free = np.ones((1, 11), dtype=bool)
+    t = earliest_arrival(free, np.ones(11, dtype=bool))
+    assert t.success and t.arrival == 5 and t.cells.tolist() == [0, 2, 4, 6, 8, 10]
+    # Without full-speed moves: one cell per step.
+    t = earliest_arrival(free, np.zeros(11, dtype=bool))
+    assert t.arrival == 10
+
+
+def test_earliest_arrival_waits_for_a_passing_robot():
+    # Cells 3 and 4 are occupied during steps 0..9; the robot cannot jump both at once, so it
+    # reaches cell 4 at step 10 at the earliest and its destination at step 11.
+    free = np.ones((12, 6), dtype=bool)
+    free[:10, 3:5] = False
+    # Waiting late: it drives up to cell 2 at once and waits there.
+    t = earliest_arrival(free, np.ones(6, dtype=bool), wait_early=False)
+    assert t.success and t.cells.tolist() == [0] + [2] * 9 + [4, 5]
+    # Waiting early: it holds back in cell 0 and leaves just in time (cell 1 at step 9, cell 3
+    # as soon as it frees at step 10).
+    t = earliest_arrival(free, np.ones(6, dtype=bool), wait_early=True)
+    assert t.success and t.cells.tolist() == [0] * 9 + [1, 3, 5]
+
+
+def test_earliest_arrival_waits_until_the_goal_stays_free():
+    free = np.ones((9, 5), dtype=bool)
+    free[7, 4] = False  # someone passes the destination at step 7
+    t = earliest_arrival(free, np.ones(5, dtype=bool))
+    assert t.arrival == 8
+
+
+def test_earliest_arrival_cornered_and_blocked():
+    free = np.ones((4, 4), dtype=bool)
+    free[1, :3] = False
+    t = earliest_arrival(free, np.ones(4, dtype=bool))
+    assert not t.success and t.trapped_at == 1 and "cornered" in t.reason
+    free = np.ones((4, 4), dtype=bool)
+    free[3, 3] = False  # the destination stays taken for good
+    t = earliest_arrival(free, np.ones(4, dtype=bool))
+    assert not t.success and t.trapped_at == -1
+    free = np.ones((4, 6), dtype=bool)
+    free[1:, 3:5] = False  # a parked robot blocks the way for good
+    t = earliest_arrival(free, np.ones(6, dtype=bool))
+    assert not t.success and t.trapped_at == -1 and "blocked" in t.reason
+
+
+@pytest.mark.parametrize("wait_early", [True, False])
+@pytest.mark.parametrize("seed", range(60))
+def test_earliest_arrival_matches_brute_force(seed, wait_early):
+    rng = np.random.default_rng(seed)
+    n_rows, n = int(rng.integers(2, 25)), int(rng.integers(2, 70))
+    free = rng.random((n_rows, n)) > rng.uniform(0.05, 0.4)
+    free = free[np.sort(rng.integers(0, n_rows, n_rows))]  # runs of equal steps, as in practice
+    free[-1] = rng.random(n) > 0.1
+    ok2 = rng.random(n) > 0.2
+    expected, reach = brute_force_arrival(free, ok2)
+    t = earliest_arrival(free, ok2, wait_early)
+    if expected is None:
+        assert not t.success
+        return
+    assert t.success and t.arrival == expected
+    check_timing(t, free, ok2)
+    if np.all(np.diff(t.cells) > 0):
+        return  # no waiting at all: where the one slower step goes is immaterial
+    # Backwards from the arrival, the nearest (waiting early) or farthest (waiting late) cell
+    # from which the rest of the chosen timing can still be driven.
+    back = {len(free[0]) - 1}
+    for s in range(expected, -1, -1):
+        options = reach[s] & back
+        assert t.cells[s] == (min(options) if wait_early else max(options))
+        options = {t.cells[s]}
+        if s:
+            back = {c - m for c in options for m in (0, 1, 2) if c - m >= 0 and (m < 2 or ok2[c - m])}
+
+
+# ---------------------------------------------------------------------------------------------
+# The planner on small situations
+
+
+def test_single_robot_goes_straight_at_full_speed(world, planner):
+    res = planner.plan(request(world, [[-5.5, 0.0]], [[5.5, 0.0]], (0,)))
+    # 11 m in cells of 0.05 m, two cells per 0.1 s step: 110 steps, exactly 11 s at 1 m/s.
+    assert res.success and res.reason == ""
+    assert res.trajectory.duration == pytest.approx(11.0)
+    assert res.cost == pytest.approx(11.0)
+    assert res.info["path_lengths"] == pytest.approx([11.0])
+    speeds = np.linalg.norm(res.trajectory.velocities[:-1, 0], axis=1)
+    assert speeds == pytest.approx(np.ones(len(speeds)))
+
+
+def test_head_on_pair_second_enters_after_first_leaves(world, planner):
+    res = planner.plan(request(world, [[-5.5, 0.0], [5.5, 0.0]], [[5.5, 0.0], [-5.5, 0.0]], (1, 0)))
+    assert res.success
+    inside = world.in_corridor(res.trajectory.positions)
+    last_1 = np.nonzero(inside[:, 1])[0][-1]
+    first_0 = np.nonzero(inside[:, 0])[0][0]
+    assert first_0 > last_1 + 1
+    assert corridor_entry_order(world, res.trajectory) == (1, 0)
+    assert min_gap(res, [0.2, 0.2]) >= 0.0
+    # Robot 1 goes straight through at full speed: 11 s.
+    assert res.info["arrival_times"][1] == pytest.approx(11.0)
+    assert res.cost == pytest.approx(res.info["arrival_times"].sum())
+
+
+def test_same_direction_follows_closely(world, planner):
+    res = planner.plan(request(world, [[-5.5, 0.0], [-6.2, 0.0]], [[5.5, 0.0], [6.0, 0.5]], (0, 1)))
+    assert res.success
+    p = res.trajectory.positions
+    both_inside = world.in_corridor(p).all(axis=1)
+    assert both_inside.any()  # following inside the corridor is allowed
+    assert np.linalg.norm(p[:, 0] - p[:, 1], axis=1).min() >= 0.45 - 1e-9
+
+
+def test_plans_are_deterministic_and_memo_is_transparent(world):
+    req = request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (1, 2, 0))
+    a = PrioritizedPlanner(world, PlannerParams()).plan(req)
+    p = PrioritizedPlanner(world, PlannerParams())
+    p.plan(request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (2, 1, 0)))
+    b = p.plan(req)
+    assert a.success and np.array_equal(a.trajectory.positions, b.trajectory.positions)
+
+
+def test_robot_already_home_stays(world, planner):
+    res = planner.plan(request(world, [[-5.0, 0.0], [5.0, 2.0]], [[5.0, 0.0], [5.0, 2.0]], (0, 1)))
+    assert res.success and res.info["arrival_times"][1] == 0.0
+    assert np.all(res.trajectory.positions[:, 1] == [5.0, 2.0])
+
+
+def test_robot_inside_counts_as_entered(world, planner):
+    # Robot 1 is in the corridor although the request does not say so: it goes first.
+    res = planner.plan(request(world, [[-5.0, 0.0], [1.0, 0.0]], [[5.0, 0.0], [5.5, 1.0]], (0, 1)))
+    assert res.success and res.order_planned == (1, 0) and res.repaired
+    assert "repaired" in res.reason and res.info["entered"] == (1,)
+    assert corridor_entry_order(world, res.trajectory) == (1, 0)
+
+
+def test_cornered_robot_backs_out(world, planner):
+    # Both robots are in the corridor heading for each other; robot 0 entered first, so robot 1
+    # must back out to its room, wait beside the entrance and come through afterwards.
+    res = planner.plan(request(world, [[-1.0, 0.0], [2.0, 0.0]], [[5.5, 0.0], [-5.5, 0.0]], (0, 1), entered=(0, 1)))
+    assert res.success and res.info["retreats"] == (1,) and "back out" in res.reason
+    tr = res.trajectory
+    assert min_gap(res, [0.2, 0.2]) >= 0.0
+    assert np.all(world.is_free(tr.positions_at(np.linspace(tr.times[0], tr.times[-1], 2000)), 0.2))
+    assert np.allclose(tr.positions[-1], [[5.5, 0.0], [-5.5, 0.0]])
+    assert tr.positions[:, 1, 0].max() > 3.0  # it left the corridor on its own side
+
+
+def test_destinations_overlapping_fail_cleanly(world, planner):
+    res = planner.plan(request(world, [[-5.0, 1.0], [-5.0, -1.0]], [[5.0, 0.0], [5.1, 0.0]], (0, 1)))
+    assert not res.success and "overlap" in res.reason and res.cost == float("inf")
+    assert res.trajectory.positions[0].tolist() == [[-5.0, 1.0], [-5.0, -1.0]]
+
+
+def test_parking_in_the_corridor_blocks_the_opposite_robot(world, planner):
+    res = planner.plan(request(world, [[-5.0, 0.0], [5.0, 0.0]], [[0.0, 0.0], [-5.0, 0.0]], (0, 1)))
+    assert not res.success and "parks inside the corridor" in res.reason
+
+
+def test_robot_in_the_way_of_the_first_is_avoided(world, planner):
+    # Robot 1 (second) stands on robot 0's straight line; robot 0 goes around it, and robot 1
+    # can wait where it is.
+    res = planner.plan(request(world, [[-6.0, 0.0], [-4.5, 0.0]], [[-3.5, 0.0], [-4.5, 2.0]], (0, 1)))
+    assert res.success
+    d = np.linalg.norm(res.trajectory.positions[:, 0] - [-4.5, 0.0], axis=1)
+    assert d.min() >= 0.45 - 1e-9
+    assert res.info["path_lengths"][0] > 2.5
+
+
+def test_compute_time_and_order_fields(world, planner):
+    res = planner.plan(request(world, [[-5.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [-5.0, 0.0]], (0, 1), t0=3.0))
+    assert res.compute_time > 0 and res.order == (0, 1) == res.order_planned and not res.repaired
+    assert res.trajectory.times[0] == 3.0
+    assert np.diff(res.trajectory.times) == pytest.approx(np.full(len(res.trajectory.times) - 1, DT))
+
+
+def test_malformed_order_is_rejected(world, planner):
+    with pytest.raises(ValueError):
+        planner.plan(request(world, [[-5.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [-5.0, 0.0]], (0, 0)))

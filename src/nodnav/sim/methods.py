@@ -60,21 +60,27 @@ class PlannedMethod:
         raise NotImplementedError
 
     def predictions(self, i: int, t: float, view: RobotView) -> np.ndarray:
-        """Where robot ``i`` expects every other robot over the MPC horizon ``(N_r - 1, K, 2)``.
+        """Where robot ``i`` expects every other robot over the MPC horizon ``(2 (N_r - 1), K, 2)``.
 
-        A game player follows its path in ``i``'s selected joint plan, displaced so that it
-        starts from where it is observed now (the plan is a period old); any other robot is
-        held still at its observed position, as the paper's appendix says.
+        The first ``N_r - 1`` rows are the paper's predictions: a game player follows its path in
+        ``i``'s selected joint plan, displaced so that it starts from where it is observed now
+        (the plan is up to a period old); any other robot is held still at its observed position
+        (appendix). The last ``N_r - 1`` rows extrapolate every other robot at its observed
+        velocity. The paper's predictions are what the others *should* do if they agree with
+        ``i``; while they do not (yet), they may be doing something else, and keeping clear of
+        what they are actually doing is what keeps every pair apart in the meantime.
         """
         decision = self.decisions[i]
         others = [k for k in range(self.scenario.n_robots) if k != i]
-        pred = np.repeat(view.positions[others][:, None, :], len(self.sample_times), axis=1)
+        now = view.positions[others]
+        pred = np.repeat(now[:, None, :], len(self.sample_times), axis=1)
         traj = decision.plan.trajectory
-        now = traj.positions_at(t)
+        planned_now = traj.positions_at(t)
         ahead = traj.positions_at(t + self.sample_times)  # (K, n_plan, 2)
         for m, k in enumerate(decision.robots[1:], start=1):
-            pred[others.index(k)] += ahead[:, m] - now[m]
-        return pred
+            pred[others.index(k)] += ahead[:, m] - planned_now[m]
+        moving = now[:, None, :] + view.velocities[others][:, None, :] * self.sample_times[None, :, None]
+        return np.concatenate([pred, moving])
 
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
         """Every robot's MPC tracks its own path in its selected plan."""
@@ -83,9 +89,10 @@ class PlannedMethod:
         for i, view in views.items():
             traj = self.decisions[i].plan.trajectory
             reference = traj.positions_at(t + self.sample_times)[:, 0]
+            others_radii = np.delete(radii, i)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=self.predictions(i, t, view),
-                                     other_radii=np.delete(radii, i))
+                                     other_radii=np.concatenate([others_radii, others_radii]))
             out[i] = self.controllers[i].control(request)
         return out
 
@@ -103,7 +110,10 @@ class NODMethod(PlannedMethod):
         return self.agents[i].decide(view)
 
 
-METHODS = {"nod": NODMethod}
+#: Every method by name: ``nod`` is a class here; the baselines (:mod:`nodnav.sim.baselines`,
+#: which imports this module) are named by class and imported when one is made.
+METHODS = {"nod": NODMethod, "no-coordination": "NoCoordinationMethod", "independent": "IndependentMethod",
+           "closest-first": "ClosestFirstMethod", "oracle": "OracleMethod", "orca": "OrcaMethod"}
 
 
 def make_method(name: str, scenario: Scenario, rngs: list[np.random.Generator], planner=None) -> Method:
@@ -112,4 +122,9 @@ def make_method(name: str, scenario: Scenario, rngs: list[np.random.Generator], 
         from nodnav.errors import NodnavError
 
         raise NodnavError(f"unknown method '{name}'; choose one of {', '.join(METHODS)}")
-    return METHODS[name](scenario, rngs, planner)
+    cls = METHODS[name]
+    if isinstance(cls, str):
+        from nodnav.sim import baselines
+
+        cls = getattr(baselines, cls)
+    return cls(scenario, rngs, planner)

@@ -65,6 +65,21 @@ def test_given_initial_opinions():
     assert scenario_from_dict(scenario_to_dict(s)) == s
 
 
+def test_per_robot_opinion_parameters():
+    raw = scenario_to_dict(load_scenario("2r-case2"))
+    raw["robots"][1]["opinion"] = {"u": 7.0, "bias": {"S2": 3.0}}
+    s = scenario_from_dict(raw)
+    assert s.robot_opinion(0) == s.opinion and s.robot_opinion(1).u == 7.0
+    assert s.robot_opinion(1).K1 == s.opinion.K1  # the rest comes from the scenario's opinion
+    assert scenario_from_dict(scenario_to_dict(s)) == s
+    raw["robots"][1]["opinion"] = {"T": 2.0}
+    with pytest.raises(ScenarioError, match="robot 2.opinion.T: the opinion period is shared"):
+        scenario_from_dict(raw)
+    raw["robots"][1]["opinion"] = {"bias": {"S9": 1.0}}
+    with pytest.raises(ScenarioError, match="robot 2.opinion.bias: unknown strategy 'S9'"):
+        scenario_from_dict(raw)
+
+
 def test_round_trip():
     s = load_scenario("4r-case4").with_overrides(game_players=1, **{"opinion.bias": {"S3": 150.0}})
     assert scenario_from_dict(scenario_to_dict(s)) == s

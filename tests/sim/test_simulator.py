@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import load_scenario, scenario_from_dict
+from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict
 from nodnav.sim.history import History
 from nodnav.sim.simulator import Simulation, run_trial
 
@@ -14,7 +14,7 @@ def test_head_on_pair_passes_without_collision():
     result = run_trial(load_scenario("2r-case1"), seed=1)
     assert result.outcome == "success"
     assert result.min_separation >= 2 * 0.2
-    assert len(result.entry_order) == 2 and result.consensus
+    assert len(result.entry_order) == 2
     # The two robots cannot share the corridor: the second enters after the first has left.
     h = result.history.arrays()
     inside = np.abs(h["positions"][..., 0]) < 3.0
@@ -33,7 +33,7 @@ def test_single_robot_follows_its_plan_to_the_goal():
 
 
 def test_same_seed_same_trial():
-    s = load_scenario("3r-case2")
+    s = load_scenario("2r-case2").with_overrides(time_limit=8.0)
     a, b = run_trial(s, seed=7), run_trial(s, seed=7)
     ha, hb = a.history.arrays(), b.history.arrays()
     for key in ha:
@@ -41,12 +41,20 @@ def test_same_seed_same_trial():
     assert a.to_dict() | {"wall_time_s": 0} == b.to_dict() | {"wall_time_s": 0}
 
 
-def test_opposite_preferences_reach_consensus_with_large_u():
-    # Robot 1 prefers S1 = (1, 2), robot 2 prefers S2 = (2, 1): with u = 100 the social term
-    # dominates the initial disagreement and both settle on one order.
-    s = load_scenario("2r-case2").with_overrides(
-        **{"opinion.init": "given", "opinion.z0": [[3.0, 0.0], [0.0, 3.0]], "opinion.u": 100.0})
-    result = run_trial(s, seed=2)
+def _opposite_preferences(u: float):
+    # Robot 1 is biased towards S1 = (1, 2), robot 2 towards S2 = (2, 1): each wants to go first.
+    raw = scenario_to_dict(load_scenario("2r-case2"))
+    raw["opinion"]["u"] = u
+    raw["robots"][0]["opinion"] = {"u": u, "bias": {"S1": 5.0}}
+    raw["robots"][1]["opinion"] = {"u": u, "bias": {"S2": 5.0}}
+    return scenario_from_dict(raw)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_opposite_preferences_reach_consensus_with_large_u(seed):
+    # With u = 100 the social term (up to u = 100) outweighs the bias of 5, so the robots settle
+    # on one order (the consensus equilibria of eq. (5) are stable for large u).
+    result = run_trial(_opposite_preferences(100.0), seed=seed)
     assert result.consensus
     assert result.outcome == "success"
 

@@ -76,6 +76,8 @@ class RobotSpec:
     """Speed limit (m/s); paper: 1."""
     max_accel: float = 2.0
     """Acceleration limit used by the MPC (m/s^2); paper: not given."""
+    opinion: OpinionParams | None = None
+    """This robot's own opinion parameters; ``None`` means the scenario's ``opinion``."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,8 @@ class PlannerParams:
     """Extra separation kept by the planner beyond 2 r_robot (m)."""
     waiting: str = "early"
     """Fast planner: a yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
+    door_clearance: float = 1.0
+    """Fast planner: radius of the zone around a corridor entrance kept clear while a robot comes out of it (m)."""
     w1: float = 0.4
     """Weight w_1 of the proximity penalty in the PRM* path cost (1/m); paper: 0.4."""
     varsigma: float = 0.1
@@ -166,6 +170,10 @@ class Scenario:
     def n_players(self) -> int:
         """Effective number of game players per robot, between 0 and N_r - 1."""
         return self.n_robots - 1 if self.game_players is None else self.game_players
+
+    def robot_opinion(self, i: int) -> OpinionParams:
+        """Robot ``i``'s opinion parameters (its own, else the scenario's)."""
+        return self.robots[i].opinion or self.opinion
 
     @property
     def origins(self) -> np.ndarray:
@@ -313,14 +321,33 @@ def _world(data: Any) -> World:
     return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)
 
 
+def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
+    """Opinion parameters from a mapping, with their cross-field checks."""
+    opinion = _params(OpinionParams, data, where)
+    if opinion.init not in ("zero", "distance", "given"):
+        raise ScenarioError(f"{where}.init: expected 'zero', 'distance' or 'given', got {opinion.init!r}")
+    n_s = math.factorial(n_robots)
+    if opinion.init == "given" and (len(opinion.z0) != n_robots or any(len(row) != n_s for row in opinion.z0)):
+        raise ScenarioError(f"{where}.z0: with init 'given', give {n_robots} rows of {n_s} numbers (one row per robot)")
+    if opinion.init != "given" and opinion.z0:
+        raise ScenarioError(f"{where}.z0: only used with init 'given'; set init: given or remove z0")
+    for p in ("d", "eta", "T"):
+        if getattr(opinion, p) <= 0:
+            raise ScenarioError(f"{where}.{p}: must be positive, got {getattr(opinion, p)}")
+    for name in opinion.bias:
+        if not (name.startswith("S") and name[1:].isdigit() and 1 <= int(name[1:]) <= n_s):
+            raise ScenarioError(f"{where}.bias: unknown strategy '{name}'; use S1..S{n_s} for {n_robots} robots")
+    return opinion
+
+
 _TOP_KEYS = ("name", "description", "world", "robot_defaults", "robots", "opinion", "game_players",
              "time_limit", "planner", "controller", "sim")
 _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
 
 
-def _robots(data: Any, defaults: Any) -> tuple[RobotSpec, ...]:
+def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[RobotSpec, ...]:
     defaults = _mapping(defaults, "robot_defaults")
-    _check_keys(defaults, [k for k in _ROBOT_KEYS if k not in ("origin", "destination")], "robot_defaults")
+    _check_keys(defaults, [k for k in _ROBOT_KEYS if k not in ("origin", "destination", "opinion")], "robot_defaults")
     if not isinstance(data, list) or not data:
         raise ScenarioError("robots: expected a non-empty list of {origin: [x, y], destination: [x, y]}")
     robots = []
@@ -337,6 +364,8 @@ def _robots(data: Any, defaults: Any) -> tuple[RobotSpec, ...]:
             radius=_number(r.get("radius", RobotSpec.radius), f"{where}.radius", positive=True),
             max_speed=_number(r.get("max_speed", RobotSpec.max_speed), f"{where}.max_speed", positive=True),
             max_accel=_number(r.get("max_accel", RobotSpec.max_accel), f"{where}.max_accel", positive=True),
+            opinion=_opinion({**opinion, **_mapping(r["opinion"], f"{where}.opinion")}, len(data), f"{where}.opinion")
+            if r.get("opinion") else None,
         ))
     return tuple(robots)
 
@@ -377,22 +406,13 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     if not isinstance(name, str) or not name:
         raise ScenarioError(f"{source}: 'name' must be non-empty text")
     world = _world(data.get("world"))
-    robots = _robots(data["robots"], data.get("robot_defaults"))
+    n_robots = len(data["robots"]) if isinstance(data["robots"], list) else 0
+    opinion = _opinion(_mapping(data.get("opinion"), "opinion"), n_robots, "opinion")
+    robots = _robots(data["robots"], data.get("robot_defaults"), _mapping(data.get("opinion"), "opinion"))
     _check_geometry(world, robots)
-    opinion = _params(OpinionParams, data.get("opinion"), "opinion")
-    if opinion.init not in ("zero", "distance", "given"):
-        raise ScenarioError(f"opinion.init: expected 'zero', 'distance' or 'given', got {opinion.init!r}")
-    n_s = math.factorial(len(robots))
-    if opinion.init == "given" and (len(opinion.z0) != len(robots) or any(len(row) != n_s for row in opinion.z0)):
-        raise ScenarioError(f"opinion.z0: with init 'given', give {len(robots)} rows of {n_s} numbers (one row per robot)")
-    if opinion.init != "given" and opinion.z0:
-        raise ScenarioError("opinion.z0: only used with init 'given'; set opinion.init: given or remove z0")
-    for p in ("d", "eta", "T"):
-        if getattr(opinion, p) <= 0:
-            raise ScenarioError(f"opinion.{p}: must be positive, got {getattr(opinion, p)}")
-    for s in opinion.bias:
-        if not (s.startswith("S") and s[1:].isdigit() and 1 <= int(s[1:]) <= n_s):
-            raise ScenarioError(f"opinion.bias: unknown strategy '{s}'; use S1..S{n_s} for {len(robots)} robots")
+    for k, r in enumerate(robots, start=1):
+        if r.opinion is not None and r.opinion.T != opinion.T:
+            raise ScenarioError(f"robot {k}.opinion.T: the opinion period is shared by every robot; set it in 'opinion'")
     players = data.get("game_players", "all")
     if players == "all" or players is None:
         game_players = None
@@ -457,6 +477,18 @@ def load_scenario(spec: str | Path) -> Scenario:
     return scenario_from_dict(data, source)
 
 
+def _opinion_to_raw(opinion: OpinionParams) -> dict:
+    return {**dataclasses.asdict(opinion), "z0": [list(r) for r in opinion.z0]}
+
+
+def _robot_to_raw(robot: RobotSpec) -> dict:
+    raw = {"origin": list(robot.origin), "destination": list(robot.destination), "radius": robot.radius,
+           "max_speed": robot.max_speed, "max_accel": robot.max_accel}
+    if robot.opinion is not None:
+        raw["opinion"] = _opinion_to_raw(robot.opinion)
+    return raw
+
+
 def _to_raw(scenario: Scenario) -> dict:
     """Inverse of :func:`scenario_from_dict`, for overrides and for storing a scenario with results."""
     w = scenario.world
@@ -469,9 +501,8 @@ def _to_raw(scenario: Scenario) -> dict:
             "corridor": dataclasses.asdict(w.corridor),
             "entrances": [list(e) for e in w.entrances],
         },
-        "robots": [{**dataclasses.asdict(r), "origin": list(r.origin), "destination": list(r.destination)}
-                   for r in scenario.robots],
-        "opinion": {**dataclasses.asdict(scenario.opinion), "z0": [list(r) for r in scenario.opinion.z0]},
+        "robots": [_robot_to_raw(r) for r in scenario.robots],
+        "opinion": _opinion_to_raw(scenario.opinion),
         "game_players": "all" if scenario.game_players is None else scenario.game_players,
         "time_limit": scenario.time_limit,
         "planner": dataclasses.asdict(scenario.planner),

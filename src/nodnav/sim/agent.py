@@ -123,7 +123,7 @@ class NODAgent:
         self.index = index
         self.rng = rng
         self.plans = plans
-        self.params = scenario.opinion
+        self.params = scenario.robot_opinion(index)
         self.orders = passing_orders(scenario.n_robots)
         self.n_players = scenario.n_players if n_players is None else n_players
         self.social = social

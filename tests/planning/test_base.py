@@ -126,3 +126,16 @@ def test_failure_holds_and_repairs_the_order(world):
     assert res.order_planned == (2, 0, 1) and res.repaired
     assert res.trajectory.times.tolist() == [4.0]
     assert res.trajectory.positions_at(9.0).tolist() == pos.tolist()
+
+
+def test_relabel_permutes_robots_and_orders():
+    from nodnav.planning.base import PlanResult, relabel
+
+    times = np.array([0.0, 1.0])
+    pos = np.array([[[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]], [[0.0, 1.0], [1.0, 1.0], [2.0, 1.0]]])
+    res = PlanResult(True, "", 3.0, JointTrajectory.from_positions(times, pos), (2, 0, 1), (2, 0, 1))
+    out = relabel(res, [1, 2, 0])  # new robot 0 is old robot 1, new 1 is old 2, new 2 is old 0
+    assert np.array_equal(out.trajectory.positions[:, 0], pos[:, 1])
+    assert np.array_equal(out.trajectory.positions[:, 2], pos[:, 0])
+    # Old order (2, 0, 1) -> new labels (1, 2, 0).
+    assert out.order == (1, 2, 0) and out.order_planned == (1, 2, 0) and out.cost == 3.0

@@ -18,7 +18,7 @@ with no missing plans and no infinite deviations.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -146,6 +146,14 @@ class PlanResult:
         """A failed result: robots hold their positions."""
         return PlanResult(False, reason, float("inf"), JointTrajectory.hold(request.t0, request.positions),
                           tuple(request.order), feasible_order(request.order, request.entered), compute_time)
+
+
+def relabel(result: PlanResult, robots: list[int]) -> PlanResult:
+    """The same plan with its robots listed as ``robots`` (old indices, in the new order)."""
+    new_of = {old: new for new, old in enumerate(robots)}
+    return replace(result, trajectory=result.trajectory.subset(robots),
+                   order=tuple(new_of[k] for k in result.order),
+                   order_planned=tuple(new_of[k] for k in result.order_planned))
 
 
 @runtime_checkable

@@ -19,7 +19,7 @@ from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, social_sum, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import consistency_weights, passing_orders, projected_order_ids
-from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions
+from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT
 
@@ -168,13 +168,19 @@ class NODAgent:
         return tuple(sorted(select_game_players(L, self.index, self.n_players)))
 
     def plan_all(self, view: RobotView, robots: tuple[int, ...]) -> list[PlanResult]:
-        """The joint plan for every strategy, projected onto ``robots``; one query per distinct projection."""
+        """The joint plan for every strategy, projected onto ``robots``; one query per distinct projection.
+
+        Queries list the robots in increasing index whoever asks, so that robots posing the
+        same joint problem pose the same query and share its answer through the plan cache;
+        each answer is then relabelled to the order of ``robots``.
+        """
         s = self.scenario
-        idx = list(robots)
-        local_of = {k: m for m, k in enumerate(robots)}
-        positions = view.positions[idx].copy()
-        velocities = view.velocities[idx].copy()
+        canonical = sorted(robots)
+        local_of = {k: m for m, k in enumerate(canonical)}
+        positions = view.positions[canonical].copy()
+        velocities = view.velocities[canonical].copy()
         entered = tuple(local_of[k] for k in view.entered if k in local_of)
+        back = [local_of[k] for k in robots]
         ids = projected_order_ids(self.orders, robots)
         by_class: dict[int, PlanResult] = {}
         for j, order in enumerate(self.orders):
@@ -182,9 +188,9 @@ class NODAgent:
                 continue
             local_order = tuple(local_of[int(k)] for k in order if int(k) in local_of)
             request = PlanRequest(world=s.world, positions=positions, velocities=velocities,
-                                  destinations=s.destinations[idx], radii=s.radii[idx],
-                                  max_speeds=s.max_speeds[idx], order=local_order, entered=entered, t0=view.t)
-            by_class[ids[j]] = self.plans.plan(request)
+                                  destinations=s.destinations[canonical], radii=s.radii[canonical],
+                                  max_speeds=s.max_speeds[canonical], order=local_order, entered=entered, t0=view.t)
+            by_class[ids[j]] = relabel(self.plans.plan(request), back)
         return [by_class[ids[j]] for j in range(len(self.orders))]
 
     def decide(self, view: RobotView) -> Decision:

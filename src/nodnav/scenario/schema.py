@@ -98,8 +98,8 @@ class PlannerParams:
     """Weight w_1 of the proximity penalty in the PRM* path cost (1/m); paper: 0.4."""
     varsigma: float = 0.1
     """Safety margin varsigma of Phi_proximity (m); paper: 0.1."""
-    roadmap_vertices: int = 6000
-    """PRM*: roadmap size per robot count is this times the robot count (vertices)."""
+    roadmap_vertices: int = 2000
+    """PRM*: roadmap size is this times the number of robots (vertices); 500 already answers every built-in query."""
     cache_dir: str = ""
     """PRM*: roadmap cache directory; empty means ``$NODNAV_CACHE`` or ``~/.cache/nodnav``."""
 

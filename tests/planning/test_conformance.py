@@ -20,7 +20,7 @@ from nodnav.scenario.schema import PlannerParams, builtin_names, load_scenario
 from nodnav.scenario.world import paper_world
 
 #: PRM*: roadmap vertices per robot for the test roadmaps (built once per session).
-PRM_VERTICES = 1500
+PRM_VERTICES = 500
 #: PRM*: every how many-th order is planned for four robots.
 PRM_ORDER_STRIDE = 6
 FINE = 5

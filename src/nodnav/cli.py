@@ -235,6 +235,132 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return 0 if summary.success else 1
 
 
+# -- reproduce and report: the paper's whole evaluation -------------------------------------------
+
+
+def _names(text: str | None) -> tuple[str, ...]:
+    return tuple(n.strip() for n in text.split(",") if n.strip()) if text else ()
+
+
+def _reproduce_command(args: argparse.Namespace) -> str:
+    """The command line as the report quotes it: every option that was given or matters."""
+    words = ["nodnav reproduce", f"--trials {args.trials}", f"--jobs {args.jobs}", f"--out {args.out}"]
+    for flag, value in (("--methods", args.methods), ("--planners", args.planners), ("--budget", args.budget),
+                        ("--fig2c-grid", args.fig2c_grid), ("--fig2c-trials", args.fig2c_trials),
+                        ("--method-trials", args.method_trials), ("--db", args.db), ("--scenarios", args.scenarios),
+                        ("--parts", args.parts)):
+        if value is not None:
+            words.append(f"{flag} {value:g}" if isinstance(value, float) else f"{flag} {value}")
+    return " ".join(words)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from nodnav.experiments.reproduce import PARTS, ReproduceOptions, reproduce
+
+    options = ReproduceOptions(
+        out=Path(args.out), trials=args.trials, jobs=args.jobs, methods=_names(args.methods),
+        planners=_names(args.planners) or ("fast",), budget_minutes=args.budget, fig2c_grid=args.fig2c_grid,
+        fig2c_trials=args.fig2c_trials, method_trials=args.method_trials, scenarios=_names(args.scenarios),
+        parts=_names(args.parts) or PARTS, heatmap_grid=args.heatmap_grid, db=Path(args.db) if args.db else None,
+        command=_reproduce_command(args), quiet=args.quiet)
+    result = reproduce(options)
+    for cut in result.cuts:
+        print(f"cut: {cut}", file=sys.stderr)
+    print(result.reason)
+    return 0 if result.success else 1
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from nodnav.experiments.report import build_report
+
+    result = build_report(args.db, args.out, command=f"nodnav report {args.db} --out {args.out}",
+                          heatmap_grid=args.heatmap_grid, rerun_snapshots=not args.no_rerun)
+    if not result.success:
+        print(f"nodnav: {result.reason}", file=sys.stderr)
+        return 1
+    print(result.reason)
+    return 0
+
+
+def _add_report_parsers(sub) -> None:
+    """The ``reproduce`` and ``report`` subcommands."""
+    p = sub.add_parser("reproduce", help="run the paper's whole evaluation into DIR and write DIR/report.md")
+    p.add_argument("--trials", type=int, default=40, help="trials per cell (default 40)")
+    p.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1)")
+    p.add_argument("--out", default="nodnav-reproduce", help="output directory (default nodnav-reproduce)")
+    p.add_argument("--methods", help="methods to compare, e.g. nod,orca (default: every registered method)")
+    p.add_argument("--planners", help="planners to compare, e.g. fast,prm (default fast: no comparison)")
+    p.add_argument("--budget", type=float, default=18.0,
+                   help="minutes for the whole command; trials are cut evenly to fit (default 18; 0: no limit)")
+    p.add_argument("--fig2c-grid", type=int, default=5, help="Fig. 2c grid points per axis (default 5)")
+    p.add_argument("--fig2c-trials", type=int, default=2, help="Fig. 2c trials per cell (default 2)")
+    p.add_argument("--method-trials", type=int, help="trials per cell of the methods comparison (default --trials)")
+    p.add_argument("--db", help="results database (default DIR/results.sqlite)")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    # For quick checks and tests: fewer scenarios, parts or heatmap points.
+    p.add_argument("--scenarios", help=argparse.SUPPRESS)
+    p.add_argument("--parts", help=argparse.SUPPRESS)
+    p.add_argument("--heatmap-grid", type=int, default=41, help=argparse.SUPPRESS)
+    p.set_defaults(func=_cmd_reproduce)
+
+    p = sub.add_parser("report", help="write report.md and its figures from a results database")
+    p.add_argument("db", help="results database written by 'nodnav reproduce' or 'nodnav sweep'")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--no-rerun", action="store_true", help="do not re-run the snapshot trials")
+    p.add_argument("--heatmap-grid", type=int, default=41, help="Fig. 2a/2b grid points per axis (default 41)")
+    p.set_defaults(func=_cmd_report)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    if args.target == "planners":
+        from nodnav.planning.bench import main_bench_planners
+
+        print(main_bench_planners(args.json, planners=tuple(args.planner or ("fast", "prm"))))
+    elif args.target == "mpc":
+        import dataclasses
+
+        from nodnav.control.bench import benchmark_mpc
+
+        result = benchmark_mpc()
+        d = dataclasses.asdict(result)
+        if args.json:
+            print(json.dumps(d))
+        else:
+            print(f"MPC, 4 robots queueing through the corridor: {result.solves} calls, median "
+                  f"{1e3 * result.median:.2f} ms, p95 {1e3 * result.p95:.2f} ms, max {1e3 * result.max:.1f} ms "
+                  f"(OSQP median {1e3 * result.qp_median:.2f} ms, p95 {1e3 * result.qp_p95:.2f} ms); "
+                  f"{result.infeasible} infeasible; min gap {result.min_separation:.3f} m; "
+                  f"{result.arrived} robots arrived")
+    else:
+        from nodnav.sim.bench import benchmark_closed_loop
+
+        results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, args.trials + 1)))
+                   for planner in (args.planner or ("fast",))]
+        if args.json:
+            print(json.dumps([r.to_dict() for r in results]))
+        else:
+            for r in results:
+                print(r.format())
+    return 0
+
+
+def _cmd_roadmaps(args: argparse.Namespace) -> int:
+    import time
+
+    from nodnav.planning.roadmap import build_all_roadmaps, format_build_reports
+    from nodnav.scenario.schema import load_scenario
+
+    scenario = load_scenario(args.scenario)
+    start = time.perf_counter()
+    reports = build_all_roadmaps(scenario.world, radius=float(scenario.radii[0]),
+                                 robot_counts=tuple(int(n) for n in args.robots.split(",")),
+                                 vertices_per_robot=args.vertices or scenario.planner.roadmap_vertices,
+                                 cache_dir=args.cache_dir or scenario.planner.cache_dir, n_jobs=args.jobs)
+    print(format_build_reports(reports))
+    print(f"{len(reports)} roadmaps ready in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``nodnav`` command."""
     parser = argparse.ArgumentParser(prog="nodnav", description=__doc__.splitlines()[0].split(":")[0] + ": "
@@ -296,11 +422,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_sweep)
 
+    p = sub.add_parser("bench", help="measure speed: planners, the MPC, or whole trials (one core)")
+    p.add_argument("target", choices=("planners", "mpc", "sim"), help="what to measure")
+    p.add_argument("--planner", action="append", help="planner(s) to measure (repeatable)")
+    p.add_argument("--scenario", default="4r-case2", help="scenario of the 'sim' benchmark")
+    p.add_argument("--trials", type=int, default=3, help="trials (seeds 1..N) of the 'sim' benchmark")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=_cmd_bench)
+
+    p = sub.add_parser("roadmaps", help="build (or load) every PRM* roadmap ahead of time")
+    p.add_argument("action", choices=("build",), help="what to do")
+    p.add_argument("--scenario", default="3r-case1", help="scenario whose world and robot radius to use")
+    p.add_argument("--robots", default="1,2,3,4", help="robot counts, e.g. 2,3,4")
+    p.add_argument("--vertices", type=int, help="vertices per robot (default: the scenario's planner setting)")
+    p.add_argument("--cache-dir", help="roadmap cache directory (default $NODNAV_CACHE or ~/.cache/nodnav)")
+    p.add_argument("--jobs", type=int, default=2, help="parallel build processes")
+    p.set_defaults(func=_cmd_roadmaps)
+
     p = sub.add_parser("replay", help="redraw the pictures of a saved trial history")
     p.add_argument("history", help="a .npz history written by 'nodnav run --out'")
     p.add_argument("--out", required=True, help="directory for the pictures")
     p.add_argument("--no-animation", action="store_true", help="only the snapshot figure")
     p.set_defaults(func=_cmd_replay)
+    _add_report_parsers(sub)
     return parser
 
 

@@ -2,11 +2,13 @@
 
 import numpy as np
 import pytest
+from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
 from nodnav.control.bench import benchmark_mpc, queue_references
 from nodnav.control.mpc import (
     BSplineMPC,
+    MPCSettings,
     braking_profile,
     chord_inflation,
     constraint_grid,
@@ -14,7 +16,9 @@ from nodnav.control.mpc import (
     interpolation_matrix,
     nearest_points_on_boxes,
     polygon_normals,
+    qp_factor,
     slope_matrix,
+    solve_qp,
     stopping_rows,
 )
 from nodnav.scenario.schema import ControllerParams, RobotSpec, load_scenario
@@ -139,6 +143,96 @@ def test_nearest_points_on_boxes_by_hand():
 
 
 # ---------------------------------------------------------------------------------------------
+# The dense QP solver
+
+
+def qp(hessian, gradient, rows, lower, **state):
+    return solve_qp(qp_factor(hessian), -np.linalg.solve(hessian, gradient), rows, lower, **state)
+
+
+def test_qp_projection_onto_a_half_plane_by_hand():
+    # min (x1 - 1)^2 + (x2 - 2)^2 subject to x1 + x2 <= 2: the projection of (1, 2) onto the
+    # line is (0.5, 1.5), where the gradient 2 (x - c) = (-1, -1) equals lambda (-1, -1), lambda = 1.
+    sol = qp(2.0 * np.eye(2), np.array([-2.0, -4.0]), np.array([[-1.0, -1.0]]), np.array([-2.0]))
+    assert sol.success and sol.reason == ""
+    np.testing.assert_allclose(sol.x, [0.5, 1.5], atol=1e-12)
+    np.testing.assert_array_equal(sol.active, [0])
+    np.testing.assert_allclose(sol.multipliers, [1.0], atol=1e-12)
+    # A row that does not bind leaves the unconstrained minimiser.
+    sol = qp(2.0 * np.eye(2), np.array([-2.0, -4.0]), np.array([[-1.0, -1.0]]), np.array([-5.0]))
+    np.testing.assert_allclose(sol.x, [1.0, 2.0], atol=1e-12)
+    assert sol.active.size == 0 and sol.steps == 0
+
+
+def test_qp_degenerate_box_gives_the_clipped_point():
+    """Every face of a box three times over, plus redundant rows through its corners: the
+    minimiser of ||x - c||^2 is c clipped to the box, whatever the degeneracy."""
+    lo, hi = np.array([-1.0, 0.0, 2.0]), np.array([1.0, 0.5, 3.0])
+    eye = np.eye(3)
+    rows = np.vstack([eye, -eye] * 3 + [np.ones((1, 3)), -np.ones((1, 3))])
+    lower = np.concatenate([lo, -hi] * 3 + [[lo.sum()], [-hi.sum()]])
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        c = rng.uniform(-3.0, 5.0, size=3)
+        sol = qp(2.0 * eye, -2.0 * c, rows, lower)
+        assert sol.success
+        np.testing.assert_allclose(sol.x, np.clip(c, lo, hi), atol=1e-10)
+
+
+def test_qp_random_problems_satisfy_kkt_or_carry_a_farkas_certificate():
+    rng = np.random.default_rng(7)
+    outcomes = set()
+    for trial in range(120):
+        n, m = int(rng.integers(2, 19)), int(rng.integers(1, 60))
+        a = rng.normal(size=(n, n))
+        hessian = a @ a.T + 0.1 * np.eye(n)
+        gradient = rng.normal(size=n)
+        rows = rng.normal(size=(m, n))
+        lower = rng.normal(size=m) * (2.0 if trial % 2 else 0.3)
+        sol = qp(hessian, gradient, rows, lower)
+        feasible = linprog(np.zeros(n), A_ub=-rows, b_ub=-lower, bounds=[(None, None)] * n, method="highs").status == 0
+        assert sol.success == feasible
+        outcomes.add(sol.success)
+        act, y = sol.active, sol.multipliers
+        if sol.success:
+            assert np.all(rows @ sol.x - lower >= -1e-8)                              # primal
+            assert np.all(y >= -1e-12)                                                # dual
+            np.testing.assert_allclose(hessian @ sol.x + gradient, rows[act].T @ y, atol=1e-8)  # stationary
+            np.testing.assert_allclose(rows[act] @ sol.x, lower[act], atol=1e-8)      # complementary
+        else:
+            assert sol.reason == "infeasible"
+            assert np.all(y >= -1e-12) and y @ lower[act] > 0.0
+            np.testing.assert_allclose(y @ rows[act], 0.0, atol=1e-8 * max(1.0, np.abs(y).max()))
+    assert outcomes == {True, False}
+
+
+def test_qp_start_from_a_given_active_set():
+    """Slacks s >= 0 held active from the start (the evasive QP's start) lead to the same
+    minimiser as a start from the unconstrained minimiser."""
+    rng = np.random.default_rng(11)
+    n, k, eps = 4, 3, 10.0
+    a = rng.normal(size=(n, n))
+    h_x = a @ a.T + np.eye(n)
+    g_x = rng.normal(size=n)
+    weights = np.array([5.0, 7.0, 9.0])
+    hessian = np.block([[h_x, np.zeros((n, k))], [np.zeros((k, n)), eps * np.eye(k)]])
+    gradient = np.concatenate([g_x, weights])
+    # Soft rows a_i^T x + s_i >= b_i, then the bounds s >= 0.
+    soft = np.hstack([rng.normal(size=(k, n)), np.eye(k)])
+    rows = np.vstack([soft, np.hstack([np.zeros((k, n)), np.eye(k)])])
+    lower = np.concatenate([rng.normal(size=k) + 2.0, np.zeros(k)])
+    reference = qp(hessian, gradient, rows, lower)
+    factor = np.zeros((n + k, n + k))
+    factor[n + np.arange(k), np.arange(k)] = 1.0 / np.sqrt(eps)
+    factor[:n, k:] = qp_factor(h_x)
+    start = np.concatenate([-np.linalg.solve(h_x, g_x), np.zeros(k)])
+    sol = solve_qp(factor, start, rows, lower, active=k + np.arange(k), triangular=np.eye(k) / np.sqrt(eps),
+                   multipliers=weights)
+    assert reference.success and sol.success
+    np.testing.assert_allclose(sol.x, reference.x, atol=1e-10)
+
+
+# ---------------------------------------------------------------------------------------------
 # The controller in closed loop
 
 
@@ -238,7 +332,7 @@ def test_stops_behind_a_robot_standing_in_the_corridor():
         assert WORLD.clearance(ctl.motion(FINE)).min() >= ROBOT.radius - 1e-9
         states.append((np.linalg.norm(res.next_velocity), np.linalg.norm(res.next_position - standing)))
 
-    closed_loop(ctl, [-2.5, 0.0], [0.97, 0.0], 30, lambda t, p: p + TIMES[:, None] * [1.0, 0.0],
+    closed_loop(ctl, [-2.5, 0.0], [0.97, 0.0], 40, lambda t, p: p + TIMES[:, None] * [1.0, 0.0],
                 obstacles=lambda t: np.tile(standing, (1, 8, 1)), radii=[ROBOT.radius], check=check)
     speed, gap = states[-1]
     assert speed < 0.01 and gap < need + 0.01           # stopped, close behind
@@ -260,28 +354,123 @@ def test_never_plans_into_a_wall_at_a_corner():
     assert WORLD.in_corridor(p)                          # it went round the corner, into the corridor
 
 
-def test_overlap_is_infeasible_and_the_robot_brakes():
+def test_overlap_triggers_the_evasive_plan_which_backs_out():
+    """Already overlapping another robot's prediction: the tracking QP is skipped, and the evasive
+    plan sheds the speed towards it and backs out until the margin is restored."""
     ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
-    p0, v0 = np.array([-5.0, 0.0]), np.array([0.6, 0.0])
-    res = ctl.control(request(p0, v0, np.tile([-4.0, 0.0], (8, 1)),
-                              others=np.tile([-4.7, 0.0], (1, 8, 1)), radii=[0.2]))
-    assert not res.success
-    assert "infeasible" in res.reason and "braking" in res.reason
-    # Decelerating at 2 m/s^2 along +x: 0.6 -> 0.4 m/s, 0.06 - 0.01 = 0.05 m in one step.
-    np.testing.assert_allclose(res.next_velocity, [0.4, 0.0])
-    np.testing.assert_allclose(res.next_position, [-4.95, 0.0])
-    assert np.linalg.norm(res.next_velocity) < np.linalg.norm(v0)
-    assert res.info["braking"]
-    # Braking continues until the robot stands, never speeding up or turning.
-    speeds = []
-    p, v = res.next_position, res.next_velocity
-    for _ in range(4):
-        res = ctl.control(request(p, v, np.tile([-4.0, 0.0], (8, 1)), others=np.tile([-4.7, 0.0], (1, 8, 1)),
-                                  radii=[0.2]))
-        assert not res.success and res.next_velocity[1] == 0.0 and res.next_velocity[0] >= 0.0
-        speeds.append(np.linalg.norm(res.next_velocity))
+    p, v = np.array([-5.0, 0.0]), np.array([0.6, 0.0])
+    other = np.array([-4.7, 0.0])
+    need = 2 * ROBOT.radius + PARAMS.safety_margin
+    results = []
+    for _ in range(15):
+        res = ctl.control(request(p, v, np.tile([-4.0, 0.0], (8, 1)), others=np.tile(other, (1, 8, 1)), radii=[0.2]))
+        assert WORLD.clearance(ctl.motion(FINE)).min() >= ROBOT.radius - 1e-9
+        results.append(res)
         p, v = res.next_position, res.next_velocity
-    assert speeds == sorted(speeds, reverse=True) and speeds[-1] == 0.0
+    first = results[0]
+    assert not first.success and first.reason.startswith("infeasible: evasive: overlapping robot 0")
+    assert first.info["fallback"] == "evasive" and first.info["intrusion"] > 0.0
+    # It brakes at least as hard as the acceleration polygon allows (0.92 of 2 m/s^2 over 0.1 s).
+    assert first.next_velocity[0] <= 0.6 - 0.92 * 2.0 * 0.1 + 1e-6
+    gaps = np.array([np.linalg.norm(r.next_position - other) for r in results])
+    out = int(np.argmax(gaps >= need))
+    assert gaps[out] >= need and results[-1].success      # out of the disc, back to tracking
+    turn = int(np.argmin(gaps))
+    assert turn < out and np.all(np.diff(gaps[turn:out + 1]) > 0)   # once stopped, it backs straight out
+    assert all(r.info["fallback"] == "evasive" for r in results[:out])
+
+
+def test_brakes_when_no_plan_keeps_clear_of_a_wall():
+    """5 cm from the upper bound at 1 m/s towards it: no plan can stop in time (0.27 m at
+    1.85 m/s^2), no other robot is involved, so the robot brakes along its velocity."""
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    res = ctl.control(request([-5.0, 2.25], [0.0, 1.0], np.tile([-5.0, 2.5], (8, 1))))
+    assert not res.success and res.reason.startswith("infeasible: braking") and res.info["fallback"] == "braking"
+    # Decelerating at 2 m/s^2 along +y: 1 -> 0.8 m/s, 0.1 - 0.01 = 0.09 m in one step.
+    np.testing.assert_allclose(res.next_velocity, [0.0, 0.8])
+    np.testing.assert_allclose(res.next_position, [-5.0, 2.34])
+
+
+def scripted_encounter(settings, steps=30):
+    """Robot A (our controller) moving at 0.5 m/s along +x, holding position as its reference;
+    robot B drives straight at it at 1 m/s and never yields. A's prediction of B is exact
+    (constant velocity). Returns (closest centre distance along the motion, results)."""
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS, settings)
+    p, v = np.array([-5.0, 0.0]), np.array([0.5, 0.0])
+    b0, vb = np.array([-3.9, 0.0]), np.array([-1.0, 0.0])
+    sub = np.linspace(0.0, 1.0, 11)[:, None]
+    closest, results = np.inf, []
+    for k in range(steps):
+        b = b0 + vb * k * PARAMS.dt
+        res = ctl.control(request(p, v, np.tile([-5.0, 0.0], (8, 1)), others=(b + TIMES[:, None] * vb)[None],
+                                  radii=[ROBOT.radius]))
+        assert WORLD.clearance(ctl.motion(FINE)).min() >= ROBOT.radius - 1e-9
+        path = p + sub * (res.next_position - p)
+        closest = min(closest, np.linalg.norm(path - (b + sub * vb * PARAMS.dt), axis=1).min())
+        results.append(res)
+        p, v = res.next_position, res.next_velocity
+    return closest, results
+
+
+def test_moves_away_from_an_approaching_robot_instead_of_braking_into_it():
+    contact = 2 * ROBOT.radius
+    closest, results = scripted_encounter(MPCSettings())
+    failed = [r for r in results if not r.success]
+    assert failed and all(r.info["fallback"] == "evasive" for r in failed)
+    assert closest >= contact - 1e-3                     # it got out of the way
+    # At the first failure the evasive plan keeps farther from B at every sample than braking
+    # along the velocity would: it steers away instead of rolling on into B's path.
+    k = next(i for i, r in enumerate(results) if not r.success)
+    b = np.array([-3.9, 0.0]) + np.array([-1.0, 0.0]) * (k * PARAMS.dt + TIMES[:, None])
+    p_k = results[k - 1].next_position if k else np.array([-5.0, 0.0])
+    v_k = results[k - 1].next_velocity if k else np.array([0.5, 0.0])
+    braked, _ = braking_profile(p_k, v_k, ROBOT.max_accel, TIMES)
+    evasive_gap = np.linalg.norm(results[k].planned_positions - b, axis=1)
+    braking_gap = np.linalg.norm(braked - b, axis=1)
+    assert np.all(evasive_gap >= braking_gap - 1e-9) and evasive_gap[-1] > braking_gap[-1] + 0.1
+    # The earlier fallback, braking at once, stays in B's path and is hit.
+    closest_braking, results_braking = scripted_encounter(MPCSettings(evasive=False))
+    assert any(r.info["fallback"] == "braking" for r in results_braking)
+    assert closest_braking < contact - 0.1
+
+
+def crossing(settings, steps=60):
+    """Two robots of ours cross the left room on paths 120 degrees apart at 0.8 m/s. Each is told
+    the other will stand still where it is seen (the paper's prediction for a robot outside its
+    game, wrong here) and, as the simulator adds, where it goes at its observed velocity.
+    Returns (closest centre distance along the motion, number of evasive steps)."""
+    ctls = [BSplineMPC(WORLD, ROBOT, PARAMS, settings) for _ in range(2)]
+    centre, u = np.array([-5.2, 0.0]), np.array([np.cos(np.radians(120)), np.sin(np.radians(120))])
+    pos = np.array([centre - [1.2, 0.0], centre + 1.2 * u])
+    goals = np.array([centre + [1.5, 0.0], centre - 1.5 * u])
+    vel = np.zeros((2, 2))
+    sub = np.linspace(0.0, 1.0, 11)[:, None]
+    closest, evasive = np.inf, 0
+    for _ in range(steps):
+        new_pos, new_vel = pos.copy(), vel.copy()
+        for i in range(2):
+            j = 1 - i
+            direction = goals[i] - pos[i]
+            dist = np.linalg.norm(direction)
+            ref = pos[i] + np.minimum(0.8 * TIMES, dist)[:, None] * direction / max(dist, 1e-9)
+            others = np.stack([np.tile(pos[j], (8, 1)), pos[j] + TIMES[:, None] * vel[j]])
+            res = ctls[i].control(request(pos[i], vel[i], ref, others=others, radii=[ROBOT.radius] * 2))
+            evasive += res.info["fallback"] == "evasive"
+            new_pos[i], new_vel[i] = res.next_position, res.next_velocity
+        a = pos[0] + sub * (new_pos[0] - pos[0])
+        b = pos[1] + sub * (new_pos[1] - pos[1])
+        closest = min(closest, np.linalg.norm(a - b, axis=1).min())
+        pos, vel = new_pos, new_vel
+    return closest, evasive, np.linalg.norm(pos - goals, axis=1).max()
+
+
+def test_two_robots_driving_at_each_other_keep_apart_with_the_evasive_fallback():
+    contact = 2 * ROBOT.radius
+    closest, evasive, left = crossing(MPCSettings())
+    assert evasive > 0 and closest >= contact - 1e-3
+    assert left < 0.05                                   # both got through
+    closest_braking, _, _ = crossing(MPCSettings(evasive=False))
+    assert closest_braking < contact - 1e-3              # braking along the velocity collides
 
 
 def test_malformed_requests_raise():

@@ -12,6 +12,7 @@ from nodnav.planning.geometry import (
     arc_length_grid,
     bounds_distance,
     chamfered_vertices,
+    disc_violations,
     point_box_distance,
     polyline_length,
     polyline_point_distance,
@@ -264,3 +265,79 @@ def test_batched_paths_are_valid_and_match_single_queries():
         assert path.length >= np.linalg.norm(g - s) - 1e-12
         assert path.points[0].tolist() == s.tolist() and path.points[-1].tolist() == g.tolist()
         assert world.clearance(dense(path.points[:-1], path.points[1:], 500)).min() >= 0.2 - 1e-9
+
+
+def test_disc_violations_by_hand():
+    centres = np.array([[0.0, 0.0], [3.0, 0.0]])
+    radii = np.array([1.0, 1.0])
+    poly = np.array([[-0.5, 0.0], [-0.5, 2.0], [3.0, 2.0], [3.0, 0.5]])
+    d_start = np.linalg.norm(centres - poly[0], axis=1)  # 0.5, 3.5
+    d_goal = np.linalg.norm(centres - poly[-1], axis=1)  # 3.04, 0.5
+    # Leaves disc 0 straight up (never closer than 0.5), passes both discs 2 m away, and enters
+    # disc 1 along the last segment, straight towards its goal 0.5 from the centre: allowed.
+    assert disc_violations(poly, centres, radii, d_start, d_goal).tolist() == [False, False]
+    # Leaving disc 0 towards its centre first is not.
+    bad = np.array([[-0.5, 0.0], [0.2, 0.0], [0.2, 2.0]])
+    d = np.linalg.norm(centres - bad[0], axis=1)
+    assert disc_violations(bad, centres, radii, d, np.linalg.norm(centres - bad[-1], axis=1)).tolist() == [True, False]
+    # Coming back into disc 0 after leaving it (a middle segment 0.6 from its centre) is not either.
+    back = np.array([[-0.5, 0.0], [-2.0, 0.0], [-0.6, 0.6], [-0.6, 3.0]])
+    d = np.linalg.norm(centres - back[0], axis=1)
+    assert disc_violations(back, centres, radii, d, np.linalg.norm(centres - back[-1], axis=1)).tolist() == [True, False]
+
+
+def test_start_inside_a_disc_does_not_pass_around_it_closely():
+    g = VisibilityGraph(open_world(), 0.2)
+    centre = np.array([[0.0, 0.0]])
+    start, goal = np.array([-0.5, 0.0]), np.array([5.0, 0.0])
+    path = g.shortest_path(start, goal, discs=centre, disc_radii=np.array([1.0]))
+    assert path.success
+    # After its first segment the path keeps the whole radius: it leaves the disc, then goes around.
+    rest = dense(path.points[1:-1], path.points[2:])
+    assert np.linalg.norm(rest, axis=-1).min() >= 1.0 - 1e-9
+    first = dense(path.points[:1], path.points[1:2])
+    assert np.linalg.norm(first, axis=-1).min() >= 0.5 - 1e-9
+    # Reference optimum by brute force: straight out to a point Q of the unit circle (moving away
+    # from the centre all along), then the shortest way around the circle to the goal.
+    theta = np.linspace(0.0, np.pi, 200001)
+    q = np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    outward = (q - start) @ start >= 0.0
+    tangent = math.acos(1.0 / 5.0)
+    around = np.where(theta <= tangent, np.linalg.norm(goal - q, axis=1), math.sqrt(24.0) + theta - tangent)
+    best = (np.linalg.norm(q - start, axis=1) + around)[outward].min()
+    # The octagon path is no shorter, and longer by at most the octagon's excess (1/cos(pi/8)).
+    assert best - 1e-6 <= path.length <= best / math.cos(math.pi / 8)
+    # Passing around a disc of the start's distance instead (the arc from the start to the
+    # goal's tangent point, plus that tangent) would be shorter: the rule is not that one.
+    assert path.length > 0.5 * (math.pi - math.acos(0.1)) + math.sqrt(24.75)
+
+
+def test_goal_inside_a_disc_is_entered_along_the_last_segment():
+    g = VisibilityGraph(open_world(), 0.2)
+    centre = np.array([[0.0, 0.0]])
+    start, goal = np.array([-5.0, 0.0]), np.array([0.6, 0.0])
+    path = g.shortest_path(start, goal, discs=centre, disc_radii=np.array([1.0]))
+    assert path.success
+    pts = dense(path.points[:-2], path.points[1:-1])
+    assert np.linalg.norm(pts, axis=-1).min() >= 1.0 - 1e-9
+    last = dense(path.points[-2:-1], path.points[-1:])
+    assert np.linalg.norm(last, axis=-1).min() >= 0.6 - 1e-9
+    # Reversing start and goal gives the same length (the rule is symmetric).
+    back = g.shortest_path(goal, start, discs=centre, disc_radii=np.array([1.0]))
+    assert back.length == pytest.approx(path.length)
+
+
+def test_batched_paths_survive_a_full_memo(monkeypatch):
+    import nodnav.planning.geometry as geometry
+
+    world = paper_world()
+    starts = np.array([[-5.0, 0.0], [-5.0, 1.0], [-5.0, -1.0], [-6.0, 0.0]])
+    goals = np.array([[5.0, 0.0], [5.0, 1.0], [5.0, -1.0], [6.0, 0.0]])
+    monkeypatch.setattr(geometry, "MEMO_SIZE", 2)
+    g = VisibilityGraph(world, 0.2, 0.025)
+    g.shortest_paths(starts[:2], goals[:2])
+    # One remembered query and three new ones: storing the new ones evicts the remembered one.
+    got = g.shortest_paths(starts, goals)
+    fresh = VisibilityGraph(world, 0.2, 0.025)
+    for s, e, path in zip(starts, goals, got):
+        assert np.array_equal(path.points, fresh.shortest_path(s, e).points)

@@ -1,21 +1,27 @@
 """The fast planner's pieces against hand computations and brute-force references, and its
 behaviour on small situations whose answer is known."""
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 
-from nodnav.planning.base import PlanRequest, corridor_entry_order
+from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions
 from nodnav.planning.geometry import arc_length_grid
 from nodnav.planning.prioritized import (
+    SLACK,
     Motion,
     PrioritizedPlanner,
+    blocked_bits,
+    blocked_rows,
     conflict_intervals,
     corridor_passage,
     earliest_arrival,
     entry_cell,
     free_cells,
+    join_motions,
+    relaxed_separation,
     separation_requirements,
 )
 from nodnav.scenario.schema import PlannerParams
@@ -55,27 +61,29 @@ def min_gap(res, radii, factor=5):
 
 
 def test_separation_requirements_hand_values():
-    pos = np.array([[0.0, 0.0], [3.0, 0.0], [3.42, 0.0], [6.0, 0.0]])
-    dest = pos + [0.0, 1.0]
-    req = separation_requirements(pos, dest, np.full(4, 0.2), np.ones(4), DT, 0.05)
+    dest = np.array([[0.0, 1.0], [3.0, 1.0], [3.42, 1.0], [6.0, 1.0]])
+    req = separation_requirements(dest, np.full(4, 0.2), np.ones(4), DT, 0.05)
     # Far apart: r_a + r_b + margin = 0.45 (sqrt(0.4^2 + (2 * 1 * 0.1 / 2)^2) = 0.412 is smaller).
     assert req[0, 1] == pytest.approx(0.45) and req[1, 0] == pytest.approx(0.45)
-    # Robots 1 and 2 stand 0.42 apart now: held to 0.42.
+    # Robots 1 and 2 park 0.42 apart: held to 0.42 so that both can.
     assert req[1, 2] == pytest.approx(0.42)
     assert np.all(np.diag(req) == 0.0)
     # No margin: the between-samples bound sqrt(0.16 + 0.01) takes over.
-    req0 = separation_requirements(pos[[0, 3]], dest[[0, 3]], np.full(2, 0.2), np.ones(2), DT, 0.0)
+    req0 = separation_requirements(dest[[0, 3]], np.full(2, 0.2), np.ones(2), DT, 0.0)
     assert req0[0, 1] == pytest.approx(math.sqrt(0.17))
 
 
 def test_separation_requirements_never_below_contact():
-    pos = np.array([[0.0, 0.0], [0.3, 0.0]])  # already overlapping
-    req = separation_requirements(pos, pos + [[0, 3], [0, -3]], np.full(2, 0.2), np.ones(2), DT, 0.05)
+    # Destinations overlapping (a malformed request): still the contact distance.
+    req = separation_requirements(np.array([[0.0, 0.0], [0.3, 0.0]]), np.full(2, 0.2), np.ones(2), DT, 0.05)
     assert req[0, 1] == pytest.approx(0.4)
-    # Destinations only 0.43 apart: both must be able to park there.
-    pos = np.array([[0.0, 0.0], [3.0, 0.0]])
-    req = separation_requirements(pos, np.array([[0.0, 2.0], [0.43, 2.0]]), np.full(2, 0.2), np.ones(2), DT, 0.05)
-    assert req[0, 1] == pytest.approx(0.43)
+
+
+def test_relaxed_separation():
+    req = np.array([0.45, 0.45, 0.45])
+    got = relaxed_separation(req, np.array([0.43, 0.6, 0.1]))
+    # Closer than required: a hair below the present distance; otherwise unchanged.
+    assert got == pytest.approx([0.43 - SLACK, 0.45, 0.1 - SLACK], abs=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -155,7 +163,7 @@ def test_conflict_intervals_match_dense_sampling():
 
 def test_free_cells_by_hand():
     cols, first, last = np.array([1, 0, 1]), np.array([2, 0, 3]), np.array([3, 0, 10**9])
-    free = free_cells(3, 5, [(cols, first, last)], entry=2, allowed=2)
+    free = free_cells(3, 5, [(cols, first, last)], gates=[(2, 2)])
     expected = np.array([[0, 1, 0],
                          [1, 1, 0],
                          [1, 0, 1],
@@ -372,3 +380,196 @@ def test_compute_time_and_order_fields(world, planner):
 def test_malformed_order_is_rejected(world, planner):
     with pytest.raises(ValueError):
         planner.plan(request(world, [[-5.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [-5.0, 0.0]], (0, 0)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Pieces added for the closed loop: windows, gates, rows, joined motions
+
+
+def test_conflict_intervals_windows_clip_the_steps():
+    path = np.array([[0.0, 0.0], [10.0, 0.0]])
+    arc = np.arange(101) * 0.1
+    motion = Motion(path, np.stack([arc, np.zeros_like(arc)], axis=1), arc)
+    cells = np.array([[5.03, 0.3]])
+    # Unclipped: steps 46..54 (see the straight-line test above); the window keeps 50..60.
+    cols, first, last = conflict_intervals(cells, [motion], [0.5], ([50], [60]))
+    assert (cols.tolist(), first.tolist(), last.tolist()) == ([0], [50], [54])
+    cols, first, last = conflict_intervals(cells, [motion], [0.5], ([0], [45]))
+    assert len(cols) == 0
+
+
+def test_blocked_bits_several_gates_and_rows():
+    # Gate at cell 1 until step 2, gate at cell 3 until step 4; an interval closes cell 0 at step 3.
+    bits = blocked_bits(5, 6, [(np.array([0]), np.array([3]), np.array([3]))], [(1, 2), (3, 4)])
+    rows = blocked_rows(bits)
+    assert rows == [0b11110, 0b11110, 0b11000, 0b11001, 0, 0]
+    assert rows[4] is rows[5]  # runs share one integer
+
+
+def test_join_motions():
+    head = Motion(np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([[0.0, 0.0], [0.5, 0.0], [1.0, 0.0]]),
+                  np.array([0.0, 0.5, 1.0]))
+    tail = Motion(np.array([[1.0, 0.0], [1.0, 1.0]]), np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 1.0]]),
+                  np.array([0.0, 0.0, 1.0]))
+    m = join_motions(head, tail)
+    assert m.samples.tolist() == [[0.0, 0.0], [0.5, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+    assert m.arc.tolist() == [0.0, 0.5, 1.0, 1.0, 2.0] and m.last_step == 4
+    assert m.path.tolist() == [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+
+
+# ---------------------------------------------------------------------------------------------
+# Door zones, getting out of the way, and pairs that start too close
+
+
+def check_plan(world, req, res, door_clearance=1.0):
+    """Independent checks of a successful plan: start and end, speed, free space, contact at a
+    step five times finer, never closer than a pair started, entry order, single file, doors."""
+    tr = res.trajectory
+    assert res.success, res.reason
+    n = len(req.positions)
+    assert np.allclose(tr.positions[0], req.positions) and np.allclose(tr.positions[-1], req.destinations)
+    speed = np.linalg.norm(np.diff(tr.positions, axis=0), axis=2) / DT
+    assert np.all(speed <= req.max_speeds + 1e-9)
+    t = np.linspace(tr.times[0], tr.times[-1], 5 * (len(tr.times) - 1) + 1)
+    p = tr.positions_at(t)
+    assert np.all(world.is_free(p, 0.2))
+    start_gap = np.linalg.norm(req.positions[:, None] - req.positions[None], axis=2)
+    for a in range(n):
+        for b in range(a + 1, n):
+            assert np.linalg.norm(p[:, a] - p[:, b], axis=1).min() >= 0.4 - 1e-9
+            at_samples = np.linalg.norm(tr.positions[:, a] - tr.positions[:, b], axis=1)
+            assert at_samples.min() >= min(0.45, start_gap[a, b]) - 1e-5
+    dirs = crossing_directions(world, req.positions, req.destinations)
+    crossing = [k for k in res.order_planned if dirs[k] != 0]
+    assert [k for k in corridor_entry_order(world, tr) if dirs[k] != 0] == crossing
+    inside = world.in_corridor(tr.positions)
+    entrances = np.asarray(world.entrances)
+    for i, a in enumerate(crossing):
+        for b in crossing[i + 1:]:
+            if dirs[a] == dirs[b]:
+                continue
+            assert np.nonzero(inside[:, b])[0][0] > np.nonzero(inside[:, a])[0][-1]
+            # Door rule: once b is (or gets) clear of its door zone, it comes back only after a
+            # has left that zone for good.
+            door = entrances[0 if dirs[b] > 0 else 1]
+            in_b = np.linalg.norm(tr.positions[:, b] - door, axis=1) < door_clearance
+            in_a = np.linalg.norm(tr.positions[:, a] - door, axis=1) < door_clearance
+            a_left = np.nonzero(in_a)[0][-1] if in_a.any() else -1
+            first_out = np.argmax(~in_b)
+            later_in = np.nonzero(in_b[first_out:])[0]
+            if len(later_in):
+                assert first_out + later_in[0] > a_left, f"robot {b} is in its door zone while robot {a} is"
+    return tr
+
+
+def test_waiting_robot_stays_clear_of_the_door(world, planner):
+    # Head-on from the rooms: robot 1 goes second and waits outside the right door zone until
+    # robot 0 has come out of it (farther than the old rule, which let it wait at the entrance).
+    req = request(world, [[-5.5, 0.0], [5.5, 0.0]], [[5.5, 1.2], [-5.5, -1.2]], (0, 1))
+    tr = check_plan(world, req, planner.plan(req))
+    gap = np.linalg.norm(tr.positions[:, 1] - [3.0, 0.0], axis=1)
+    out = np.linalg.norm(tr.positions[:, 0] - [3.0, 0.0], axis=1)
+    left = np.nonzero(out < 1.0)[0][-1]
+    assert gap[:left + 1].min() >= 1.0 - 1e-9
+    assert gap.min() < 1.0  # and it does go through afterwards
+
+
+def test_door_rule_can_be_narrowed(world):
+    narrow = PrioritizedPlanner(world, PlannerParams(dt=DT, door_clearance=0.3))
+    req = request(world, [[-5.5, 0.0], [5.5, 0.0]], [[5.5, 1.2], [-5.5, -1.2]], (0, 1))
+    wide = PrioritizedPlanner(world, PlannerParams(dt=DT)).plan(req)
+    tight = check_plan(world, req, narrow.plan(req), 0.3)
+    # Waiting nearer the door, robot 1 is through sooner.
+    assert narrow.plan(req).info["arrival_times"][1] < wide.info["arrival_times"][1]
+    assert tight.positions.shape[0] <= wide.trajectory.positions.shape[0]
+
+
+@pytest.mark.parametrize("mirror", [1.0, -1.0])
+def test_robot_in_front_of_the_exit_gets_out_of_the_way(world, planner, mirror):
+    # Recorded in the closed loop (2r-case2, seed 2, t = 10 s), and its mirror image at the right
+    # exit: robot 1 is leaving the corridor at its exit, robot 0, which goes second, stands right
+    # in front of it, 0.42 m away (less than the 0.45 m required).
+    flip = np.array([mirror, 1.0])
+    pos = np.array([[-3.098, 0.169], [-2.816, -0.146]]) * flip
+    dest = np.array([[5.0, -1.5], [-5.0, -1.5]]) * flip
+    for order, entered in [((0, 1), (1,)), ((1, 0), (1,)), ((1, 0), ())]:
+        req = request(world, pos, dest, order, entered)
+        res = planner.plan(req)
+        assert res.order_planned == (1, 0) and res.info["retreats"] == (0,)
+        tr = check_plan(world, req, res)
+        # Robot 0 moves first; robot 1 holds until robot 0 has made room.
+        moved_0 = np.argmax(np.linalg.norm(tr.positions[:, 0] - pos[0], axis=1) > 0.05)
+        moved_1 = np.argmax(np.linalg.norm(tr.positions[:, 1] - pos[1], axis=1) > 0.05)
+        assert moved_0 < moved_1
+
+
+def test_robot_parked_in_the_door_zone_leaves_it_first(world, planner):
+    # Robot 1 waits 0.85 m from the right entrance, not in robot 0's way; robot 0, which has
+    # entered, comes out there. Robot 1 first leaves the door zone, then comes back after robot 0.
+    req = request(world, [[0.0, 0.0], [3.6, 0.6]], [[5.5, -1.0], [-5.5, 0.0]], (0, 1), entered=(0,))
+    res = planner.plan(req)
+    assert res.info["retreats"] == (1,)
+    tr = check_plan(world, req, res)
+    gap = np.linalg.norm(tr.positions[:, 1] - [3.0, 0.0], axis=1)
+    assert gap[0] < 1.0 and (gap >= 1.0 - 1e-9).any()
+
+
+def test_three_robots_jammed_at_the_door(world, planner):
+    # Recorded in the closed loop (3r-case1, seed 1, t = 5 s): three robots bound the same way
+    # crowd the left entrance, robot 2 right in front of it, 0.42 m from each of the others.
+    pos = [[-3.202, 0.527], [-3.235, -0.295], [-3.137, 0.112]]
+    dest = [[5.5, 1.5], [5.5, -1.5], [5.5, 0.0]]
+    for order in itertools.permutations(range(3)):
+        req = request(world, pos, dest, order)
+        check_plan(world, req, planner.plan(req))
+
+
+def test_robot_pinned_in_the_entrance_gets_room(world, planner):
+    # Recorded in the closed loop (3r-case4, seed 2): robot 2 stands in the right entrance,
+    # pinned between the wall's corner and robot 1 (0.43 m away); both go left, robot 1 first.
+    # Robot 2 can only get out of the way once robot 1 has backed off.
+    pos = [[-5.0, -0.8], [3.179, -0.259], [3.057, 0.154]]
+    dest = [[5.8, 1.8], [-5.8, 1.5], [-5.8, -1.8]]
+    for order in itertools.permutations(range(3)):
+        req = request(world, pos, dest, order)
+        res = planner.plan(req)
+        check_plan(world, req, res)
+        if order.index(1) < order.index(2):
+            assert 2 in res.info["retreats"]
+
+
+def test_pair_starting_too_close_may_separate(world, planner):
+    # 0.41 m apart (0.45 required), both going away from each other: allowed, and they never
+    # come closer than they started.
+    req = request(world, [[-5.0, 0.0], [-5.0, 0.41]], [[-5.0, -2.0], [-5.0, 2.0]], (0, 1))
+    res = planner.plan(req)
+    tr = check_plan(world, req, res)
+    gap = np.linalg.norm(tr.positions[:, 0] - tr.positions[:, 1], axis=1)
+    assert gap.min() >= 0.41 - 1e-5 and res.info["arrival_times"] == pytest.approx([2.0, 1.6])
+
+
+def test_four_robots_jammed_at_the_door(world, planner):
+    # Recorded in the closed loop (4r-case1, seed 5, old planner): four robots bound the same way
+    # box each other in at the left entrance; robot 0 stands in it, pinned between the wall's
+    # corner and robot 2 (0.43 m away), which is itself hemmed in by robots 1 and 3. In some
+    # orders robots must get out of the way of robots that are getting out of the way.
+    pos = [[-3.139, 0.194], [-3.594, 0.354], [-3.452, -0.095], [-3.307, -0.519]]
+    dest = [[4.5, 1.0], [6.0, 1.5], [6.0, -1.5], [4.5, -1.0]]
+    for order in itertools.permutations(range(4)):
+        req = request(world, pos, dest, order)
+        check_plan(world, req, planner.plan(req))
+
+
+def test_relaxed_pair_keeps_full_separation_once_apart(world, planner):
+    # Robot 1 starts 0.41 m right behind robot 0 (0.45 m required) and follows it through the
+    # corridor. The relaxation lasts only until robot 0's motion keeps 0.45 m from where robot 1
+    # started; from then on the pair keeps the full separation.
+    req = request(world, [[-5.0, 0.0], [-5.41, 0.0]], [[5.5, 0.0], [5.0, 0.8]], (0, 1))
+    tr = check_plan(world, req, planner.plan(req))
+    p0 = tr.positions_at(np.linspace(tr.times[0], tr.times[-1], 20 * (len(tr.times) - 1) + 1))[:, 0]
+    near = np.linalg.norm(p0 - [-5.41, 0.0], axis=1) < 0.45
+    t_sep = (np.nonzero(near)[0][-1] + 1) / 20 * DT  # last moment robot 0 is within 0.45 of that start
+    gap = np.linalg.norm(tr.positions[:, 0] - tr.positions[:, 1], axis=1)
+    after = tr.times - tr.times[0] >= t_sep + DT
+    assert gap.min() >= 0.41 - 1e-5 and after.any()
+    assert gap[after].min() >= 0.45 - 1e-9

@@ -1,4 +1,4 @@
-"""The B-spline model predictive controller of the paper's appendix, solved with OSQP.
+"""The B-spline model predictive controller of the paper's appendix, solved as small dense QPs.
 
 Problem (appendix, "Model Predictive Control"), for robot ``i`` over ``[t, t + T_MPC]``:
 
@@ -35,36 +35,48 @@ How it becomes a short sequence of small convex QPs:
   at most ``max_accel dt^2 / 8``; ``R'`` is inflated accordingly. Every accepted plan is
   therefore safe at every instant with respect to the predictions. The linearisation trajectory
   satisfies its own tangent half-planes, so a feasible previous plan stays feasible. A second QP,
-  re-linearised about the first solution (SQP), is solved when the first moved far from its
-  linearisation points.
+  re-linearised about the first solution (SQP), is solved only after a cold start (no previous
+  plan), when the first moved far from its linearisation points; otherwise the next step's
+  re-linearisation continues the iteration.
 * Recursive feasibility. A finite horizon alone lets the plan arrive at a robot or a wall with a
   speed it can no longer shed; so at the end of the horizon the gap along each normal must exceed
   the distance needed to stop, imposed through secants (an inner approximation, see
   :func:`stopping_rows`).
-* Already inside a margin (another robot closer than ``r_i + r_j + margin``, or a wall closer
-  than ``r_i``), the plan is only required not to get closer than now; overlapping already is
-  infeasible.
-* Solver accuracy. OSQP stops at a primal residual of at most ``eps (1 + max |A x|)``; every
-  inequality is tightened by that much (``slack``), so a ``solved`` answer satisfies the
-  untightened constraints. An unfinished answer (``solved inaccurate``, iteration limit) is used
-  only if its residual is checked to be that small too. Every solution is then checked exactly
-  (true distances and clearances at a fine step, derivative bounds) before it is used.
+* Already inside a margin (another robot's prediction closer than ``r_i + r_j + margin``, or a
+  wall closer than ``r_i``), the plan is only required not to get closer than now, separately
+  for every prediction.
+* The solver. About 18 variables and a few hundred inequality rows: a dense dual active-set
+  method (Goldfarb and Idnani, :func:`solve_qp`) solves it exactly in a few dozen active-set
+  changes and proves infeasibility with a certificate, where a first-order method (OSQP) needed
+  thousands of iterations on the degenerate steps of the closed loop and often stopped at its
+  iteration limit on feasible problems. Every inequality is tightened by the solver's tolerance,
+  and every solution is checked exactly (true distances and clearances at a fine step, derivative
+  bounds) before it is used.
 
-The OSQP problem is set up once per (number of other robots, sample times) with a fixed sparsity
-pattern; later steps only update ``q``, ``l``, ``u`` and the values of ``A`` and warm-start from
-the previous plan moved on by one step. When no QP gives an acceptable plan, the robot brakes
-along its current velocity at ``max_accel`` and the result says so.
+When the tracking QP has no solution, the robot does not brake blindly: an evasive QP with the
+same dynamics, limits and (hard) wall constraints softens the separation rows of the robots
+involved in the conflict (those in the solver's infeasibility certificate) with non-negative
+slacks under a large exact (L1) penalty, weighted towards the near future, and so returns the
+plan that intrudes least into the others' predicted discs. Which side to pass a robot on is a
+non-convex choice: the evasive QP is solved linearised about the previous plan and about the
+current arrangement of the robots, and the plan whose true intrusion comes later is kept
+(:meth:`BSplineMPC._evasive`). Only if no evasive plan keeps clear of the walls does the robot
+brake along its current velocity. Both are reported with ``success=False`` and
+``info["fallback"]`` (``"evasive"`` or ``"braking"``).
+
+Everything fixed for a (number of other robots, sample times) pair is precomputed once: the
+static constraint rows, the factor of the cost Hessian and the maps from the reference to the
+unconstrained minimiser; a step only writes the new half-planes (a compiled loop) and bounds.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
-import osqp
-from scipy import sparse
 
 from nodnav.control import bspline
 from nodnav.control.base import ControlRequest, ControlResult
@@ -72,6 +84,15 @@ from nodnav.scenario.schema import ControllerParams, RobotSpec
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
+
+try:  # numba makes the active-set solver about a hundred times faster; the same code runs without it
+    from numba import njit as _numba_njit
+
+    def _compiled(fn):
+        return _numba_njit(cache=True, nogil=True)(fn)
+except ImportError:  # pragma: no cover - numba is installed in the project's environment
+    def _compiled(fn):
+        return fn
 
 DEGREE = 3
 """The paper's third-order (cubic) B-spline."""
@@ -95,19 +116,226 @@ class MPCSettings:
     """Fraction of the available deceleration assumed by the terminal constraint (headroom for
     the approximations of the next step)."""
     sqp_iterations: int = 2
-    """QPs solved per step at most (each re-linearised about the previous QP's solution)."""
+    """QPs solved per step at most after a cold start (each re-linearised about the previous
+    QP's solution); one otherwise."""
     sqp_tolerance: float = 0.02
     """A further QP is solved when the solution moved farther than this from its linearisation (m)."""
-    eps: float = 2e-4
-    """OSQP absolute and relative tolerance (every inequality is tightened to absorb it)."""
-    max_iter: int = 10000
-    """OSQP iteration limit per QP (hard steps need thousands; stopping early makes poor plans)."""
-    check_every: int = 5
-    """OSQP checks its termination criteria every this many iterations."""
+    qp_tolerance: float = 1e-9
+    """Largest row violation the QP solver accepts (m); every inequality is tightened by it."""
+    qp_max_steps: int = 2000
+    """Active-set changes per QP at most (a guard against cycling through rounding errors)."""
+    evasive: bool = True
+    """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
+    the controller's earlier behaviour, kept for comparison)."""
+    evasive_penalty: float = 1e3
+    """Cost of the evasive QP per metre of intrusion into another robot's required separation
+    at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above
+    the tracking cost's sensitivity (below about 10 per metre), so the penalty is exact: no
+    intrusion that can be avoided is made."""
+    evasive_curvature: float = 1e3
+    """Quadratic cost of an intrusion (per m^2), which keeps the evasive QP strictly convex."""
     check_tolerance: float = 1e-4
     """Violation of a constraint, checked exactly, that makes a solution unacceptable (m, m/s, m/s^2)."""
     contact_tolerance: float = 1e-3
-    """Penetration of the current state into a robot or wall beyond which the robot brakes at once (m)."""
+    """Penetration of the current state into a wall (the robot then brakes at once) or into another
+    robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Dense convex QP: the dual active-set method of Goldfarb and Idnani
+
+
+_QP_REASONS = ("", "infeasible", "step limit")
+
+
+@dataclass(frozen=True)
+class QPSolution:
+    """Result of :func:`solve_qp`."""
+
+    success: bool
+    """Whether ``x`` is the minimiser."""
+    reason: str
+    """Empty on success, else ``infeasible`` (no point satisfies every row) or ``step limit``."""
+    x: np.ndarray
+    """The minimiser; on failure the last iterate (a minimiser over a subset of the rows)."""
+    active: np.ndarray
+    """Solved: the rows active at ``x``. Infeasible: rows that conflict, the last one the row that
+    could not be added."""
+    multipliers: np.ndarray
+    """Solved: the Lagrange multipliers (>= 0) of ``active``. Infeasible: a Farkas certificate
+    ``y >= 0`` over ``active`` with ``y^T rows[active] = 0`` and ``y^T lower[active] > 0``."""
+    steps: int
+    """Active-set changes made."""
+
+
+def qp_factor(hessian: np.ndarray) -> np.ndarray:
+    """``J = L^{-T}`` for ``H = L L^T`` (Cholesky), so ``J^T H J = I``; Fortran order, ready for
+    :func:`solve_qp`. Raises ``numpy.linalg.LinAlgError`` if ``H`` is not positive definite."""
+    lower = np.linalg.cholesky(np.asarray(hessian, dtype=float))
+    return np.asfortranarray(np.linalg.inv(lower).T)
+
+
+@_compiled
+def _qp_drop(factor, tri, mult, active, q, k):
+    """Remove the ``k``-th of ``q`` active rows; Givens rotations of rows ``k..q-2`` of ``tri``
+    (and of the matching columns of ``factor``) restore its upper triangular form."""
+    n = factor.shape[0]
+    for j in range(k, q - 1):
+        for i in range(q):
+            tri[i, j] = tri[i, j + 1]
+        mult[j] = mult[j + 1]
+        active[j] = active[j + 1]
+    for i in range(q):
+        tri[i, q - 1] = 0.0
+    for j in range(k, q - 1):
+        a, b = tri[j, j], tri[j + 1, j]
+        h = np.hypot(a, b)
+        if h == 0.0:
+            continue
+        c, s = a / h, b / h
+        tri[j, j], tri[j + 1, j] = h, 0.0
+        for col in range(j + 1, q - 1):
+            a, b = tri[j, col], tri[j + 1, col]
+            tri[j, col], tri[j + 1, col] = c * a + s * b, c * b - s * a
+        for i in range(n):
+            a, b = factor[i, j], factor[i, j + 1]
+            factor[i, j], factor[i, j + 1] = c * a + s * b, c * b - s * a
+    return q - 1
+
+
+@_compiled
+def _qp_kernel(rows, lower, factor, x, tri, mult, active, q, tol, max_steps):
+    """Goldfarb-Idnani iterations from a dual-feasible start; returns (status, q, steps).
+
+    Invariants (Goldfarb and Idnani 1983): ``x`` minimises the cost subject to the ``q`` active
+    rows held as equalities, with multipliers ``mult[:q] >= 0``; ``factor^T H factor = I`` and
+    ``factor^T N = [tri; 0]`` with ``N`` the active rows' normals and ``tri`` upper triangular.
+    Each step adds the most violated row, moving ``x`` along ``z`` (the primal direction in the
+    null space of the active rows) and the multipliers along ``-r``; a multiplier reaching zero
+    first drops its row (partial step). A violated row whose normal is a non-positive
+    combination of the active ones (``z = 0``, no ``r > 0``) proves infeasibility.
+    """
+    m, n = rows.shape
+    is_active = np.zeros(m, dtype=np.bool_)
+    for k in range(q):
+        is_active[active[k]] = True
+    d = np.empty(n)
+    z = np.empty(n)
+    r = np.empty(n)
+    steps = 0
+    while True:
+        p, worst = -1, -tol
+        for i in range(m):
+            if not is_active[i]:
+                s = -lower[i]
+                for k in range(n):
+                    s += rows[i, k] * x[k]
+                if s < worst:
+                    worst, p = s, i
+        if p < 0:
+            return 0, q, steps
+        added = 0.0
+        while True:
+            steps += 1
+            if steps > max_steps:
+                return 2, q, steps
+            for k in range(n):
+                acc = 0.0
+                for i in range(n):
+                    acc += factor[i, k] * rows[p, i]
+                d[k] = acc
+            free2, all2 = 0.0, 0.0
+            for k in range(n):
+                all2 += d[k] * d[k]
+                if k >= q:
+                    free2 += d[k] * d[k]
+            for i in range(n):
+                acc = 0.0
+                for k in range(q, n):
+                    acc += factor[i, k] * d[k]
+                z[i] = acc
+            for k in range(q - 1, -1, -1):
+                acc = d[k]
+                for j in range(k + 1, q):
+                    acc -= tri[k, j] * r[j]
+                r[k] = acc / tri[k, k]
+            t_dual, drop = np.inf, -1
+            for k in range(q):
+                if r[k] > 0.0 and mult[k] / r[k] < t_dual:
+                    t_dual, drop = mult[k] / r[k], k
+            full = free2 > 1e-20 * all2
+            t_primal = np.inf
+            if full:
+                s = -lower[p]
+                for k in range(n):
+                    s += rows[p, k] * x[k]
+                t_primal = -s / free2
+            elif drop < 0:
+                for k in range(q):
+                    mult[k] = -r[k]
+                mult[q] = 1.0
+                active[q] = p
+                return 1, q + 1, steps
+            t = min(t_dual, t_primal)
+            if full:
+                for k in range(n):
+                    x[k] += t * z[k]
+            for k in range(q):
+                mult[k] -= t * r[k]
+            added += t
+            if full and t_primal <= t_dual:
+                # Add p: rotate columns q..n-1 of the factor so that d has a single non-zero there.
+                for j in range(n - 1, q, -1):
+                    a, b = d[j - 1], d[j]
+                    h = np.hypot(a, b)
+                    if h == 0.0:
+                        continue
+                    c, s = a / h, b / h
+                    d[j - 1], d[j] = h, 0.0
+                    for i in range(n):
+                        a, b = factor[i, j - 1], factor[i, j]
+                        factor[i, j - 1], factor[i, j] = c * a + s * b, c * b - s * a
+                for k in range(q + 1):
+                    tri[k, q] = d[k]
+                mult[q] = added
+                active[q] = p
+                is_active[p] = True
+                q += 1
+                break
+            is_active[active[drop]] = False
+            q = _qp_drop(factor, tri, mult, active, q, drop)
+
+
+def solve_qp(factor: np.ndarray, start: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float = 1e-9,
+             max_steps: int = 2000, active: np.ndarray | None = None, triangular: np.ndarray | None = None,
+             multipliers: np.ndarray | None = None) -> QPSolution:
+    """Minimise ``x^T H x / 2 + g^T x`` subject to ``rows @ x >= lower`` (dual active-set method).
+
+    ``factor`` is :func:`qp_factor` of ``H`` (strictly convex) and ``start = -H^{-1} g`` the
+    unconstrained minimiser. Optionally the method starts from a known dual-feasible state instead:
+    ``start`` minimising the cost with the rows ``active`` held as equalities, ``multipliers``
+    (>= 0) their Lagrange multipliers, ``factor`` and the upper triangular ``triangular`` with
+    ``factor^T H factor = I`` and ``factor^T rows[active]^T = [triangular; 0]``. Rows with
+    ``lower = -inf`` never bind. Inputs are not modified. Finite: each step either adds a row
+    (the cost rises strictly) or drops one; ``max_steps`` only guards against rounding.
+    """
+    rows = np.ascontiguousarray(rows, dtype=float)
+    lower = np.asarray(lower, dtype=float)
+    n = rows.shape[1]
+    j = np.array(factor, dtype=float, order="F")
+    x = np.array(start, dtype=float)
+    tri = np.zeros((n, n))
+    mult = np.zeros(n + 1)
+    act = np.zeros(n + 1, dtype=np.int64)
+    q0 = 0
+    if active is not None:
+        q0 = len(active)
+        act[:q0] = active
+        tri[:q0, :q0] = triangular
+        mult[:q0] = multipliers
+    status, q, steps = _qp_kernel(rows, lower, j, x, tri, mult, act, q0, float(tol), int(max_steps))
+    return QPSolution(success=status == 0, reason=_QP_REASONS[status], x=x, active=act[:q].copy(),
+                      multipliers=mult[:q].copy(), steps=int(steps))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -246,9 +474,74 @@ def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # The controller
 
+@_compiled
+def _separation_rows(lin, x_now, boxes, n_walls, p0, v0, contact, need, cold, keep_arrangement, eps_end,
+                     delta_sq, group_point, group_wv, term_offset, vel, far, away, dyn_phi, dyn_line, rows, lower,
+                     row0):
+    """Write the wall and separation rows (see :meth:`BSplineMPC._write_separation`) into
+    ``rows[row0:]`` (``[alpha_x phi, alpha_y phi]``) and ``lower[row0:]`` (QP coordinates)."""
+    n_groups, n_end = x_now.shape[0], x_now.shape[1]
+    n_rows, nz = group_point.shape[0], dyn_phi.shape[1]
+    normal = np.empty((n_end, 2))
+    point = np.empty((n_end, 2))
+    for g in range(n_groups):
+        for e in range(n_end):
+            if keep_arrangement[g]:  # keep the current arrangement: the direction from the point to p0
+                normal[e, 0], normal[e, 1] = away[g, 0], away[g, 1]
+                point[e, 0], point[e, 1] = x_now[g, e, 0], x_now[g, e, 1]
+                continue
+            if g < n_walls:  # the wall rectangle's nearest point to the linearisation point
+                qx = min(max(lin[e, 0], boxes[g, 0]), boxes[g, 2])
+                qy = min(max(lin[e, 1], boxes[g, 1]), boxes[g, 3])
+            else:
+                qx, qy = x_now[g, e, 0], x_now[g, e, 1]
+            vx, vy = lin[e, 0] - qx, lin[e, 1] - qy
+            dist = np.sqrt(vx * vx + vy * vy)
+            replace = dist < contact[g]
+            if not replace and cold:
+                replace = (vx * (p0[0] - qx) + vy * (p0[1] - qy)) / max(dist, 1e-12) < need[g]
+            if replace:
+                qx, qy = x_now[g, e, 0], x_now[g, e, 1]
+                vx, vy = p0[0] - qx, p0[1] - qy
+                dist = np.sqrt(vx * vx + vy * vy)
+            if dist < 1e-9:
+                vx, vy, dist = away[g, 0], away[g, 1], 1.0
+            normal[e, 0], normal[e, 1] = vx / dist, vy / dist
+            point[e, 0], point[e, 1] = qx, qy
+        for r in range(n_rows):
+            e = group_point[r]
+            ax, ay = normal[e, 0], normal[e, 1]
+            qx, qy = point[e, 0], point[e, 1]
+            if r < n_end:
+                required = np.sqrt((need[g] + eps_end[r]) ** 2 + delta_sq[g, r])
+            else:
+                required = need[g] + term_offset[r - n_end]
+                if g >= n_walls:
+                    qx += group_wv[r] * vel[g - n_walls, 0]
+                    qy += group_wv[r] * vel[g - n_walls, 1]
+            i = g * n_rows + r
+            if g < n_walls and far[g]:
+                lower[row0 + i] = -np.inf
+            else:
+                lower[row0 + i] = (ax * (qx - p0[0]) + ay * (qy - p0[1]) + required
+                                   - (ax * v0[0] + ay * v0[1]) * dyn_line[i])
+            for k in range(nz):
+                rows[row0 + i, k] = ax * dyn_phi[i, k]
+                rows[row0 + i, nz + k] = ay * dyn_phi[i, k]
+
+
 
 class _Problem:
-    """Everything fixed for one (number of other robots, sample times): matrices and the OSQP solver."""
+    """Everything fixed for one (number of other robots, sample times): rows, factors, maps.
+
+    The QP's variables are ``z = [z_x, z_y]``, the free control points (:func:`initial_state_nullspace`)
+    as deviations from the line ``p0 + v0 tau``, in coordinates centred on ``p0``. Every row is a
+    functional ``alpha^T phi_f(c)`` of the control points (a position at an interval end, a
+    velocity or acceleration control point, a terminal combination) in one-sided form
+    ``row @ z >= lower``, in metres: derivative rows are scaled by the knot span (``h``, ``h^2``).
+    Order: box rows, speed polygon, acceleration polygon (all static), then one group of
+    ``n_end + n_term`` rows per wall and per other robot (normals written at every step).
+    """
 
     def __init__(self, ctl: "BSplineMPC", n_others: int, sample_times: np.ndarray):
         s, robot = ctl.settings, ctl.robot
@@ -269,17 +562,11 @@ class _Problem:
         self.term_wv, self.term_wa, self.term_const = stopping_rows(
             h, s.terminal_decel * brake, 2.0 * robot.max_speed, s.terminal_pieces)
 
-        # Every row is in metres: derivative rows are scaled by the knot span (h, h^2), which
-        # keeps OSQP well conditioned. OSQP stops at a primal residual of at most
-        # eps (1 + max |A x|); the QP's variables are the deviation from the line p0 + v0 tau, so
-        # |A x| is at most a row's value (positions within reach, terminal rows, scaled speeds and
-        # accelerations) plus its value on that line. Every inequality is tightened by that.
-        reach = robot.max_speed * horizon
-        row_bound = max(reach + self.term_wv.max() * robot.max_speed + self.term_wa.max() * robot.max_accel,
-                        h * robot.max_speed, h**2 * robot.max_accel)
-        self.slack = s.eps * (1.0 + 2.0 * row_bound)
-        # Chord inflation of each interval, and its maximum over the intervals meeting at each end.
-        self.eps = chord_inflation(robot.max_accel, self.intervals) + self.slack
+        # Every inequality is tightened by the solver's tolerance, so an accepted solution meets
+        # the untightened one. Chord inflation of each interval, and its maximum over the
+        # intervals meeting at each end.
+        self.tol = s.qp_tolerance
+        self.eps = chord_inflation(robot.max_accel, self.intervals) + self.tol
         self.eps_end = np.maximum(self.eps, np.append(self.eps[1:], 0.0))
 
         # Interpolation of the sampled reference and predictions.
@@ -288,11 +575,19 @@ class _Problem:
         self.slope_end = slope_matrix(sample_times, self.term_time)
         self.check_times = np.sort(np.concatenate([self.ends, self.mids]))
         self.interp_check = interpolation_matrix(sample_times, self.check_times)
+        # One product gives every prediction at 0, at the interval ends, at the check times, and
+        # its velocity at the end of the horizon.
+        self.interp_all = np.vstack([self.interp_zero, self.interp_ends, self.interp_check, self.slope_end])
 
         # Curve evaluations (control points -> values).
         self.b_ends = bspline.basis(self.ends, knots, DEGREE)
         self.b_check = bspline.basis(self.check_times, knots, DEGREE)
         self.b_samples = bspline.basis(sample_times, knots, DEGREE)
+        # A plan's next position and velocity and its samples; its check points and the points
+        # whose hulls hold its velocity and acceleration.
+        self.b_out = np.vstack([ctl.b_step, ctl.bv_step, self.b_samples])
+        self.b_check_rates = np.vstack([self.b_check, ctl.rates])
+        self.check_weights = horizon / self.check_times
 
         # Linear functionals on the control points used by constraint rows: positions at the
         # interval ends, velocity and acceleration control points, terminal functionals.
@@ -304,117 +599,152 @@ class _Problem:
                     + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
                     + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
         phi = np.vstack([self.b_ends, d1, d2, phi_term])
-        self.phi_t = phi @ ctl.nullspace
-        self.phi_line = phi @ ctl.greville  # each functional on the line tau -> tau
+        phi_t = phi @ ctl.nullspace
+        phi_line = phi @ ctl.greville  # each functional on the line tau -> tau
         f_vel = n_end + np.arange(len(d1))
         f_acc = n_end + len(d1) + np.arange(len(d2))
         f_term = n_end + len(d1) + len(d2) + np.arange(len(phi_term))
+        self.nz = phi_t.shape[1]
 
-        # Static rows: box (x and y at each interval end), speed and acceleration polygons.
+        # Static rows: x, y, -x, -y at each interval end (the box), speed and acceleration polygons.
+        eye = np.eye(2)
         v_normals = polygon_normals(s.speed_polygon_sides)
         a_normals = polygon_normals(s.accel_polygon_sides)
-        self.n_box = 2 * n_end
-        self.static_alpha = np.vstack([np.tile(np.eye(2), (n_end, 1)),
-                                       np.tile(v_normals, (len(d1), 1)), np.tile(a_normals, (len(d2), 1))])
-        self.static_f = np.concatenate([np.repeat(np.arange(n_end), 2),
-                                        np.repeat(f_vel, len(v_normals)), np.repeat(f_acc, len(a_normals))])
-        self.static_upper = np.concatenate([
+        self.n_box = 4 * n_end
+        static_alpha = np.vstack([np.tile(np.vstack([eye, -eye]), (n_end, 1)),
+                                  -np.tile(v_normals, (len(d1), 1)), -np.tile(a_normals, (len(d2), 1))])
+        static_f = np.concatenate([np.repeat(np.arange(n_end), 4), np.repeat(f_vel, len(v_normals)),
+                                   np.repeat(f_acc, len(a_normals))])
+        self.static_base = np.concatenate([
             np.zeros(self.n_box),  # the box bounds depend on the position, set per step
-            np.full(len(d1) * len(v_normals), h * robot.max_speed * np.cos(np.pi / s.speed_polygon_sides) - self.slack),
-            np.full(len(d2) * len(a_normals), h**2 * brake - self.slack),
+            np.full(len(d1) * len(v_normals), self.tol - h * robot.max_speed * np.cos(np.pi / s.speed_polygon_sides)),
+            np.full(len(d2) * len(a_normals), self.tol - h**2 * brake),
         ])
+        self.static_alpha = static_alpha
+        self.static_line = phi_line[static_f]
+        self.n_static = len(static_f)
 
         # Dynamic rows, one group per wall and per other robot: a half-plane at every interval
         # end, then the terminal rows with the last end's normal.
         n_term = len(phi_term)
         self.group_point = np.concatenate([np.arange(n_end), np.full(n_term, n_end - 1)])
-        self.group_f = np.concatenate([np.arange(n_end), f_term])
         self.group_wv = np.concatenate([np.zeros(n_end), self.term_wv])
-        self.group_const = np.concatenate([np.zeros(n_end), self.term_const])
+        self.term_offset = self.eps_end[-1] + self.term_const
+        self.rows_per_group = n_end + n_term
+        self.n_groups = self.n_walls + n_others
         n_groups = self.n_walls + n_others
-        self.dyn_f = np.tile(self.group_f, n_groups)
-        self.n_rows = len(self.static_f) + len(self.dyn_f)
+        dyn_f = np.tile(np.concatenate([np.arange(n_end), f_term]), n_groups)
+        self.dyn_phi = phi_t[dyn_f]
+        self.dyn_line = phi_line[dyn_f]
+        self.n_rows = self.n_static + len(dyn_f)
+        # Row alpha^T phi_f is [alpha_x phi_f, alpha_y phi_f]; the dynamic rows are written per QP.
+        self.rows = np.zeros((self.n_rows, 2 * self.nz))
+        by_coordinate = self.rows.reshape(self.n_rows, 2, self.nz)
+        by_coordinate[:self.n_static] = static_alpha[:, :, None] * phi_t[static_f][:, None, :]
+        # Each soft group of the evasive QP: one slack per interval end, one for its terminal rows.
+        self.slack_of_row = np.concatenate([np.arange(n_end), np.full(n_term, n_end)])
+        self.slack_weights = np.append(horizon / self.ends, 1.0) * s.evasive_penalty
 
-        # The fixed sparsity pattern of A (explicit zeros kept) and where each entry goes in its
-        # CSC data, so that a step only scatters the new values of the dynamic rows.
-        self.static_a = self.rows(self.static_alpha, self.static_f)
-        dyn_pattern = np.abs(self.phi_t[self.dyn_f]) > 0
-        mask = np.vstack([self.static_a != 0, np.hstack([dyn_pattern, dyn_pattern])])
-        cols, self.csc_rows = np.nonzero(mask.T)
-        self.csc_indptr = np.concatenate([[0], np.cumsum(np.bincount(cols, minlength=mask.shape[1]))])
-        position = np.zeros(mask.shape, dtype=int)
-        position[self.csc_rows, cols] = np.arange(len(cols))
-        n_static = len(self.static_f)
-        static_mask = mask[:n_static]
-        self.static_pos, self.static_vals = position[:n_static][static_mask], self.static_a[static_mask]
-        self.dyn_mask = mask[n_static:]
-        self.dyn_pos = position[n_static:][self.dyn_mask]
-
-        self.p_half = ctl.nullspace.T @ ctl.cost_hessian @ ctl.nullspace
-        self.q_line = ctl.nullspace.T @ ctl.cost_hessian @ ctl.greville
+        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant.
+        p_half = ctl.nullspace.T @ ctl.cost_hessian @ ctl.nullspace
+        q_line = ctl.nullspace.T @ ctl.cost_hessian @ ctl.greville
         # Cross term integral N(tau) p_ref(tau) dtau = ref_weights @ reference (exact quadrature).
         inner_knots = knots[(knots > 0) & (knots < horizon)]
         nodes, weights = bspline.gauss_legendre(
             np.concatenate([[0.0, horizon], inner_knots, sample_times[sample_times < horizon]]), 4)
-        self.ref_weights = ctl.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
+        ref_weights = ctl.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
             weights[:, None] * interpolation_matrix(sample_times, nodes))
-        self.solver: osqp.OSQP | None = None
+        zero = np.zeros_like(p_half)
+        self.factor = qp_factor(np.block([[2.0 * p_half, zero], [zero, 2.0 * p_half]]))
+        # Unconstrained minimiser per coordinate: start_v v0_d + start_ref @ (ref_d - p0_d).
+        self.start_v = -np.linalg.solve(p_half, q_line)
+        self.start_ref = np.linalg.solve(p_half, ref_weights)
 
-    def rows(self, alpha: np.ndarray, f: np.ndarray) -> np.ndarray:
-        """Dense rows over the QP variables ``[z_x, z_y]`` of the functionals ``alpha^T phi_f``."""
-        g = self.phi_t[f]
-        return np.hstack([alpha[:, :1] * g, alpha[:, 1:] * g])
+    def unconstrained(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
+        """Minimiser of the tracking cost alone, ``[z_x, z_y]``."""
+        return (self.start_v[:, None] * v0 + self.start_ref @ ref_local).T.ravel()
 
-    def offsets(self, alpha: np.ndarray, f: np.ndarray, v0: np.ndarray) -> np.ndarray:
-        """Value ``alpha^T phi_f`` of each row on the straight line ``v0 tau`` (local coordinates)."""
-        return (alpha @ v0) * self.phi_line[f]
+    def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:
+        """Lower bounds of the static rows in the QP's coordinates (centred on ``p0``, relative to
+        the line ``v0 tau``): the box ``[box_low, box_high]`` of allowed positions at each end,
+        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons."""
+        box = np.concatenate([box_low - p0, p0 - box_high])
+        static = self.static_base - (self.static_alpha @ v0) * self.static_line
+        static[:self.n_box] += (box[None, :] + self.eps_end[:, None]).ravel()
+        return static
 
-    def matrix_data(self, dynamic: np.ndarray) -> np.ndarray:
-        """CSC data of A given the dense dynamic rows."""
-        data = np.empty(len(self.csc_rows))
-        data[self.static_pos] = self.static_vals
-        data[self.dyn_pos] = dynamic[self.dyn_mask]
-        return data
+    def conflicting_others(self, rows: np.ndarray) -> np.ndarray:
+        """Indices of the other robots owning any of the given rows."""
+        dyn = rows[(rows >= self.n_static) & (rows < self.n_rows)] - self.n_static
+        group = dyn // self.rows_per_group - self.n_walls
+        return np.unique(group[group >= 0])
 
 
 @dataclass(frozen=True)
 class _StepData:
-    """The request's data for one step, with the requirements derived from the current state."""
+    """The request's data for one step, with the requirements derived from the current state.
+
+    Walls and other robots are handled alike, as ``G`` groups (walls first): each keeps a
+    clearance from a point ``x`` at every interval end (a wall's point is the nearest point of its
+    rectangle, which depends on the linearisation; another robot's is its prediction).
+    """
 
     p0: np.ndarray
     v0: np.ndarray
-    ref: np.ndarray
-    others: np.ndarray
-    others0: np.ndarray
-    """Predicted positions of the others at ``tau = 0`` (extrapolated) ``(m, 2)``."""
-    other_radii: np.ndarray
-    pred_ends: np.ndarray
-    """Predicted positions of the others at the interval ends ``(m, N, 2)``."""
-    delta_others: np.ndarray
-    """Largest relative displacement over each interval, robot against each other ``(m, N)`` (m)."""
-    delta_walls: np.ndarray
-    """Largest displacement of the robot over each interval ``(N,)`` (m)."""
-    need_sep: np.ndarray
-    """Separation to keep from each other robot: r_i + r_j + margin, or less if already closer (m)."""
-    near_now: np.ndarray
-    """Nearest point of each wall to the current position ``(M, 2)``."""
-    dist_walls: np.ndarray
-    """Current distance to each wall ``(M,)`` (m)."""
-    need_walls: np.ndarray
-    """Clearance to keep from each wall: r_i, or less if already closer ``(M,)`` (m)."""
+    ref_local: np.ndarray
+    """Reference relative to ``p0`` ``(K, 2)`` (m)."""
+    pred_check: np.ndarray
+    """Predicted positions of the others at the check times ``(m, C, 2)`` (m)."""
+    x_now: np.ndarray
+    """Each group's point at every interval end for a half-plane through the current position:
+    the wall's nearest point to ``p0``, or the prediction ``(G, N, 2)`` (m)."""
+    away: np.ndarray
+    """Unit vector from each group's point at ``tau = 0`` to ``p0`` ``(G, 2)``."""
+    dist_now: np.ndarray
+    """Current distance to each group's point ``(G,)`` (m)."""
+    contact: np.ndarray
+    """Distance to a group's point below which a linearisation point gives no direction ``(G,)`` (m)."""
+    full: np.ndarray
+    """Clearance wanted from each group: r_i from a wall, r_i + r_j + margin from a robot ``(G,)`` (m)."""
+    need: np.ndarray
+    """Clearance to keep: ``full``, or less where the current state is already closer ``(G,)`` (m)."""
+    delta_sq: np.ndarray
+    """A quarter of the squared largest relative displacement over the intervals meeting at each
+    end ``(G, N)`` (m^2)."""
+    velocities: np.ndarray
+    """Each other robot's predicted velocity at the end of the horizon ``(m, 2)`` (m/s)."""
+    far: np.ndarray
+    """Groups out of reach within the horizon ``(G,)``: a wall's rows then constrain nothing."""
     gap_box: np.ndarray
     """Current distance to the bounds x_min, y_min, x_max, y_max ``(4,)`` (m)."""
     need_box: np.ndarray
     """Clearance to keep from the bounds ``(4,)`` (m)."""
+    static_lower: np.ndarray
+    """Lower bounds of the static rows in the QP's coordinates (:meth:`_Problem.static_lower`)."""
+    n_walls: int
 
     @property
     def need_clear(self) -> float:
         """The smallest clearance the plan has to keep from any wall or bound (m)."""
-        return float(min(self.need_walls.min(initial=np.inf), self.need_box.min()))
+        return float(min(self.need[:self.n_walls].min(initial=np.inf), self.need_box.min()))
+
+
+@dataclass
+class _Effort:
+    """Solver effort spent on one control step (reported in ``ControlResult.info``)."""
+
+    qps: int = 0
+    qp_steps: int = 0
+    qp_time: float = 0.0
+    constraints: int = 0
+
+    def as_info(self) -> dict:
+        return {"qps": self.qps, "qp_steps": self.qp_steps, "qp_time": self.qp_time,
+                "constraints": self.constraints}
 
 
 class BSplineMPC:
-    """Cubic B-spline MPC (paper appendix) for one robot; keeps warm-start state between steps."""
+    """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
 
     name = "mpc"
 
@@ -436,14 +766,22 @@ class BSplineMPC:
         self.obstacles = world.obstacle_array
         self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]
         self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]
-        self.d1 = bspline.velocity_hull_operator(self.knots)[1:]
-        self.d2 = bspline.derivative_control_operator(self.knots, DEGREE, 2)
+        # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
+        d1 = bspline.velocity_hull_operator(self.knots)[1:]
+        self.rates = np.vstack([d1, bspline.derivative_control_operator(self.knots, DEGREE, 2)])
+        self.n_speed = len(d1)
         # Moving a plan on by one step: least-squares fit of p(tau + dt) (the last span's
         # polynomial continues past the horizon).
         fit = np.linspace(0.0, self.horizon, 4 * settings.segments + 1)
         self._shift = np.linalg.lstsq(bspline.basis(fit, self.knots, DEGREE),
                                       bspline.basis(fit + self.dt, self.knots, DEGREE), rcond=None)[0]
         self._problems: dict[tuple, _Problem] = {}
+        self._last_problem: tuple[tuple, _Problem] | None = None
+        self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        bounds = np.asarray(world.bounds, dtype=float)
+        self._bounds = (bounds[:2], bounds[2:])
+        # Beyond this distance a wall cannot be reached within the horizon.
+        self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         self._previous: np.ndarray | None = None
         self._braking: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -467,63 +805,185 @@ class BSplineMPC:
     # -- public ------------------------------------------------------------------------------
 
     def control(self, request: ControlRequest) -> ControlResult:
-        """Solve the MPC for one step; brake (``success=False``) when it cannot be solved safely.
+        """Solve the MPC for one step.
 
-        Raises ``ValueError`` only for a malformed request (shapes, non-finite values, sample
-        times outside ``(0, horizon]``).
+        On success the plan tracks the reference within every constraint. Otherwise
+        (``success=False``) the robot follows the evasive plan (``info["fallback"] == "evasive"``,
+        the least intrusion into the others' predicted discs, walls and limits kept) or, if there
+        is none, brakes along its velocity (``"braking"``). Raises ``ValueError`` only for a
+        malformed request (shapes, non-finite values, sample times outside ``(0, horizon]``).
         """
         start = time.perf_counter()
         p0, v0, ref, times, others, other_radii = self._validated(request)
         prob = self._problem(len(others), times)
-        r = self.robot.radius
-        contact = r + other_radii
-        others0 = np.einsum("k,mkd->md", prob.interp_zero, others)
-        dist0 = np.linalg.norm(p0 - others0, axis=1)
-        data = self._step_data(prob, p0, v0, ref, others, others0, other_radii, dist0)
-        clearance0 = float(min(data.dist_walls.min(initial=np.inf), data.gap_box.min()))
-        overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
-        if overlapping.size:
-            j = int(overlapping[0])
-            return self._brake(request, prob, start, "overlap",
-                               f"infeasible: overlapping robot {j} ({dist0[j]:.3f} m apart, "
-                               f"contact at {contact[j]:.3f} m): braking")
+        data = self._step_data(prob, p0, v0, ref, others, other_radii)
+        effort = _Effort()
+        r, m_w = self.robot.radius, prob.n_walls
+        clearance0 = float(min(data.dist_now[:m_w].min(initial=np.inf), data.gap_box.min()))
         if clearance0 < r - self.settings.contact_tolerance:
-            return self._brake(request, prob, start, "wall contact",
-                               f"infeasible: in contact with a wall (clearance {clearance0:.3f} m, "
-                               f"radius {r:.3f} m): braking")
+            return self._brake(request, prob, start, effort,
+                               f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
         warm = self._warm_start()
         cold = warm is None
         lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
-        best, best_status, status, iters, qps, osqp_time, why = None, "", "", 0, 0, 0.0, ""
-        for _ in range(self.settings.sqp_iterations):
-            c, status, it, run = self._solve_qp(prob, data, lin, warm, cold)
-            iters, qps, osqp_time = iters + it, qps + 1, osqp_time + run
-            why = f"OSQP status '{status}'" if c is None else self._violation(prob, data, c)
-            if why:
-                break
-            best, best_status = c, status
-            moved = prob.b_ends @ c
-            if np.max(np.linalg.norm(moved - lin, axis=1)) <= self.settings.sqp_tolerance:
-                break
-            lin, warm, cold = moved, None, False
-        info = {"iterations": iters, "qps": qps, "osqp_time": osqp_time, "constraints": prob.n_rows,
-                "slack": prob.slack}
-        if best is None:
-            logger.debug("MPC at %s: %s", p0, why)
-            return self._brake(request, prob, start, status or "check failed", f"infeasible: {why}: braking", info)
-        self._previous, self._braking = best, None
-        next_position = self.b_step @ best
-        return ControlResult(
-            success=True, reason="",
-            velocity=(next_position - p0) / self.dt,
-            next_position=next_position, next_velocity=self.bv_step @ best,
-            planned_positions=prob.b_samples @ best,
-            solve_time=time.perf_counter() - start,
-            info={"status": best_status, **info},
-        )
+        dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
+        overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
+        if overlapping.size:
+            j = int(overlapping[0])
+            why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
+            conflict = overlapping
+        else:
+            best, why, conflict = self._track(prob, data, lin, cold, effort)
+            if best is not None:
+                self._previous, self._braking = best, None
+                return self._result(True, "", best, prob, data, start, {"fallback": "", **effort.as_info()})
+        logger.debug("MPC at %s: %s", p0, why)
+        plan, intrusion, soft = (self._evasive(prob, data, lin, cold, conflict, effort) if self.settings.evasive
+                                 else (None, np.inf, conflict))
+        if plan is None:
+            return self._brake(request, prob, start, effort, why)
+        self._previous, self._braking = plan, None
+        return self._result(False, f"infeasible: evasive: {why}", plan, prob, data, start,
+                            {"fallback": "evasive", "intrusion": intrusion, "softened": soft.tolist(),
+                             **effort.as_info()})
 
     # -- internals ---------------------------------------------------------------------------
+
+    def _result(self, success: bool, reason: str, c: np.ndarray, prob: _Problem, data: _StepData, start: float,
+                info: dict) -> ControlResult:
+        out = prob.b_out @ c
+        return ControlResult(
+            success=success, reason=reason,
+            velocity=(out[0] - data.p0) / self.dt,
+            next_position=out[0], next_velocity=out[1],
+            planned_positions=out[2:],
+            solve_time=time.perf_counter() - start,
+            info=info,
+        )
+
+    def _track(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, effort: _Effort):
+        """The tracking QP (re-linearised once more after a cold start if the solution moved far).
+
+        Returns (control points or None, why not, the other robots involved in the failure).
+        """
+        best, why, conflict = None, "", np.arange(prob.n_others)
+        for _ in range(self.settings.sqp_iterations):
+            lower = self._write_separation(prob, data, lin, cold, data.need)
+            sol = self._solve(prob.factor, prob.unconstrained(data.v0, data.ref_local), prob.rows, lower, effort)
+            if not sol.success:
+                why = f"tracking QP {sol.reason}"
+                if sol.reason == "infeasible":
+                    conflict = prob.conflicting_others(sol.active)
+                break
+            c = self._control_points(data, sol.x)
+            why = self._violation(prob, data, c, separation=True)
+            if why:
+                break
+            best = c
+            if not cold:
+                break
+            moved = prob.b_ends @ c
+            if np.max(np.hypot(*(moved - lin).T)) <= self.settings.sqp_tolerance:
+                break
+            lin, cold = moved, False
+        return best, why, conflict
+
+    def _evasive(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, conflict: np.ndarray,
+                 effort: _Effort):
+        """The plan that intrudes least into the other robots' predicted discs.
+
+        Keeping out of a disc is not convex: which side to pass on is a choice. Two
+        linearisations are tried (:meth:`_elastic`): the half-planes of the previous plan (pass
+        the others as planned), and half-planes that keep the current arrangement (at every end
+        the normal points from the other robot's position now to the robot's: back away from a
+        robot coming head-on, run ahead of one coming from behind). The plan kept is the one
+        whose first true intrusion into a disc (at the check times, beyond ``check_tolerance``)
+        comes later, the time the others have to react; on a tie, the one whose intrusion summed
+        with the penalty's weights (``T_MPC / tau``) is smaller, then the first.
+
+        Returns (control points or None, largest true intrusion (m), softened robots).
+        """
+        best, best_score = (None, np.inf, np.zeros(0, dtype=int)), (np.inf, np.inf)
+        for keep_arrangement in (False, True):
+            c, robots = self._elastic(prob, data, lin, cold, conflict, effort, keep_arrangement)
+            if c is None:
+                continue
+            gap = prob.b_check @ c - data.pred_check
+            short = np.maximum(data.full[prob.n_walls:, None] - np.hypot(gap[..., 0], gap[..., 1]), 0.0)
+            hit = (short > self.settings.check_tolerance).any(axis=0)
+            first = prob.check_times[np.argmax(hit)] if hit.any() else np.inf
+            score = (-first, float((short * prob.check_weights).sum()))
+            if score < best_score:
+                best, best_score = (c, float(short.max(initial=0.0)), robots), score
+            if first == np.inf:
+                break  # no intrusion at all: nothing can do better
+        return best
+
+    def _elastic(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, conflict: np.ndarray,
+                 effort: _Effort, keep_arrangement: bool):
+        """The tracking QP with the separation rows of the robots in ``conflict`` softened.
+
+        Each interval end (and the terminal rows together) of a softened robot gets a slack
+        ``s >= 0`` in its rows, costing ``w s + c s^2 / 2`` with ``w``
+        (``settings.evasive_penalty``, times ``T_MPC / tau``) far above what tracking could gain,
+        so every intrusion that can be avoided is, and the nearest ones first. Softened robots
+        must keep ``r_i + r_j + margin``, not the relaxed requirement, so the plan steers out of
+        their discs; with ``keep_arrangement`` their half-planes keep the current arrangement
+        (see :meth:`_write_separation`). Walls, the box, speed and acceleration
+        stay hard. If the softened problem is infeasible, the robots in its conflict are
+        softened too. The start is the cost's minimiser with every slack held at zero (dual
+        feasible: the slacks' multipliers are their weights).
+
+        Returns (control points or None, softened robots).
+        """
+        soft = np.zeros(prob.n_groups, dtype=bool)
+        soft[prob.n_walls + np.asarray(conflict, dtype=int)] = True
+        n, m = 2 * prob.nz, prob.n_rows
+        spg = len(prob.slack_weights)
+        root = np.sqrt(self.settings.evasive_curvature)
+        unconstrained = prob.unconstrained(data.v0, data.ref_local)
+        while soft.any():
+            groups = np.flatnonzero(soft)
+            n_slack = spg * len(groups)
+            lower = self._write_separation(prob, data, lin, cold, np.where(soft, data.full, data.need),
+                                           soft if keep_arrangement else None)
+            rows = np.zeros((m + n_slack, n + n_slack))
+            rows[:m, :n] = prob.rows
+            first = prob.n_static + groups * prob.rows_per_group
+            soft_rows = (first[:, None] + np.arange(prob.rows_per_group)).ravel()
+            slack_cols = n + (spg * np.arange(len(groups))[:, None] + prob.slack_of_row).ravel()
+            rows[soft_rows, slack_cols] = 1.0
+            rows[m + np.arange(n_slack), n + np.arange(n_slack)] = 1.0
+            factor = np.zeros((n + n_slack, n + n_slack), order="F")
+            factor[n + np.arange(n_slack), np.arange(n_slack)] = 1.0 / root
+            factor[:n, n_slack:] = prob.factor
+            sol = self._solve(factor, np.concatenate([unconstrained, np.zeros(n_slack)]), rows,
+                              np.concatenate([lower, np.zeros(n_slack)]), effort,
+                              active=m + np.arange(n_slack), triangular=np.eye(n_slack) / root,
+                              multipliers=np.tile(prob.slack_weights, len(groups)))
+            robots = groups - prob.n_walls
+            if sol.success:
+                c = self._control_points(data, sol.x[:n])
+                return (None if self._violation(prob, data, c, separation=False) else c), robots
+            more = prob.n_walls + prob.conflicting_others(sol.active[sol.active < m])
+            if sol.reason != "infeasible" or soft[more].all():
+                return None, robots  # walls, bounds and limits alone conflict
+            soft[more] = True
+        return None, np.zeros(0, dtype=int)  # no other robot is involved
+
+    def _solve(self, factor, start, rows, lower, effort: _Effort, **state) -> QPSolution:
+        t = time.perf_counter()
+        sol = solve_qp(factor, start, rows, lower, self.settings.qp_tolerance, self.settings.qp_max_steps, **state)
+        effort.qp_time += time.perf_counter() - t
+        effort.qps += 1
+        effort.qp_steps += sol.steps
+        effort.constraints = max(effort.constraints, len(lower))
+        return sol
+
+    def _control_points(self, data: _StepData, z: np.ndarray) -> np.ndarray:
+        """Control points ``(n, 2)`` of the curve with free control points ``z`` (line plus deviation)."""
+        return data.p0 + self.greville[:, None] * data.v0 + self.nullspace @ z.reshape(2, -1).T
 
     def _validated(self, request: ControlRequest):
         p0 = np.asarray(request.position, dtype=float).reshape(2)
@@ -538,19 +998,25 @@ class BSplineMPC:
         if k == 0 or ref.shape != (k, 2) or others.shape != (len(radii), k, 2):
             raise ValueError(f"inconsistent request shapes: reference {ref.shape}, sample_times {times.shape}, "
                              f"others {others.shape}, other_radii {radii.shape}")
-        if np.any(np.diff(times) <= 0) or times[0] <= 0 or times[-1] > self.horizon + 1e-9:
+        if times[0] <= 0 or times[-1] > self.horizon + 1e-9 or (k > 1 and np.diff(times).min() <= 0):
             raise ValueError(f"sample_times must increase within (0, {self.horizon}], got {times}")
-        if not all(np.all(np.isfinite(a)) for a in (p0, v0, ref, others, radii)):
+        # A sum is finite only if every term is (NaN and infinities propagate).
+        if not np.isfinite(p0.sum() + v0.sum() + ref.sum() + others.sum() + radii.sum()):
             raise ValueError("request contains non-finite values")
         return p0, v0, ref, times, others, radii
 
     def _problem(self, n_others: int, times: np.ndarray) -> _Problem:
-        key = (n_others, tuple(np.round(times, 9)))
-        if key not in self._problems:
-            self._problems[key] = _Problem(self, n_others, times)
-        return self._problems[key]
+        exact = (n_others, times.tobytes())
+        if self._last_problem is not None and self._last_problem[0] == exact:
+            return self._last_problem[1]  # the usual case: the same sample times as last step
+        key = (n_others, np.round(times, 9).tobytes())
+        prob = self._problems.get(key)
+        if prob is None:
+            prob = self._problems[key] = _Problem(self, n_others, times)
+        self._last_problem = (exact, prob)
+        return prob
 
-    def _step_data(self, prob: _Problem, p0, v0, ref, others, others0, other_radii, dist0) -> _StepData:
+    def _step_data(self, prob: _Problem, p0, v0, ref, others, other_radii) -> _StepData:
         """Predictions at the interval ends and what must be kept from every robot and wall.
 
         Between two interval ends where the distance is at least ``R'`` the chord stays at least
@@ -558,193 +1024,122 @@ class BSplineMPC:
         and the curve leaves its chord by at most ``eps``; so requiring
         ``R' = sqrt((need + eps)^2 + delta^2 / 4)`` at the ends keeps ``need`` at every instant.
         At ``tau = 0`` the distance is what it is: ``need`` is lowered to what the current state
-        allows when it is already inside the margin.
+        allows when it is already inside the margin, for each prediction separately.
         """
-        r = self.robot.radius
-        pred_ends = np.einsum("qk,mkd->mqd", prob.interp_ends, others)
-        steps = np.diff(np.concatenate([others0[:, None], pred_ends], axis=1), axis=1)  # (m, N, 2)
+        robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
+        r = robot.radius
+        pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
+        pred_ends = pred[:, 1:n_end + 1]
+        steps = pred_ends - pred[:, :n_end]                   # (m, N, 2)
         # The robot's own displacement over an interval: at most its reachable speed times it.
-        speed = np.minimum(self.robot.max_speed, np.linalg.norm(v0) + self.robot.max_accel * prob.ends)
-        delta_walls = speed * prob.intervals
-        delta_others = delta_walls + np.linalg.norm(steps, axis=-1)
-        eps0 = prob.eps[0]
+        speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
+        delta = np.empty((prob.n_groups, n_end))
+        delta[:] = speed * prob.intervals
+        delta[m_w:] += np.hypot(steps[..., 0], steps[..., 1])
+        delta_end = delta.copy()
+        np.maximum(delta[:, :-1], delta[:, 1:], out=delta_end[:, :-1])
 
-        def allowed(dist_now: np.ndarray, delta0: np.ndarray) -> np.ndarray:
-            return np.sqrt(np.maximum(dist_now**2 - delta0**2 / 4.0, 0.0)) - eps0
-
-        near_now = nearest_points_on_boxes(p0, self.obstacles)
-        dist_walls = np.linalg.norm(p0 - near_now, axis=-1)
-        x0, y0, x1, y1 = self.world.bounds
-        gap = np.array([p0[0] - x0, p0[1] - y0, x1 - p0[0], y1 - p0[1]])
+        near_now = np.clip(p0, self.obstacles[:, :2], self.obstacles[:, 2:])
+        x0 = np.concatenate([near_now, pred[:, 0]])
+        away = p0 - x0
+        dist_now = np.hypot(away[:, 0], away[:, 1])
+        if dist_now.min(initial=np.inf) <= 1e-9:  # exactly on a group's point: push sideways
+            away[dist_now <= 1e-9] = [0.0, 1.0]
+            dist_now = np.maximum(dist_now, 1e-9)
+        allowed = np.sqrt(np.maximum(dist_now**2 - delta[:, 0] ** 2 / 4.0, 0.0)) - prob.eps[0]
+        full, contact = self._clearances(m_w, other_radii)
+        x_now = np.concatenate([np.broadcast_to(near_now[:, None], (m_w, n_end, 2)), pred_ends])
+        gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
+        need_box = np.minimum(r, gap - prob.eps[0])
+        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return _StepData(
-            p0, v0, ref, others, others0, other_radii, pred_ends, delta_others, delta_walls,
-            need_sep=np.minimum(r + other_radii + self.params.safety_margin, allowed(dist0, delta_others[:, 0])),
-            near_now=near_now, dist_walls=dist_walls,
-            need_walls=np.minimum(r, allowed(dist_walls, delta_walls[0])),
-            gap_box=gap, need_box=np.minimum(r, gap - eps0),
+            p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now,
+            away=away / np.where(dist_now > 1e-9, dist_now, 1.0)[:, None], dist_now=dist_now, contact=contact,
+            full=full, need=np.minimum(full, allowed), delta_sq=delta_end**2 / 4.0, velocities=pred[:, -1],
+            far=dist_now > self._reach, gap_box=gap, need_box=need_box,
+            static_lower=prob.static_lower(p0, v0, box_low, box_high), n_walls=m_w,
         )
+
+    def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Clearance wanted from each group, and the distance under which it is in contact."""
+        key = (n_walls, other_radii.tobytes())
+        if key not in self._clearance_cache:
+            r = self.robot.radius
+            self._clearance_cache[key] = (
+                np.concatenate([np.full(n_walls, r), r + other_radii + self.params.safety_margin]),
+                np.concatenate([np.full(n_walls, 1e-12), r + other_radii]))
+        return self._clearance_cache[key]
 
     def _warm_start(self) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one."""
         return None if self._previous is None else self._shift @ self._previous
 
-    def _solve_qp(self, prob: _Problem, data: _StepData, lin: np.ndarray, warm: np.ndarray | None,
-                  cold: bool):
-        """One convex QP linearised about ``lin`` (positions at the interval ends); returns
-        (control points or None, OSQP status, iterations, OSQP time).
-
-        The QP is posed in coordinates centred on the current position (better conditioned).
-        """
-        p0 = data.p0
-        alpha, lower, f = self._halfplanes(prob, data, lin, cold)
-        all_alpha = np.vstack([prob.static_alpha, alpha])
-        all_f = np.concatenate([prob.static_f, f])
-        low = np.concatenate([np.full(len(prob.static_f), -np.inf), lower - alpha @ p0])
-        upper = np.concatenate([prob.static_upper, np.full(len(f), np.inf)])
-        # Box rows (the bounds are convex: the chord stays inside), plus eps at each end point.
-        x0, y0, x1, y1 = self.world.bounds
-        need = data.need_box
-        e = np.repeat(prob.eps_end, 2)
-        low[:prob.n_box] = np.tile([x0 + need[0] - p0[0], y0 + need[1] - p0[1]], len(prob.ends)) + e
-        upper[:prob.n_box] = np.tile([x1 - need[2] - p0[0], y1 - need[3] - p0[1]], len(prob.ends)) - e
-        offsets = prob.offsets(all_alpha, all_f, data.v0)
-        low, upper = low - offsets, upper - offsets
-
-        dynamic = prob.rows(alpha, f)
-        a_data = prob.matrix_data(dynamic)
-        ref = data.ref - p0
-        q = 2.0 * np.concatenate([prob.q_line * data.v0[d] - prob.ref_weights @ ref[:, d] for d in range(2)])
-        if prob.solver is None:
-            p_mat = sparse.triu(sparse.block_diag([2.0 * prob.p_half, 2.0 * prob.p_half]), format="csc")
-            prob.solver = osqp.OSQP()
-            # Polishing stays off: OSQP 1.1 prints to stdout from its polish step whatever the
-            # verbosity; accuracy comes from the slack in every bound instead.
-            a_mat = sparse.csc_matrix((a_data, prob.csc_rows, prob.csc_indptr), shape=(prob.n_rows, p_mat.shape[1]))
-            prob.solver.setup(p_mat, q, a_mat, low, upper, verbose=False,
-                              eps_abs=self.settings.eps, eps_rel=self.settings.eps, polishing=False,
-                              max_iter=self.settings.max_iter, warm_starting=True,
-                              check_termination=self.settings.check_every)
-        else:
-            prob.solver.update(q=q, l=low, u=upper, Ax=a_data)
-        if warm is not None:
-            dev = warm - self._line(data)
-            prob.solver.warm_start(x=np.concatenate([dev[2:, 0], dev[2:, 1]]))
-        res = prob.solver.solve(raise_error=False)
-        status = str(res.info.status)
-        z = np.asarray(res.x)
-        # A "solved" answer satisfies the untightened rows by construction (residual <= slack).
-        # An unfinished one (inaccurate, iteration limit) is used only if it does too, checked
-        # here; either way the exact check follows.
-        if status in ("solved inaccurate", "maximum iterations reached") and np.all(np.isfinite(z)):
-            az = np.concatenate([prob.static_a @ z, dynamic @ z])
-            usable = float(np.max(np.maximum(low - az, az - upper))) <= prob.slack
-        else:
-            usable = status == "solved"
-        if not usable:
-            return None, status, int(res.info.iter), float(res.info.solve_time)
-        nz = len(z) // 2
-        c = self._line(data) + np.stack([self.nullspace @ z[:nz], self.nullspace @ z[nz:]], axis=1)
-        return c, status, int(res.info.iter), float(res.info.solve_time)
-
-    def _line(self, data: _StepData) -> np.ndarray:
-        """Control points of the straight line ``p0 + v0 tau``, shape ``(n, 2)``."""
-        return data.p0 + self.greville[:, None] * data.v0
-
-    def _halfplanes(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool):
-        """Normals, lower bounds and functional indices of the wall and separation rows.
+    def _write_separation(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, need: np.ndarray,
+                          keep_arrangement: np.ndarray | None = None) -> np.ndarray:
+        """Write the wall and separation rows into ``prob.rows``; return every row's lower bound.
 
         At each interval end, the half-plane through the linearisation point ``lin`` tangent to
-        the other robot's disc (or to the wall rectangle, at its nearest point): the linearisation
-        trajectory satisfies its own half-planes whenever it is clear, so the previous plan stays
-        feasible from one step to the next. A point inside a wall or colliding with another robot
-        gives no usable direction; then, and on a ``cold`` start (``lin`` is the reference, not a
-        trajectory the robot can follow) wherever the half-plane would exclude the robot's current
-        position, the half-plane through the current position is used instead: it keeps the
-        robot on the side it is on now. Last come the terminal rows of :func:`stopping_rows`, along
-        the last end's normal (``x`` the other robot or the wall's nearest point, ``v_x`` its
-        velocity, zero for a wall).
+        the disc of radius ``need`` round the other robot's prediction (or to the wall rectangle
+        inflated by ``need``, at its nearest point): the linearisation trajectory satisfies its
+        own half-planes whenever it is clear, so the previous plan stays feasible from one step to
+        the next. A point inside a wall or colliding with another robot gives no usable
+        direction; then, and on a ``cold`` start (``lin`` is the reference, not a trajectory the
+        robot can follow) wherever the half-plane would exclude the robot's current position, the
+        half-plane through the current position is used instead: it keeps the robot on the side
+        it is on now. The groups marked ``keep_arrangement`` keep the current arrangement
+        instead: at every end the normal is the direction from their point now to the robot.
+        Last come the terminal rows of :func:`stopping_rows`, along the last end's normal (``x``
+        the other robot or the wall's nearest point, ``v_x`` its velocity, zero for a wall).
+        Bounds are moved to the QP's
+        coordinates (centred on ``p0``, relative to the line ``v0 tau``). The loops run compiled
+        (:func:`_separation_rows`): a few hundred scalar rows are cheaper there than as dozens of
+        small array operations.
         """
-        r = self.robot.radius
-        pts, n_end = prob.group_point, len(prob.ends)
-        alphas, lowers = [], []
+        lower = np.empty(prob.n_rows)
+        lower[:prob.n_static] = data.static_lower
+        marked = np.zeros(prob.n_groups, dtype=bool) if keep_arrangement is None else keep_arrangement
+        _separation_rows(lin, data.x_now, self.obstacles, prob.n_walls, data.p0, data.v0, data.contact,
+                         np.asarray(need, dtype=float), cold, marked, prob.eps_end, data.delta_sq, prob.group_point,
+                         prob.group_wv, prob.term_offset, data.velocities, data.far, data.away, prob.dyn_phi,
+                         prob.dyn_line, prob.rows, lower, prob.n_static)
+        return lower
 
-        def required(need: np.ndarray, delta_int: np.ndarray) -> np.ndarray:
-            delta_end = np.maximum(delta_int, np.concatenate([delta_int[..., 1:], delta_int[..., -1:]], axis=-1))
-            ends = np.sqrt((need[:, None] + prob.eps_end) ** 2 + delta_end**2 / 4.0)
-            term = need[:, None] + prob.eps_end[-1] + prob.term_const
-            return np.concatenate([ends, term], axis=1)
-
-        if prob.n_walls:
-            near = nearest_points_on_boxes(lin, self.obstacles)               # (N, M, 2)
-            vec = lin[:, None, :] - near
-            dist = np.linalg.norm(vec, axis=-1)
-            replace = dist < 1e-12
-            if cold:
-                gap_now = np.einsum("nmd,nmd->nm", vec, data.p0 - near) / np.where(replace, 1.0, dist)
-                replace |= gap_now < data.need_walls
-            vec = np.where(replace[..., None], data.p0 - data.near_now[None], vec)
-            near = np.where(replace[..., None], data.near_now[None], near)
-            normal = (vec / np.linalg.norm(vec, axis=-1, keepdims=True))[pts].transpose(1, 0, 2)  # (M, G, 2)
-            need = required(data.need_walls, np.broadcast_to(data.delta_walls, (prob.n_walls, n_end)))
-            low = np.einsum("mgd,mgd->mg", normal, near[pts].transpose(1, 0, 2)) + need
-            # A wall out of reach within the horizon constrains nothing.
-            low[data.dist_walls > r + self.robot.max_speed * self.horizon + 0.1] = -np.inf
-            alphas.append(normal.reshape(-1, 2))
-            lowers.append(low.ravel())
-        if prob.n_others:
-            vec = lin[None] - data.pred_ends                                   # (m, N, 2)
-            dist = np.linalg.norm(vec, axis=-1)
-            replace = dist < (r + data.other_radii)[:, None]
-            if cold:
-                gap_now = np.einsum("mnd,mnd->mn", vec, data.p0 - data.pred_ends) / np.maximum(dist, 1e-12)
-                replace |= gap_now < data.need_sep[:, None]
-            vec = np.where(replace[..., None], data.p0 - data.pred_ends, vec)
-            now = data.p0 - data.others0
-            degenerate = np.linalg.norm(vec, axis=-1) < 1e-9
-            vec = np.where(degenerate[..., None], now[:, None, :], vec)
-            normal = (vec / np.linalg.norm(vec, axis=-1, keepdims=True))[:, pts]  # (m, G, 2)
-            pred_vel = np.einsum("k,mkd->md", prob.slope_end, data.others)
-            low = (np.einsum("mgd,mgd->mg", normal, data.pred_ends[:, pts]) + required(data.need_sep, data.delta_others)
-                   + prob.group_wv * np.einsum("mgd,md->mg", normal, pred_vel))
-            alphas.append(normal.reshape(-1, 2))
-            lowers.append(low.ravel())
-        if not alphas:
-            return np.zeros((0, 2)), np.zeros(0), prob.dyn_f
-        return np.vstack(alphas), np.concatenate(lowers), prob.dyn_f
-
-    def _violation(self, prob: _Problem, data: _StepData, c: np.ndarray) -> str:
-        """Empty if ``c`` satisfies every constraint when checked exactly, else what it violates."""
+    def _violation(self, prob: _Problem, data: _StepData, c: np.ndarray, separation: bool) -> str:
+        """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
+        exactly, else what it violates."""
         tol = self.settings.check_tolerance
-        pts = prob.b_check @ c
+        values = prob.b_check_rates @ c
+        pts = values[:len(prob.check_times)]
         clear = float(self.world.clearance(pts).min())
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
-        if len(data.others):
-            pred = np.einsum("qk,mkd->mqd", prob.interp_check, data.others)
-            short = data.need_sep - np.linalg.norm(pts[None] - pred, axis=-1).min(axis=1)
+        if separation and prob.n_others:
+            gap = pts - data.pred_check
+            short = data.need[prob.n_walls:] - np.hypot(gap[..., 0], gap[..., 1]).min(axis=1)
             j = int(np.argmax(short))
             if short[j] > tol:
                 return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
-        speed = float(np.linalg.norm(self.d1 @ c, axis=1).max())
+        rates = values[len(prob.check_times):]
+        speed = float(np.hypot(*rates[:self.n_speed].T).max())
         if speed > self.robot.max_speed + tol:
             return f"plan exceeds the speed limit ({speed:.4f} m/s)"
-        accel = float(np.linalg.norm(self.d2 @ c, axis=1).max())
+        accel = float(np.hypot(*rates[self.n_speed:].T).max())
         if accel > self.robot.max_accel + tol:
             return f"plan exceeds the acceleration limit ({accel:.4f} m/s^2)"
         return ""
 
-    def _brake(self, request: ControlRequest, prob: _Problem, start: float, status: str, reason: str,
-               info: dict | None = None) -> ControlResult:
+    def _brake(self, request: ControlRequest, prob: _Problem, start: float, effort: _Effort,
+               why: str) -> ControlResult:
         """Decelerate along the current velocity at max_accel; the previous plan is discarded."""
         p0 = np.asarray(request.position, dtype=float)
         v0 = np.asarray(request.velocity, dtype=float)
         self._previous, self._braking = None, (p0, v0)
         pos, vel = braking_profile(p0, v0, self.robot.max_accel, np.concatenate([[self.dt], prob.sample_times]))
         return ControlResult(
-            success=False, reason=reason,
+            success=False, reason=f"infeasible: braking: {why}",
             velocity=(pos[0] - p0) / self.dt,
             next_position=pos[0], next_velocity=vel[0],
             planned_positions=pos[1:],
             solve_time=time.perf_counter() - start,
-            info={"status": status, "braking": True, **(info or {})},
+            info={"fallback": "braking", **effort.as_info()},
         )

@@ -14,7 +14,8 @@ a rectangle of zero size).
 The walls-only graph of one (world, radius, inflation) never changes, so
 :class:`VisibilityGraph` builds it once and keeps its all-pairs shortest paths; a query without
 discs then costs a few vectorised distance evaluations, and many such queries are answered
-together by :meth:`VisibilityGraph.shortest_paths` (the latest answers are remembered).
+together by :meth:`VisibilityGraph.shortest_paths`. The latest answers are remembered, with and
+without discs (keyed by the discs the path had to go around).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from nodnav.scenario.world import World
 
 #: Numerical slack of every distance comparison (m).
 TOL = 1e-9
-#: How many recent wall-only shortest paths a :class:`VisibilityGraph` keeps.
+#: How many recent shortest paths a :class:`VisibilityGraph` keeps (of each kind).
 MEMO_SIZE = 1024
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
@@ -242,17 +243,20 @@ class VisibilityGraph:
         self.vertices = np.unique(np.round(v, 12), axis=0) if len(v) else v
         m = len(self.vertices)
         weights = np.zeros((m, m))
+        self._visible = np.zeros((m, m), dtype=bool)
         if m > 1:
             i, j = np.triu_indices(m, 1)
             ok = segment_clearance(world, self.vertices[i], self.vertices[j]) >= self.clearance - TOL
             lengths = np.linalg.norm(self.vertices[i] - self.vertices[j], axis=1)
             weights[i[ok], j[ok]] = lengths[ok]
             weights[j[ok], i[ok]] = lengths[ok]
+            self._visible[i[ok], j[ok]] = self._visible[j[ok], i[ok]] = True
         if m:
             self._dist, self._pred = shortest_path(weights, method="D", directed=False, return_predecessors=True)
         else:
             self._dist, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
         self._plain: dict[tuple, GeometricPath] = {}
+        self._around: dict[tuple, GeometricPath] = {}
 
     def shortest_path(self, start: np.ndarray, goal: np.ndarray, discs: np.ndarray | None = None,
                       disc_radii: np.ndarray | None = None) -> GeometricPath:
@@ -260,9 +264,11 @@ class VisibilityGraph:
 
         ``discs`` ``(m, 2)`` with ``disc_radii`` ``(m,)`` are round obstacles for the robot's
         centre (another robot's position with the required centre distance). A disc that
-        already contains the start or the goal is shrunk to pass just inside it: the robot may
-        not get closer to it, but can leave. Discs are added lazily, only those the current
-        shortest path crosses, so a query that meets no disc costs as much as one without.
+        already contains the start may be left, along the first segment and never closer to its
+        centre than the start is, but not entered again; likewise a disc containing the goal may
+        be entered along the last segment only (:func:`disc_violations`). Discs are added
+        lazily, only those the current shortest path violates, so a query that meets no disc
+        costs as much as one without.
         """
         start = np.asarray(start, dtype=float).reshape(2)
         goal = np.asarray(goal, dtype=float).reshape(2)
@@ -271,18 +277,24 @@ class VisibilityGraph:
             return path
         centres = np.asarray(discs, dtype=float).reshape(-1, 2)
         radii = np.asarray(disc_radii, dtype=float).reshape(-1)
-        radii = np.minimum(radii, np.minimum(np.hypot(*(centres - start).T), np.hypot(*(centres - goal).T)) - 1e-6)
-        keep = radii > 0
+        keep = radii > TOL
         centres, radii = centres[keep], radii[keep]
+        d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
+        d_goal = np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1])
         active = np.zeros(len(centres), dtype=bool)
         c_start, c_goal = self.world.clearance(np.array([start, goal]))
         while True:
-            crossed = ~active & (polyline_point_distance(path.points, centres) < radii - TOL)
+            crossed = ~active & disc_violations(path.points, centres, radii, d_start, d_goal)
             if not crossed.any():
                 return path
             active |= crossed
-            path = self._search_with_discs(start, goal, min(self.clearance, c_start) - TOL,
-                                           min(self.clearance, c_goal) - TOL, centres[active], radii[active])
+            key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
+            path = self._around.get(key)
+            if path is None:
+                path = self._search_with_discs(start, goal, min(self.clearance, c_start) - TOL,
+                                               min(self.clearance, c_goal) - TOL, centres[active], radii[active],
+                                               d_start[active], d_goal[active])
+                _remember(self._around, key, path)
             if not path.success:
                 return path
 
@@ -295,13 +307,13 @@ class VisibilityGraph:
         starts = np.asarray(starts, dtype=float).reshape(-1, 2)
         goals = np.asarray(goals, dtype=float).reshape(-1, 2)
         keys = [(s.tobytes(), g.tobytes()) for s, g in zip(starts, goals)]
-        missing = [i for i, key in enumerate(keys) if key not in self._plain]
+        paths = [self._plain.get(key) for key in keys]
+        missing = [i for i, path in enumerate(paths) if path is None]
         if missing:
             for i, path in zip(missing, self._walls_only(starts[missing], goals[missing])):
-                if len(self._plain) >= MEMO_SIZE:
-                    del self._plain[next(iter(self._plain))]
-                self._plain[keys[i]] = path
-        return [self._plain[key] for key in keys]
+                paths[i] = path
+                _remember(self._plain, keys[i], path)
+        return paths
 
     # -----------------------------------------------------------------------------------------
 
@@ -347,25 +359,56 @@ class VisibilityGraph:
                 paths.append(_path(np.vstack([start, v[chain[::-1]], goal])))
         return paths
 
-    def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii) -> GeometricPath:
-        base = self.vertices
-        if len(base):
-            base = base[(np.linalg.norm(base[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)]
+    def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
+        outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
+        base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
         ring = chamfered_vertices(np.hstack([centres, centres]), radii)
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
-        nodes = np.vstack([start, goal, base, ring[ring_ok]])
+        nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])
+        nb = len(base)
+        i, j = np.triu_indices(len(nodes), 1)
+        # Edges between two wall vertices were checked against the walls once, at construction.
+        known = (i >= 2) & (j < 2 + nb)
+        ok = np.zeros(len(i), dtype=bool)
+        ok[known] = self._visible[base[i[known] - 2], base[j[known] - 2]]
+        rest = np.flatnonzero(~known)
         thr = np.full(len(nodes), self.clearance - TOL)
         thr[0], thr[1] = thr_start, thr_goal
-        i, j = np.triu_indices(len(nodes), 1)
-        ok = segment_clearance(self.world, nodes[i], nodes[j]) >= np.minimum(thr[i], thr[j])
-        ok &= (segment_point_distance(nodes[i], nodes[j], centres) >= radii - TOL).all(axis=1)
+        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]], thr[j[rest]])
+        e = np.flatnonzero(ok)
+        limit = np.repeat(radii[None], len(e), axis=0)
+        first = i[e] == 0
+        limit[first] = np.minimum(limit[first], d_start)
+        last = (i[e] == 1) | (j[e] == 1)
+        limit[last] = np.minimum(limit[last], d_goal)
+        ok[e] = (segment_point_distance(nodes[i[e]], nodes[j[e]], centres) >= limit - TOL).all(axis=1)
         i, j = i[ok], j[ok]
         chain = shortest_chain(len(nodes), i, j, np.linalg.norm(nodes[i] - nodes[j], axis=1), 0, 1)
         if not chain:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(nodes[chain])
+
+
+def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,
+                    d_goal: np.ndarray) -> np.ndarray:
+    """Which discs a polyline from a start to a goal violates, shape ``(m,)``.
+
+    A polyline keeps out of disc ``j`` when every segment keeps ``radii[j]`` from its centre,
+    except that the first segment need only keep ``min(radii[j], d_start[j])`` (the start's
+    distance from the centre: leaving a disc one starts in) and the last one
+    ``min(radii[j], d_goal[j])`` (entering the disc that holds the goal).
+    """
+    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+    if len(poly) == 1:
+        poly = np.vstack([poly, poly])
+    d = segment_point_distance(poly[:-1], poly[1:], centres)
+    limit = np.repeat(np.asarray(radii, dtype=float).reshape(1, -1), len(d), axis=0)
+    limit[0] = np.minimum(limit[0], d_start)
+    limit[-1] = np.minimum(limit[-1], d_goal)
+    return (d < limit - TOL).any(axis=0)
 
 
 def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int, target: int) -> list[int]:
@@ -400,6 +443,13 @@ def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarra
     while chain[-1] != source:
         chain.append(prev[chain[-1]])
     return chain[::-1]
+
+
+def _remember(memo: dict, key, value) -> None:
+    """Store in a bounded memo, forgetting the oldest entry when full."""
+    if len(memo) >= MEMO_SIZE:
+        del memo[next(iter(memo))]
+    memo[key] = value
 
 
 def _path(points: np.ndarray) -> GeometricPath:

@@ -16,38 +16,56 @@ How a query is answered
    geometric path and chooses only its timing, treating the robots planned before it as moving
    obstacles (path-velocity decomposition).
 3. Geometric path: the shortest collision-free polyline (:class:`VisibilityGraph`) around the
-   walls, around the *current* positions of the robots after it in the order (so that every
-   later robot can always wait where it is), and around the destinations of the robots before
-   it (where they will park for good). When that is impossible the robot falls back to
-   avoiding the destinations only, then the walls only; the timing step then decides.
+   walls, around where the robots after it in the order stand (so that every later robot can
+   always wait there), and around the destinations of the robots before it (where they will
+   park for good). A robot that starts closer than required to one of these may move away but
+   not closer (:func:`~nodnav.planning.geometry.disc_violations`). When that is impossible the
+   robot falls back to avoiding the destinations only, then the walls only; the timing step
+   then decides.
 4. Timing: the path is cut into cells of at most ``v_max dt / 2``; per time step the robot waits,
    advances one cell, or advances two (full speed; only where the straight chord between the
    two cells keeps clear of walls). The set of cells reachable at each step is a Python integer
    bitmask, ``reach[t+1] = (reach[t] | reach[t] << 1 | (reach[t] & ok2) << 2) & free[t+1]``,
    which makes the search exact and fast; ``free[t]`` removes every cell closer than the
-   required separation to an earlier robot during ``[t, t+1]`` and, for corridor users, every
-   cell past the corridor entrance until the order allows entry (below). The robot arrives at
-   the first step at which its destination is reachable and stays free for good. Among the
-   equally fast timings it waits early (holds back, then drives through), which makes its
-   intention legible to the others' eq. (4), or, with ``waiting: late``, drives up and waits
-   late (:func:`earliest_arrival_rows`).
-5. A robot that an earlier robot's motion would corner at its current position, with no way out
-   along its own path, backs out of the way instead: it goes first to a nearby spot that no
-   earlier robot ever comes near, waits there, then goes to its destination.
+   required separation to an earlier robot during ``[t, t+1]`` and every cell the corridor and
+   door rules (below) close at that step. The robot arrives at the first step at which its
+   destination is reachable and stays free for good. Among the equally fast timings it waits
+   early (holds back, then drives through), which makes its intention legible to the others'
+   eq. (4), or, with ``waiting: late``, drives up and waits late (:func:`earliest_arrival_rows`).
+5. Getting out of the way. Before a robot is planned, every robot after it that stands in its
+   way (its path had to ignore them) or in the door zone it will come out of (below) first
+   moves to a nearby spot clear of the ways of every robot still to plan, waits there, and
+   later goes on from there; the robot being planned waits until the way is free. A robot
+   that is itself boxed in first has the robots in its way move (up to :data:`_CASCADE` deep),
+   and one pinned where only the planned robot's own place would let it out gets that room:
+   the planned robot backs off first. Finally a robot that an earlier robot's motion corners
+   anyway backs out of the way when its turn comes.
+
+Separation: :func:`separation_requirements` between every pair, relaxed to a hair below their
+present distance for a pair that starts closer (:func:`relaxed_separation`): they may stay or
+move apart, and the full separation holds again once the earlier robot's motion keeps it from
+where the later one started for good.
 
 Corridor rule (single file): a robot may enter the corridor only after every robot before it in
 the order that uses the corridor has entered (same direction: following at a safe distance is
 fine) and, for opposite directions, only after that robot has left it. Entry and exit are judged
 on the samples with :meth:`World.in_corridor`, exactly as :func:`corridor_entry_order` does.
 
+Door rule: the door zone of an entrance is the disc of radius ``door_clearance`` around it. A
+crossing robot does not enter the door zone of the entrance it uses while a robot before it
+that does not go its way (one coming out towards it) has not left that zone for good (or
+parked in it), so that robots waiting for their turn wait clear of the door and the robot
+coming out has room. Same-direction following is untouched by it.
+
 Cost: the sum over robots of their arrival times, in seconds after the request's time.
 
 Reuse
 -----
-A robot's plan depends only on the state (positions, destinations, radii, speeds) and on which
-robots go before it, so a planner instance remembers, in bounded memos, the order-independent
-part of each state, each robot's plan per beginning of the order, and each prepared geometric
-path; the closed loop asks for all ``N_r!`` orders from one state, and orders that share a
+A robot's plan depends only on the state (positions, destinations, radii, speeds), on which
+robots go before it and on the set of robots after it, so a planner instance remembers, in
+bounded memos, the order-independent part of each state, each robot's plan per beginning of
+the order, each prepared geometric path, and the cells each path has closed by each planned
+motion; the closed loop asks for all ``N_r!`` orders from one state, and orders that share a
 beginning share those plans. Results do not depend on what is remembered. Share one instance
 between the robots of a trial to benefit from it.
 """
@@ -56,8 +74,10 @@ from __future__ import annotations
 
 import bisect
 import logging
+import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -67,6 +87,7 @@ from nodnav.planning.geometry import (
     GeometricPath,
     VisibilityGraph,
     arc_length_grid,
+    disc_violations,
     polyline_point_distance,
     segment_clearance,
     segment_point_distance,
@@ -82,38 +103,55 @@ _RETREAT_RADII = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)
 _RETREAT_ANGLES = 16
 #: How many of the nearest candidate spots are tried before giving up.
 _RETREAT_TRIES = 8
+#: How many robots deep a robot that must get out of the way may first move others out of its way.
+_CASCADE = 2
 #: How many entries each of a planner's memos keeps (a four-robot state needs about a hundred).
 _MEMO_SIZE = 1024
+#: How far below their present distance the separation of a pair that starts too close is set
+#: (m): the geometric paths keep that distance within :data:`TOL`, the timing then never fails by
+#: a rounding error.
+SLACK = 1e-6
+#: A step beyond every horizon: "for good".
+FOREVER = np.iinfo(np.int64).max // 2
 
 
 # ---------------------------------------------------------------------------------------------
 # Pure pieces
 
 
-def separation_requirements(positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
-                            max_speeds: np.ndarray, dt: float, margin: float) -> np.ndarray:
+def separation_requirements(destinations: np.ndarray, radii: np.ndarray, max_speeds: np.ndarray, dt: float,
+                            margin: float) -> np.ndarray:
     """Least centre distance kept between every pair at every sample, shape ``(n, n)`` (m).
 
     The appendix's validity condition is ``||p_i - p_j|| >= 2 r_robot``; the planner keeps
     ``r_i + r_j + margin``, raised where needed to ``sqrt((r_i + r_j)^2 + ((v_i + v_j) dt / 2)^2)``
     so that the condition also holds between samples: two relative positions at least ``s``
     apart whose difference is at most ``d`` are joined by a segment that stays at least
-    ``sqrt(s^2 - d^2 / 4)`` from the origin. A pair that is already closer than that now, or
-    whose destinations are, is held to that smaller distance (never below ``r_i + r_j``): the
-    planner cannot undo the present and must be able to park both robots. Diagonal: 0.
+    ``sqrt(s^2 - d^2 / 4)`` from the origin. A pair whose destinations are closer than that is
+    held to their distance (never below ``r_i + r_j``), so that both can park. A pair that is
+    closer than this now is relaxed for a while, see :func:`relaxed_separation`. Diagonal: 0.
     """
-    p = np.asarray(positions, dtype=float).reshape(-1, 2)
     d = np.asarray(destinations, dtype=float).reshape(-1, 2)
     r = np.asarray(radii, dtype=float).reshape(-1)
     v = np.asarray(max_speeds, dtype=float).reshape(-1)
     contact = r[:, None] + r[None, :]
     between = np.sqrt(contact**2 + ((v[:, None] + v[None, :]) * dt / 2.0) ** 2)
     wanted = np.maximum(contact + margin, between)
-    now = np.linalg.norm(p[:, None] - p[None], axis=2)
     parked = np.linalg.norm(d[:, None] - d[None], axis=2)
-    req = np.minimum(wanted, np.maximum(contact, np.minimum(now, parked)))
+    req = np.minimum(wanted, np.maximum(contact, parked))
     np.fill_diagonal(req, 0.0)
     return req
+
+
+def relaxed_separation(required: np.ndarray, distance: np.ndarray) -> np.ndarray:
+    """The separation held between a pair that starts ``distance`` apart, closer than ``required``:
+    a hair below that distance (:data:`SLACK`), so that both may stay where they are or move
+    apart. It applies until the pair has grown back to ``required``; pairs already that far
+    apart keep ``required``.
+    """
+    required = np.asarray(required, dtype=float)
+    distance = np.asarray(distance, dtype=float)
+    return np.where(distance < required, np.maximum(distance - SLACK, 0.0), required)
 
 
 def corridor_passage(inside: np.ndarray) -> tuple[int, int]:
@@ -179,8 +217,24 @@ class Motion:
         """The step from which the robot stands still."""
         return len(self.samples) - 1
 
+    @cached_property
+    def sweep(self) -> tuple:
+        """What :func:`conflict_intervals` needs of this motion whatever the cells: the matrix
+        and offsets that give a point's coordinates along and across every segment, the
+        segments' start arc lengths and lengths, and the steps whose move cuts a corner of the
+        polyline, with the chords they follow."""
+        q0, unit, length, s0 = self.segments
+        basis = np.concatenate([unit, unit[:, ::-1] * (-1.0, 1.0)])
+        offset = (np.concatenate([q0, q0]) * basis).sum(axis=1)
+        corner = s0[1:]
+        step = np.searchsorted(self.arc, corner, side="left") - 1
+        valid = (step >= 0) & (step < self.last_step)
+        step, corner = step[valid], corner[valid]
+        step = step[self.arc[step + 1] > corner]
+        return basis.T.copy(), offset, s0, length, step, self.samples[step], self.samples[step + 1]
 
-def conflict_intervals(cells: np.ndarray, motions, required) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+
+def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Steps at which cells are too close to other robots: intervals ``(cell, first, last)``.
 
     Cell ``c`` conflicts with the robot of ``motions[i]`` at step ``t`` when it is closer than
@@ -190,84 +244,76 @@ def conflict_intervals(cells: np.ndarray, motions, required) -> tuple[np.ndarray
     lengths within ``required`` form one interval, found in closed form (half-chord
     ``sqrt(required^2 - d_perp^2)`` about the foot of the perpendicular); the steps whose
     stretch meets it follow by binary search. ``last`` may exceed any horizon (parked for good).
-    Returns three integer arrays of equal length.
+    ``windows``, a pair of integer arrays ``(since, until)`` over the motions, keeps only the
+    steps ``since[i] <= t <= until[i]`` of each motion. Returns three integer arrays of equal length.
     """
-    cells = np.asarray(cells, dtype=float)
+    cells = np.asarray(cells, dtype=float).reshape(-1, 2)
     required = np.asarray(required, dtype=float).reshape(-1)
-    if not len(motions):
+    parts = [_conflicts_with(cells, m, float(r)) for m, r in zip(motions, required)]
+    if not parts:
         empty = np.zeros(0, dtype=np.int64)
         return empty, empty, empty
-    forever = np.iinfo(np.int64).max // 2
-    last_step = np.array([m.last_step for m in motions])
-    ends = np.array([m.samples[-1] for m in motions])
-    cx, cy = cells[:, 0:1], cells[:, 1:2]
-    dx, dy = cx - ends[:, 0], cy - ends[:, 1]
-    c, i = np.nonzero(dx * dx + dy * dy < (required - TOL) ** 2)
-    cols, firsts, lasts = [c], [last_step[i]], [np.full(len(c), forever)]
-    moving = [k for k, m in enumerate(motions) if last_step[k] > 0 and len(m.segments[2])]
-    if not moving:
-        return c, last_step[i], lasts[0]
-    # The moving robots' step-indexed arc lengths are laid end to end, each shifted past the
-    # previous one, so that one binary search serves them all.
-    shift = np.concatenate([[0.0], np.cumsum([m.arc[-1] + 1.0 for m in motions])])[:-1]
-    base = np.concatenate([[0], np.cumsum([len(m.arc) for m in motions])])[:-1]
-    line = np.concatenate([m.arc + o for m, o in zip(motions, shift)])
-    q0, unit, length, s0 = (np.concatenate([motions[k].segments[f] for k in moving]) for f in range(4))
-    owner = np.repeat(moving, [len(motions[k].segments[2]) for k in moving])
-    # Coordinates of every cell along and across every segment, in one product.
-    basis = np.concatenate([unit, unit[:, ::-1] * (-1.0, 1.0)])
-    frame = cells @ basis.T - (np.concatenate([q0, q0]) * basis).sum(axis=1)
-    along, perp = frame[:, :len(unit)], frame[:, len(unit):]
-    reach = required[owner]
-    half2 = reach * reach - perp * perp
-    half = np.sqrt(np.maximum(half2, 0.0))
-    lo = np.maximum(along - half, 0.0)
-    hi = np.minimum(along + half, length)
-    c, j = np.nonzero((half2 > TOL * reach) & (lo <= hi))
-    k = owner[j]
-    offset = s0[j] + shift[k]
-    first = np.maximum(np.searchsorted(line, lo[c, j] + offset, side="left") - base[k] - 1, 0)
-    last = np.minimum(np.searchsorted(line, hi[c, j] + offset, side="right") - 1 - base[k], last_step[k] - 1)
-    ok = first <= last
-    cols.append(c[ok])
-    firsts.append(first[ok])
-    lasts.append(last[ok])
-    # Steps whose move cuts a corner of a polyline: check the chord itself as well.
-    inner = np.flatnonzero(owner[1:] == owner[:-1]) + 1
-    k = owner[inner]
-    corner = s0[inner] + shift[k]
-    step = np.searchsorted(line, corner, side="left") - 1 - base[k]
-    valid = (step >= 0) & (step < last_step[k])
-    step, k, corner = step[valid], k[valid], corner[valid]
-    cut = line[base[k] + step + 1] > corner
-    step, k = step[cut], k[cut]
-    if len(step):
-        samples = np.concatenate([m.samples for m in motions])
-        at = base[k] + step
-        t, c = np.nonzero(segment_point_distance(samples[at], samples[at + 1], cells) < required[k][:, None] - TOL)
-        cols.append(c)
-        firsts.append(step[t])
-        lasts.append(step[t])
+    cols, firsts, lasts = (np.concatenate(x) for x in zip(*parts))
+    if windows is not None:
+        owners = np.repeat(np.arange(len(parts)), [len(p[0]) for p in parts])
+        since, until = (np.asarray(w, dtype=np.int64).reshape(-1) for w in windows)
+        firsts = np.maximum(firsts, since[owners])
+        lasts = np.minimum(lasts, until[owners])
+        keep = firsts <= lasts
+        cols, firsts, lasts = cols[keep], firsts[keep], lasts[keep]
+    return cols, firsts, lasts
+
+
+def _conflicts_with(cells: np.ndarray, motion: Motion, required: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`conflict_intervals` for one motion."""
+    last_step = motion.last_step
+    end = motion.samples[-1]
+    dx, dy = cells[:, 0] - end[0], cells[:, 1] - end[1]
+    c = np.flatnonzero(dx * dx + dy * dy < (required - TOL) ** 2)
+    cols, firsts, lasts = [c], [np.full(len(c), last_step)], [np.full(len(c), FOREVER)]
+    basis, offset, s0, length, step, chord_a, chord_b = motion.sweep
+    if last_step > 0 and len(length):
+        n_seg = len(length)
+        frame = cells @ basis - offset
+        along, perp = frame[:, :n_seg], frame[:, n_seg:]
+        half2 = required * required - perp * perp
+        half = np.sqrt(np.maximum(half2, 0.0))
+        lo = np.maximum(along - half, 0.0)
+        hi = np.minimum(along + half, length)
+        c, j = np.nonzero((half2 > TOL * required) & (lo <= hi))
+        first = np.maximum(np.searchsorted(motion.arc, lo[c, j] + s0[j], side="left") - 1, 0)
+        last = np.minimum(np.searchsorted(motion.arc, hi[c, j] + s0[j], side="right") - 1, last_step - 1)
+        ok = first <= last
+        cols.append(c[ok])
+        firsts.append(first[ok])
+        lasts.append(last[ok])
+        if len(step):
+            # Steps whose move cuts a corner of the polyline: the chord itself as well.
+            t, c = np.nonzero(segment_point_distance(chord_a, chord_b, cells) < required - TOL)
+            cols.append(c)
+            firsts.append(step[t])
+            lasts.append(step[t])
     return np.concatenate(cols), np.concatenate(firsts), np.concatenate(lasts)
 
 
-def blocked_bits(n_cells: int, n_rows: int, intervals, entry: int = -1, allowed: int = 0) -> np.ndarray:
+def blocked_bits(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
     """The cells that may not be occupied at each step, as bitsets: ``(n_rows, W)`` little-endian
     64-bit words, bit ``c`` of row ``t`` set when cell ``c`` is closed at step ``t``.
 
     ``intervals`` is an iterable of ``(cell, first, last)`` arrays (see
-    :func:`conflict_intervals`); cells at and past ``entry`` are also closed before step
-    ``allowed`` (the corridor rule). Overlapping intervals of a cell are merged first, so that
-    each cell's bit is added once where an interval starts and subtracted once after it ends;
-    a running sum down the steps then sets exactly the closed bits, without carries.
+    :func:`conflict_intervals`; steps before 0 are ignored). Each gate ``(cell, allowed)`` also
+    closes the cells at and past ``cell`` before step ``allowed`` (the corridor and door rules).
+    Overlapping intervals of a cell are merged first, so that each cell's bit is added once
+    where an interval starts and subtracted once after it ends; a running sum down the steps
+    then sets exactly the closed bits, without carries.
     """
     words = (n_cells + 63) // 64
     diff = np.zeros((n_rows + 1, words), dtype="<u8")
     parts = list(intervals)
     if parts:
         cols, first, last = (np.concatenate(x).astype(np.int64) for x in zip(*parts))
-        now = first < n_rows
-        cols, first, last = cols[now], first[now], np.minimum(last[now], n_rows - 1)
+        now = (first < n_rows) & (last >= 0)
+        cols, first, last = cols[now], np.maximum(first[now], 0), np.minimum(last[now], n_rows - 1)
         if len(cols):
             span = n_rows + 2
             a, b = cols * span + first, cols * span + last
@@ -280,9 +326,11 @@ def blocked_bits(n_cells: int, n_rows: int, intervals, entry: int = -1, allowed:
             np.add.at(diff, (start % span, cell // 64), bit)
             np.subtract.at(diff, (stop % span + 1, cell // 64), bit)
     bits = np.cumsum(diff[:-1], axis=0, dtype="<u8")
-    if entry >= 0 and allowed > 0:
-        gate = ((1 << n_cells) - 1) ^ ((1 << entry) - 1)
-        bits[:allowed] |= np.frombuffer(gate.to_bytes(8 * words, "little"), dtype="<u8")
+    full = (1 << n_cells) - 1
+    for cell, allowed in gates:
+        if cell >= 0 and allowed > 0:
+            gate = full ^ ((1 << int(cell)) - 1)
+            bits[:allowed] |= np.frombuffer(gate.to_bytes(8 * words, "little"), dtype="<u8")
     return bits
 
 
@@ -300,9 +348,33 @@ def free_rows(bits: np.ndarray, n_cells: int) -> tuple[list[int], list[int]]:
     return rows, starts
 
 
-def free_cells(n_cells: int, n_rows: int, intervals, entry: int = -1, allowed: int = 0) -> np.ndarray:
+def blocked_rows(bits: np.ndarray) -> list[int]:
+    """The rows of :func:`blocked_bits` as Python integers (bit ``c``: cell ``c`` is closed);
+    runs of equal rows share one integer."""
+    bits = np.ascontiguousarray(bits, dtype="<u8")
+    buf = bits.tobytes()
+    size = 8 * bits.shape[1]
+    starts = np.flatnonzero(np.concatenate([[True], (bits[1:] != bits[:-1]).any(axis=1)])).tolist()
+    rows: list[int] = []
+    for a, b in zip(starts, starts[1:] + [len(bits)]):
+        rows.extend([int.from_bytes(buf[a * size:(a + 1) * size], "little")] * (b - a))
+    return rows
+
+
+def _relaxed_rows(cells: np.ndarray, motion: Motion, required: float, gap: float) -> list[int]:
+    """:func:`blocked_rows` against ``motion`` for a robot whose first cell is only ``gap <
+    required`` away from it: the relaxed separation holds until the step after which the motion
+    keeps ``required`` from that cell for good, the full one from then on."""
+    _, _, last = conflict_intervals(cells[:1], [motion], [required])
+    since = int(last.max()) + 1 if len(last) else 0
+    parts = [conflict_intervals(cells, [motion], [required], ([since], [FOREVER])),
+             conflict_intervals(cells, [motion], [relaxed_separation(required, gap)], ([0], [since - 1]))]
+    return blocked_rows(blocked_bits(len(cells), motion.last_step + 1, parts))
+
+
+def free_cells(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
     """The cells free at each step as a boolean array ``(n_rows, n_cells)`` (see :func:`blocked_bits`)."""
-    bits = blocked_bits(n_cells, n_rows, intervals, entry, allowed)
+    bits = blocked_bits(n_cells, n_rows, intervals, gates)
     closed = np.unpackbits(bits.view(np.uint8), axis=1, bitorder="little")[:, :n_cells]
     return closed == 0
 
@@ -421,11 +493,11 @@ def earliest_arrival_rows(rows: list[int], starts: list[int], n_cells: int, ok2:
 
 def _dash_clashes(path: np.ndarray, step: float, others: np.ndarray, required: np.ndarray) -> bool:
     """Whether driving along ``path`` at ``step`` per step and then standing at its end comes
-    closer than ``required`` to robots at ``others[t]`` ``(T, m, 2)`` at some step."""
+    closer than ``required`` to robots at ``others[t]`` ``(T, m, 2)`` at some step after the first."""
     grid = arc_length_grid(path, step).points
     at = grid[np.minimum(np.arange(len(others)), len(grid) - 1)]
     gap = np.linalg.norm(others - at[:, None], axis=2)
-    return bool((gap < required - TOL).any())
+    return bool((gap[1:] < required - TOL).any())
 
 
 def retreat_spots(centre: np.ndarray) -> np.ndarray:
@@ -433,6 +505,13 @@ def retreat_spots(centre: np.ndarray) -> np.ndarray:
     ang = 2.0 * np.pi * np.arange(_RETREAT_ANGLES) / _RETREAT_ANGLES
     ring = np.stack([np.cos(ang), np.sin(ang)], axis=1)
     return (np.asarray(centre, dtype=float)[None, None] + np.asarray(_RETREAT_RADII)[:, None, None] * ring[None]).reshape(-1, 2)
+
+
+def join_motions(head: Motion, tail: Motion) -> Motion:
+    """``head`` up to its last step, then ``tail``, which starts where ``head`` ends."""
+    length = float(head.segments[2].sum())
+    return Motion(np.vstack([head.path, tail.path[1:]]), np.vstack([head.samples[:-1], tail.samples]),
+                  np.concatenate([head.arc[:-1], tail.arc + length]))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -446,6 +525,8 @@ class _Route:
     path: GeometricPath
     centres: np.ndarray
     radii: np.ndarray
+    detour: bool = False
+    """Whether the path had to ignore the robots standing in the way (it may cross them)."""
 
 
 @dataclass(frozen=True)
@@ -463,8 +544,25 @@ class _Track:
     """Which cells are in the corridor ``(N,)``."""
     entry: int
     """First cell entering the corridor from outside, or -1 (:func:`entry_cell`)."""
+    doors: tuple[int, int]
+    """First cell entering the door zone of the left and of the right entrance from outside, or -1."""
     segments: tuple
     """The path's segments, :func:`polyline_segments`."""
+
+
+@dataclass(frozen=True)
+class _Cut:
+    """A path cut into cells, before any standing robot is considered (see :class:`_Track`)."""
+
+    cells: np.ndarray
+    arc: np.ndarray
+    ok2: np.ndarray
+    corners: np.ndarray
+    """Cells ``c`` whose full-speed move ``c -> c+2`` cuts a corner of the path."""
+    inside: np.ndarray
+    entry: int
+    doors: tuple[int, int]
+    segments: tuple
 
 
 @dataclass(frozen=True)
@@ -473,14 +571,27 @@ class _RobotPlan:
 
     motion: Motion
     """Its polyline and where it is along it at steps ``0..arrival``."""
-    passage: tuple[int, int]
-    """``(entry, exit)`` samples of its last stay in the corridor, see :func:`corridor_passage`."""
+    world: World = field(repr=False)
+    door_clearance: float = 1.0
+    """Radius of the door zones (m)."""
     retreat: bool = False
-    """Whether it backs out of an earlier robot's way first."""
+    """Whether it backs out of the way first."""
 
     @property
     def arrival(self) -> int:
         return self.motion.last_step
+
+    @cached_property
+    def passage(self) -> tuple[int, int]:
+        """``(entry, exit)`` samples of its last stay in the corridor, see :func:`corridor_passage`."""
+        return corridor_passage(self.world.in_corridor(self.motion.samples))
+
+    @cached_property
+    def doors(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """``(entry, exit)`` samples of its last stay in the door zone of the left and of the right entrance."""
+        s = self.motion.samples
+        return tuple(corridor_passage(np.hypot(s[:, 0] - e[0], s[:, 1] - e[1]) < self.door_clearance)
+                     for e in self.world.entrances)
 
 
 @dataclass(frozen=True)
@@ -498,8 +609,12 @@ class _State:
     """Crossing directions, :func:`crossing_directions`."""
     inside: np.ndarray
     """Which robots stand in the corridor."""
-    end_clearance: np.ndarray
-    """Least of the clearances of each robot's position and destination (m)."""
+    door: np.ndarray
+    """Index of the entrance each robot crosses through first (0 left, 1 right), -1 if it does not cross."""
+    in_door: np.ndarray
+    """Which crossing robots stand in the door zone of that entrance."""
+    natural: tuple
+    """Each robot's shortest path among the walls alone, from its position to its destination."""
     problem: str
     """Why no order can be planned (a destination outside free space, overlapping ones), or empty."""
 
@@ -529,6 +644,27 @@ class _Attempt:
     reason: str
     plan: _RobotPlan | None = None
     trapped: bool = False
+    evasions: tuple = ()
+    """``(robot, motion)`` of the robots after it that get out of its way first."""
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where everybody is while one robot is planned: the robots before it (their plans), and
+    the robots after it, standing where they are or where they get out of the way to."""
+
+    plans: dict
+    """Planned robot -> :class:`_RobotPlan`."""
+    heads: dict
+    """Robot still to plan -> the motion by which it gets out of the way first (it then stands
+    at its end)."""
+    later: tuple[int, ...]
+    """The robots still to plan, in index order (other than the one being planned)."""
+
+    def fixed(self, but: int) -> list[tuple[int, Motion]]:
+        """Every known motion, except robot ``but``'s own: the plans, then the heads."""
+        return ([(i, p.motion) for i, p in self.plans.items()]
+                + [(j, m) for j, m in sorted(self.heads.items()) if j != but])
 
 
 class PrioritizedPlanner:
@@ -541,6 +677,8 @@ class PrioritizedPlanner:
         self.params = params if params is not None else PlannerParams()
         self._graphs: dict[tuple[World, float], VisibilityGraph] = {}
         self._tracks: dict[tuple, _Track] = {}
+        self._cuts: dict[tuple, _Cut] = {}
+        self._rows: dict[tuple, tuple] = {}
         self._states: dict[tuple, _State] = {}
         self._attempts: dict[tuple, _Attempt] = {}
 
@@ -568,7 +706,6 @@ class PrioritizedPlanner:
 
     def _plan(self, request: PlanRequest) -> PlanResult:
         world = request.world
-        dt = float(self.params.dt)
         # Copies: the memos keep them, and the caller may reuse its arrays.
         pos = np.array(request.positions, dtype=float).reshape(-1, 2)
         dest = np.array(request.destinations, dtype=float).reshape(-1, 2)
@@ -580,7 +717,7 @@ class PrioritizedPlanner:
                 or not (np.isfinite(pos).all() and np.isfinite(dest).all() and (radii > 0).all() and (vmax > 0).all())):
             raise ValueError(f"malformed request: order {order} for {n} robots, positions {pos.shape}, destinations "
                              f"{dest.shape}, radii {radii.tolist()}, max_speeds {vmax.tolist()}")
-        state = self._state(world, pos, dest, radii, vmax, dt)
+        state = self._state(world, pos, dest, radii, vmax)
         entered = tuple(int(k) for k in request.entered)
         entered += tuple(k for k in order if state.inside[k] and k not in entered)
         planned = feasible_order(order, entered)
@@ -592,62 +729,118 @@ class PrioritizedPlanner:
         if state.problem:
             return failure(state.problem)
         plans: dict[int, _RobotPlan] = {}
+        heads: dict[int, Motion] = {}
         for rank, k in enumerate(planned):
-            # A robot's plan depends only on the state and on who goes before it (the rest go
-            # after), so orders that share a beginning share those plans.
+            # A robot's plan depends only on the state, on who goes before it and on the set of
+            # robots after it, so orders that share a beginning share those plans.
             key = (state.key, planned[:rank + 1])
             attempt = self._attempts.get(key)
             if attempt is None:
-                attempt = self._plan_robot(world, state, k, planned[:rank], planned[rank + 1:], plans, dt)
+                layout = _Layout(dict(plans), dict(heads), tuple(sorted(planned[rank + 1:])))
+                attempt = self._plan_robot(world, state, k, layout)
                 _remember(self._attempts, key, attempt)
             if not attempt.success:
                 return failure(f"robot {k}: {attempt.reason}")
             plans[k] = attempt.plan
-        return self._result(request, order, planned, entered, plans, dt)
+            heads.pop(k, None)
+            heads.update(attempt.evasions)
+        return self._result(request, order, planned, entered, plans)
 
-    def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
-               dt: float) -> _State:
+    def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray) -> _State:
         """What every order planned from this state shares (memoised)."""
         key = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
         state = self._states.get(key)
         if state is None:
-            clear = world.clearance(np.vstack([pos, dest]))
             n = len(pos)
-            state = _State(key, pos, dest, radii, vmax, separation_requirements(pos, dest, radii, vmax, dt, self.params.margin),
-                           crossing_directions(world, pos, dest), world.in_corridor(pos),
-                           np.minimum(clear[:n], clear[n:]), _state_problem(dest, clear[n:], radii))
-            _remember(self._states, key, state)
-            # Every robot's path among the walls alone is the first thing any order asks for.
+            clear = world.clearance(dest)
+            dirs = crossing_directions(world, pos, dest)
+            door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
+            entrances = np.asarray(world.entrances, dtype=float)
+            gap = np.linalg.norm(pos - entrances[np.maximum(door, 0)], axis=1)
+            natural = [None] * n
             for radius in np.unique(radii):
-                group = radii == radius
-                self.graph(world, radius).shortest_paths(pos[group], dest[group])
+                group = np.flatnonzero(radii == radius)
+                for k, path in zip(group, self.graph(world, radius).shortest_paths(pos[group], dest[group])):
+                    natural[k] = path.points
+            state = _State(key, pos, dest, radii, vmax,
+                           separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin),
+                           dirs, world.in_corridor(pos), door, (door >= 0) & (gap < self.params.door_clearance),
+                           tuple(natural), _state_problem(dest, clear, radii))
+            _remember(self._states, key, state)
         return state
 
-    def _plan_robot(self, world: World, state: _State, k: int, earlier: tuple[int, ...], later: tuple[int, ...],
-                    plans: dict[int, _RobotPlan], dt: float) -> _Attempt:
-        """Robot ``k``'s path and timing, after the robots ``earlier`` and before ``later``."""
-        pos, dest, radii, vmax, req = state.positions, state.destinations, state.radii, state.max_speeds, state.required
-        centres = np.vstack([pos[list(later)], dest[list(earlier)]]).reshape(-1, 2)
-        rads = np.concatenate([req[k, list(later)], req[k, list(earlier)]])
-        track = self._track(world, radii[k], vmax[k] * dt, pos[k], dest[k], centres, rads, len(later),
-                            state.end_clearance[k])
+    def _start(self, state: _State, k: int, layout: _Layout) -> np.ndarray:
+        """Where robot ``k`` stands once it has got out of the way (its position if it need not)."""
+        head = layout.heads.get(k)
+        return head.samples[-1] if head is not None else state.positions[k]
+
+    def _plan_robot(self, world: World, state: _State, k: int, layout: _Layout) -> _Attempt:
+        """Robot ``k``'s path and timing among the robots before it. Robots after it that stand
+        in its way, or in the door zone it will come out of, get out of the way first; one pinned
+        where only ``k``'s own place would let it out gets that room: ``k`` backs off first."""
+        dirs = state.directions
+        heads = dict(layout.heads)  # grows as robots get out of the way
+        evasions: dict[int, Motion] = {}
+
+        def now() -> _Layout:
+            return replace(layout, heads=dict(heads))
+
+        def evade(j: int) -> None:
+            moves = self._evade(world, state, j, k, now())
+            if not moves and k not in heads:
+                back = self._back_off(world, state, k, j, now())
+                if back:
+                    moves = self._evade(world, state, j, k, replace(layout, heads={**heads, **back}))
+                    moves = {**back, **moves} if moves else {}
+            if k in moves:
+                heads[k] = moves.pop(k)
+            heads.update(moves)
+            evasions.update(moves)
+
+        if dirs[k] != 0:
+            for j in layout.later:
+                if j not in heads and state.in_door[j] and dirs[j] == -dirs[k]:
+                    evade(j)
+        track = self._track_for(world, state, k, now())
+        if track.route.detour:
+            stand = np.array([self._start(state, j, now()) for j in layout.later]).reshape(-1, 2)
+            start, goal = track.cells[0], track.cells[-1]
+            crossed = disc_violations(track.route.path.points, stand, state.required[k, list(layout.later)],
+                                      np.linalg.norm(stand - start, axis=1), np.linalg.norm(stand - goal, axis=1))
+            for j in np.asarray(layout.later)[crossed]:
+                if int(j) not in heads:
+                    evade(int(j))
+        here = now()
+        if len(heads) > len(layout.heads):
+            track = self._track_for(world, state, k, here)
         if not track.route.path.success:
             return _Attempt(False, track.route.path.reason)
-        attempt = self._time(world, k, track, plans, earlier, req, state.directions)
-        if not attempt.success and attempt.trapped:
-            retreat = self._retreat(world, k, state, plans, earlier, later, centres, rads, dt)
+        attempt = self._time(world, state, k, track, here)
+        if not attempt.success and attempt.trapped and k not in heads:
+            retreat = self._retreat(world, state, k, here)
             if retreat.success:
-                return retreat
-        return attempt
+                attempt = retreat
+        return replace(attempt, evasions=tuple(sorted(evasions.items())))
+
+    def _track_for(self, world: World, state: _State, k: int, layout: _Layout) -> _Track:
+        """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
+        must), around the robots after it standing and the destinations of those before it."""
+        dest, req = state.destinations, state.required
+        later, earlier = list(layout.later), sorted(layout.plans)
+        start = self._start(state, k, layout)
+        centres = np.vstack([np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2), dest[earlier]])
+        rads = np.concatenate([req[k, later], req[k, earlier]])
+        return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
+                           rads, len(later))
 
     def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
-               centres: np.ndarray, rads: np.ndarray, n_later: int, end_clearance: float) -> _Track:
+               centres: np.ndarray, rads: np.ndarray, n_later: int) -> _Track:
         """The robot's prepared path (memoised: the closed loop asks the same from every order)."""
         key = (world, radius, step, start.tobytes(), goal.tobytes(), centres.tobytes(), rads.tobytes(), n_later)
         track = self._tracks.get(key)
         if track is None:
             route = self._route(world, radius, start, goal, centres, rads, n_later)
-            track = self._prepare(world, radius, step, route, end_clearance)
+            track = self._prepare(world, radius, step, route)
             _remember(self._tracks, key, track)
         return track
 
@@ -661,27 +854,46 @@ class PrioritizedPlanner:
             attempts.append((centres[n_later:], rads[n_later:]))
         if len(attempts[-1][0]):
             attempts.append((np.zeros((0, 2)), np.zeros(0)))
-        for c, r in attempts:
+        for level, (c, r) in enumerate(attempts):
             path = graph.shortest_path(start, goal, c, r)
             if path.success:
                 break
-        return _Route(path, c, r)
+        return _Route(path, c, r, detour=bool(n_later) and level > 0)
 
-    def _prepare(self, world: World, radius: float, step: float, route: _Route, end_clearance: float) -> _Track:
-        """Cut the path into cells of at most half a step and find the allowed full-speed moves.
+    def _prepare(self, world: World, radius: float, step: float, route: _Route) -> _Track:
+        """The path cut into cells (:meth:`_cut`), with the full-speed moves that would cut a
+        corner closer to a standing robot than the polyline comes removed."""
+        cut = self._cut(world, radius, step, route.path.points)
+        ok2 = cut.ok2
+        if len(cut.corners) and len(route.centres):
+            a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
+            keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
+            bad = (segment_point_distance(a, b, route.centres) < keep - TOL).any(axis=1)
+            if bad.any():
+                ok2 = ok2.copy()
+                ok2[cut.corners[bad]] = False
+        return _Track(route, cut.cells, cut.arc, ok2, cut.inside, cut.entry, cut.doors, cut.segments)
+
+    def _cut(self, world: World, radius: float, step: float, path: np.ndarray) -> _Cut:
+        """Cut a path into cells of at most half a step and find the full-speed moves the walls
+        allow (memoised by path: many disc sets give the same path).
 
         A move ``c -> c+2`` leaves the polyline only where it cuts a corner; there the straight
         chord must keep the robot's radius from the walls (or not go deeper than its ends
-        already are) and must not come closer to a standing robot than the polyline does. The
-        polyline keeps ``g = min(radius + wall margin, end_clearance)`` from the walls (the least
-        clearance of its two ends),
-        and no point of a chord is farther from the polyline than the corner is from the chord
-        (``h``), so ``g - h >= radius`` settles most corners without computing distances.
+        already are). The polyline keeps ``g = min(radius + wall margin, end clearance)`` from
+        the walls (the least clearance of its two ends), and no point of a chord is farther
+        from the polyline than the corner is from the chord (``h``), so ``g - h >= radius``
+        settles most corners without computing distances.
         """
-        grid = arc_length_grid(route.path.points, step / 2.0)
+        key = (world, radius, step, path.tobytes())
+        cut = self._cuts.get(key)
+        if cut is not None:
+            return cut
+        grid = arc_length_grid(path, step / 2.0)
         cells = grid.points
         n = len(cells)
         ok = np.zeros(n, dtype=bool)
+        corners = np.zeros(0, dtype=int)
         if n >= 3:
             ok[:n - 2] = True
             u, w = cells[1:-1] - cells[:-2], cells[2:] - cells[1:-1]
@@ -690,87 +902,253 @@ class PrioritizedPlanner:
             if len(corners):
                 a, b = cells[corners], cells[corners + 2]
                 height = np.abs(cross[corners]) / np.linalg.norm(b - a, axis=1)
-                polyline_clearance = min(radius + self.wall_margin, end_clearance)
-                good = polyline_clearance - height >= radius
+                end_clearance = float(world.clearance(path[[0, -1]]).min())
+                good = min(radius + self.wall_margin, end_clearance) - height >= radius
                 unsure = np.nonzero(~good)[0]
                 if len(unsure):
                     au, bu = a[unsure], b[unsure]
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
                     good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
-                if len(route.centres):
-                    keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
-                    good &= (segment_point_distance(a, b, route.centres) >= keep - TOL).all(axis=1)
                 ok[corners] = good
         inside = world.in_corridor(cells)
-        return _Track(route, cells, grid.arc_length, ok, inside, entry_cell(inside), polyline_segments(route.path.points))
+        doors = tuple(entry_cell(self._in_door(world, cells, e)) for e in (0, 1))
+        cut = _Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
+        _remember(self._cuts, key, cut)
+        return cut
 
-    def _time(self, world: World, k: int, track: _Track, plans: dict[int, _RobotPlan], earlier: tuple[int, ...],
-              req: np.ndarray, dirs: np.ndarray) -> _Attempt:
-        """Velocity tuning of robot ``k`` along ``track`` among the robots planned before it."""
-        allowed = 0
-        if track.entry >= 0:
-            for i in earlier:
-                e_i, x_i = plans[i].passage
-                if e_i < 0:
-                    continue
-                if dirs[i] == dirs[k] != 0:
-                    allowed = max(allowed, e_i + 1)
-                elif x_i > plans[i].arrival:
-                    return _Attempt(False, f"robot {i} before it in the order parks inside the corridor")
-                else:
-                    allowed = max(allowed, x_i + 1)
-        cells = track.cells
-        n_rows = max([plans[i].arrival + 1 for i in earlier] + [allowed + 1])
-        conflicts = conflict_intervals(cells, [plans[i].motion for i in earlier], req[list(earlier), k])
-        bits = blocked_bits(len(cells), n_rows, [conflicts], track.entry, allowed)
-        timing = earliest_arrival_rows(*free_rows(bits, len(cells)), len(cells), track.ok2,
-                                       self.params.waiting == "early")
+    def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray:
+        """Which points are in the door zone of entrance ``entrance`` (0 left, 1 right)."""
+        e = world.entrances[entrance]
+        return np.hypot(points[:, 0] - e[0], points[:, 1] - e[1]) < self.params.door_clearance
+
+    def _gates(self, state: _State, k: int, track: _Track, plans: dict) -> tuple[list, str]:
+        """The corridor and door rules for robot ``k`` after the robots ``plans``: ``(cell,
+        allowed)`` pairs (cells at and past ``cell`` are closed before step ``allowed``), or why
+        the order cannot be kept."""
+        dirs, gates = state.directions, []
+        door = state.door[k]
+        for i, p in plans.items():
+            e_i, x_i = p.passage
+            if dirs[i] == dirs[k] != 0:
+                if track.entry >= 0 and e_i >= 0:
+                    gates.append((track.entry, e_i + 1))
+                continue
+            if track.entry >= 0 and e_i >= 0:
+                if x_i > p.arrival:
+                    return [], f"robot {i} before it in the order parks inside the corridor"
+                gates.append((track.entry, x_i + 1))
+            if door >= 0 and track.doors[door] >= 0:
+                z_i, out_i = p.doors[door]
+                if z_i >= 0:
+                    gates.append((track.doors[door], min(out_i, p.arrival) + 1))
+        return gates, ""
+
+    def _timing(self, state: _State, k: int, track: _Track, fixed: list, gates=(), t0: int = 0) -> Timing:
+        """Velocity tuning of robot ``k`` along ``track`` from step ``t0`` among the ``fixed``
+        ``(robot, motion)`` pairs, under the ``gates`` (absolute steps); the timing's step 0 is
+        step ``t0``. A pair that starts closer than required keeps the relaxed separation until
+        the other robot's motion is required distance away from this one's start for good
+        (:func:`relaxed_separation`)."""
+        cells, n = track.cells, len(track.cells)
+        n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
+        closed = [0] * n_rows
+        for j, m in fixed:
+            r = float(state.required[j, k])
+            here = m.samples[min(t0, m.last_step)]
+            gap = math.hypot(here[0] - cells[0, 0], here[1] - cells[0, 1])
+            rows = self._blocked_rows(cells, m, r) if gap >= r else _relaxed_rows(cells, m, r, gap)
+            part = rows[t0:] if t0 < len(rows) else rows[-1:]
+            closed[:len(part)] = [a | b for a, b in zip(closed, part)]
+            if part[-1]:
+                tail = part[-1]
+                closed[len(part):] = [a | tail for a in closed[len(part):]]
+        full = (1 << n) - 1
+        for c, allowed in gates:
+            if c >= 0 and allowed > t0:
+                gate = full ^ ((1 << c) - 1)
+                closed[:allowed - t0] = [a | gate for a in closed[:allowed - t0]]
+        rows = [full ^ a for a in closed]
+        starts = [0] + [t for t in range(1, n_rows) if closed[t] != closed[t - 1]]
+        return earliest_arrival_rows(rows, starts, n, track.ok2, self.params.waiting == "early")
+
+    def _blocked_rows(self, cells: np.ndarray, motion: Motion, required: float) -> list[int]:
+        """The cells too close to ``motion`` at each of its steps (:func:`blocked_rows`; memoised:
+        the same path meets the same motion in many orders, and equal motions in others)."""
+        key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
+        hit = self._rows.get(key)
+        if hit is None:
+            rows = blocked_rows(blocked_bits(len(cells), motion.last_step + 1,
+                                             [conflict_intervals(cells, [motion], [required])]))
+            # The cells are kept with the rows so that their id stays theirs while remembered.
+            hit = (cells, rows)
+            _remember(self._rows, key, hit)
+        return hit[1]
+
+    def _time(self, world: World, state: _State, k: int, track: _Track, layout: _Layout,
+              head: Motion | None = None) -> _Attempt:
+        """Robot ``k``'s timing along ``track`` among everything known, after ``head`` (the
+        motion by which it first got out of the way) if there is one."""
+        head = layout.heads.get(k) if head is None else head
+        gates, problem = self._gates(state, k, track, layout.plans)
+        if problem:
+            return _Attempt(False, problem)
+        t0 = head.last_step if head is not None else 0
+        timing = self._timing(state, k, track, layout.fixed(k), gates, t0)
         if not timing.success:
             return _Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
         steps = timing.cells
-        motion = Motion(track.route.path.points, cells[steps], track.arc[steps], track.segments)
-        return _Attempt(True, "", _RobotPlan(motion, corridor_passage(track.inside[steps])))
+        motion = Motion(track.route.path.points, track.cells[steps], track.arc[steps], track.segments)
+        if head is not None:
+            motion = join_motions(head, motion)
+        return _Attempt(True, "", _RobotPlan(motion, world, self.params.door_clearance, head is not None))
 
-    def _retreat(self, world: World, k: int, state: _State, plans: dict[int, _RobotPlan], earlier: tuple[int, ...],
-                 later: tuple[int, ...], centres: np.ndarray, rads: np.ndarray, dt: float) -> _Attempt:
-        """Back robot ``k`` out of the way: via the cheapest nearby spot where it can wait for good."""
-        pos, dest, radii, vmax, req = state.positions, state.destinations, state.radii, state.max_speeds, state.required
-        graph = self.graph(world, radii[k])
-        spots = retreat_spots(pos[k])
-        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.in_corridor(spots)
-        for j in later:
-            ok &= np.linalg.norm(spots - pos[j], axis=1) >= req[k, j] - TOL
-        for i in earlier:
-            s = plans[i].motion.samples
-            a, b = (s[:-1], s[1:]) if len(s) > 1 else (s, s)
-            ok &= segment_point_distance(a, b, spots).min(axis=0) >= req[i, k] - TOL
-        spots = spots[ok]
-        # Spots that the robot can reach at full speed without meeting anyone first, nearest
-        # along free space first: a cornered robot must get out of the way in time.
-        ways = graph.shortest_paths(np.repeat(pos[k][None], len(spots), 0), spots)
-        horizon = max([plans[i].arrival for i in earlier] + [0])
-        others = np.stack([plans[i].motion.samples[np.minimum(np.arange(horizon + 1), plans[i].arrival)]
-                           for i in earlier], axis=1) if earlier else np.zeros((horizon + 1, 0, 2))
-        need = req[list(earlier), k]
-        clash = np.array([_dash_clashes(w.points, vmax[k] * dt, others, need) if w.success else True for w in ways])
-        length = np.array([w.length for w in ways])
+    def _evade(self, world: World, state: _State, j: int, k: int, layout: _Layout, clear: tuple = (),
+               depth: int = 0) -> dict:
+        """How robot ``j`` (planned after ``k``) first gets out of ``k``'s way: to a nearby spot
+        clear of the ways on of every robot still to plan and of the polylines ``clear``, and out
+        of its door zone if ``k`` or an earlier robot comes out through it (:meth:`_make_way`).
+        Returns robot -> motion for every robot that moves (empty if ``j`` cannot)."""
+        others = [m for m in layout.later if m != j] + [k]
+        dirs = state.directions
+        door = dirs[j] != 0 and any(dirs[i] == -dirs[j] for i in [*layout.plans, k])
+
+        def keep(lay: _Layout) -> list:
+            # The ways on of the robots that stay where they are, and of k from where it starts.
+            ways = [(state.natural[m], state.required[j, m]) for m in others if m not in lay.heads]
+            if k in lay.heads:
+                start = lay.heads[k].samples[-1]
+                way = self.graph(world, state.radii[k]).shortest_paths(start[None], state.destinations[k][None])[0]
+                ways.append((way.points, state.required[j, k]))
+            return ways + list(clear)
+
+        return self._make_way(world, state, j, k, layout, others, keep, door, (k,), depth)
+
+    def _back_off(self, world: World, state: _State, k: int, j: int, layout: _Layout) -> dict:
+        """How robot ``k`` first makes room for robot ``j`` (planned after it, standing in its
+        way) to get out of the way: to a spot clear of ``j``'s way, among the walls alone, to
+        the nearest spot ``j`` could go to were ``k`` not there (:meth:`_make_way`). Returns
+        robot -> motion for every robot that moves, ``k`` included (empty if it cannot)."""
+        dirs = state.directions
+        others = [m for m in layout.later if m != j]
+        door = dirs[j] != 0 and any(dirs[i] == -dirs[j] for i in [*layout.plans, k])
+        clear = [(state.natural[m], state.required[j, m]) for m in others if m not in layout.heads]
+        way = next((w for w in self._spots(world, state, j, layout, others, clear, door)[1] if w.success), None)
+        if way is None:
+            return {}
+        door = dirs[k] != 0 and any(dirs[i] == -dirs[k] for i in layout.plans)
+        return self._make_way(world, state, k, k, layout, list(layout.later),
+                              lambda lay: [(way.points, state.required[j, k])], door, (j,), 0)
+
+    def _make_way(self, world: World, state: _State, x: int, k: int, layout: _Layout, others: list, keep,
+                  door: bool, pinned: tuple, depth: int) -> dict:
+        """Robot ``x`` gets out of the way (of ``k``, which is being planned) to one of
+        :meth:`_spots` among the robots ``others``, keeping clear of ``keep(layout)``. When it
+        cannot, the robots standing on its way to the nearest spot it could reach without
+        passing one of the ``pinned`` robots get out of the way first, keeping that way clear
+        too (up to :data:`_CASCADE` deep), and ``x`` tries again. Returns robot -> motion for
+        every robot that moves (empty if ``x`` cannot)."""
+        head = next(self._escapes(world, state, x, layout, others, keep(layout), door), None)
+        if head is not None:
+            return {x: head}
+        movable = [m for m in others if m not in pinned and m != k and m not in layout.heads]
+        if depth >= _CASCADE or not movable:
+            return {}
+        stand = np.array([self._start(state, m, layout) for m in [*pinned, *movable]])
+        need = state.required[x, [*pinned, *movable]]
+        gap = np.linalg.norm(stand - state.positions[x], axis=1)
+        for way in self._spots(world, state, x, layout, others, keep(layout), door)[1]:
+            if way.success:
+                crossed = disc_violations(way.points, stand, need, gap, np.linalg.norm(stand - way.points[-1], axis=1))
+                if not crossed[:len(pinned)].any():
+                    break
+        else:
+            return {}
+        moves: dict[int, Motion] = {}
+        for m, c in zip(movable, crossed[len(pinned):]):
+            if c:
+                moves.update(self._evade(world, state, m, k, replace(layout, heads={**layout.heads, **moves}),
+                                         ((way.points, state.required[x, m]),), depth + 1))
+        if not moves:
+            return {}
+        after = replace(layout, heads={**layout.heads, **moves})
+        head = next(self._escapes(world, state, x, after, others, keep(after), door), None)
+        return {**moves, x: head} if head is not None else {}
+
+    def _retreat(self, world: World, state: _State, k: int, layout: _Layout) -> _Attempt:
+        """Robot ``k``, cornered by a robot before it, backs out of the way first: to the cheapest
+        nearby spot where it can wait for good, then on to its destination."""
+        dirs = state.directions
+        door = dirs[k] != 0 and any(dirs[i] == -dirs[k] for i in layout.plans)
         reason = "cornered by an earlier robot, and no spot nearby to back out to"
-        for q in spots[np.lexsort((length, clash))[:_RETREAT_TRIES]]:
-            out = graph.shortest_path(pos[k], q, centres, rads)
-            back = graph.shortest_path(q, dest[k], centres, rads)
-            if not (out.success and back.success):
+        for head in self._escapes(world, state, k, layout, list(layout.later), [], door):
+            track = self._track_for(world, state, k, replace(layout, heads={**layout.heads, k: head}))
+            if not track.route.path.success:
                 continue
-            points = np.vstack([out.points, back.points[1:]])
-            route = _Route(GeometricPath(True, "", points, out.length + back.length), centres, rads)
-            track = self._prepare(world, radii[k], vmax[k] * dt, route, state.end_clearance[k])
-            attempt = self._time(world, k, track, plans, earlier, req, state.directions)
+            attempt = self._time(world, state, k, track, layout, head)
             if attempt.success:
-                logger.debug("fast planner: robot %d backs out to (%.2f, %.2f)", k, q[0], q[1])
-                return _Attempt(True, "", replace(attempt.plan, retreat=True))
+                logger.debug("fast planner: robot %d backs out to (%.2f, %.2f)", k, *head.samples[-1])
+                return attempt
             reason = f"cornered by an earlier robot; backing out failed too: {attempt.reason}"
         return _Attempt(False, reason)
 
-    def _result(self, request: PlanRequest, order, planned, entered, plans: dict[int, _RobotPlan], dt: float) -> PlanResult:
+    def _spots(self, world: World, state: _State, j: int, layout: _Layout, others: list, clear: list,
+               door: bool) -> tuple[np.ndarray, list]:
+        """Spots robot ``j`` could get out of the way to, and its ways there among the walls
+        alone, nearest first: spots that keep the required distance from where the robots
+        ``others`` stand, the given distance from the polylines ``clear`` (``(polyline,
+        distance)`` pairs), the required distance from every known motion, and, with ``door``,
+        out of its door zone."""
+        pos, req, radius = state.positions[j], state.required, state.radii[j]
+        graph = self.graph(world, radius)
+        spots = retreat_spots(pos)
+        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.in_corridor(spots)
+        if door:
+            ok &= ~self._in_door(world, spots, state.door[j])
+        stand = np.array([self._start(state, m, layout) for m in others]).reshape(-1, 2)
+        if len(others):
+            ok &= (np.linalg.norm(spots[:, None] - stand[None], axis=2) >= req[j, others] - TOL).all(axis=1)
+        for route, distance in clear:
+            ok &= polyline_point_distance(route, spots) >= distance - TOL
+        for i, motion in layout.fixed(j):
+            ok &= polyline_point_distance(motion.samples, spots) >= req[i, j] - TOL
+        spots = spots[ok]
+        if not len(spots):
+            return spots, []
+        ways = graph.shortest_paths(np.repeat(pos[None], len(spots), 0), spots)
+        near = np.argsort([w.length for w in ways], kind="stable")[:3 * _RETREAT_TRIES]
+        return spots[near], [ways[q] for q in near]
+
+    def _escapes(self, world: World, state: _State, j: int, layout: _Layout, others: list, clear: list, door: bool):
+        """Motions by which robot ``j`` gets out of the way to one of :meth:`_spots`, best first:
+        nearest first among those it can dash to without meeting anyone, then the others."""
+        spots, ways = self._spots(world, state, j, layout, others, clear, door)
+        if not len(spots):
+            return
+        pos, req, radius = state.positions[j], state.required, state.radii[j]
+        graph = self.graph(world, radius)
+        fixed = layout.fixed(j)
+        step = state.max_speeds[j] * self.params.dt
+        horizon = max([m.last_step for _, m in fixed] + [0])
+        others_at = (np.stack([m.samples[np.minimum(np.arange(horizon + 1), m.last_step)] for _, m in fixed], axis=1)
+                     if fixed else np.zeros((horizon + 1, 0, 2)))
+        need = req[[i for i, _ in fixed], j]
+        clash = np.array([_dash_clashes(w.points, step, others_at, need) if w.success else True for w in ways])
+        stand = np.array([self._start(state, m, layout) for m in others]).reshape(-1, 2)
+        starts_inside = bool(world.in_corridor(pos))
+        for q in np.argsort(clash, kind="stable")[:_RETREAT_TRIES]:
+            way = graph.shortest_path(pos, spots[q], stand, req[j, others])
+            if not way.success:
+                continue
+            track = self._prepare(world, radius, step, _Route(way, stand, req[j, others]))
+            if not starts_inside and track.inside.any():
+                continue  # it would enter the corridor out of turn
+            timing = self._timing(state, j, track, fixed)
+            if timing.success:
+                steps = timing.cells
+                yield Motion(way.points, track.cells[steps], track.arc[steps], track.segments)
+
+    def _result(self, request: PlanRequest, order, planned, entered, plans: dict[int, _RobotPlan]) -> PlanResult:
+        dt = float(self.params.dt)
         n = len(plans)
         steps = max(p.arrival for p in plans.values()) + 1
         positions = np.empty((steps, n, 2))
@@ -795,4 +1173,3 @@ class PrioritizedPlanner:
             "entered": entered,
         }
         return PlanResult(True, "; ".join(notes), float(arrival.sum()), trajectory, order, planned, 0.0, info)
-

@@ -317,6 +317,21 @@ def test_report_rebuilt_from_a_database_without_running_trials(tmp_path, monkeyp
     assert text.count("*Produced by `nodnav report r.sqlite --out out`") == len(result.figures)
 
 
+def test_snapshot_picks_the_lowest_successful_seed(tmp_path):
+    db = tmp_path / "r.sqlite"
+    with ResultStore(db) as store:
+        fig4, fig5 = _config("3r-case4"), _config("4r-case4", game_players=1)
+        for seed, outcome in ((1, "deadlock"), (2, "success"), (3, "success")):
+            _add(store, STUDY_SUCCESS, fig4, seed, outcome)
+        for seed in (4, 5):
+            _add(store, STUDY_SUCCESS, fig5, seed, "collision")
+    result = build_report(db, tmp_path / "out", heatmap_grid=3, rerun_snapshots=False)
+    fig4_snap, fig5_snap = result.snapshots
+    assert (fig4_snap.scenario, fig4_snap.seed) == ("3r-case4", 2)
+    assert (fig5_snap.scenario, fig5_snap.seed) == ("4r-case4", 4)
+    assert "none of the 2 stored trials succeeded" in fig5_snap.reason
+
+
 def test_report_of_a_missing_database(tmp_path):
     result = build_report(tmp_path / "none.sqlite", tmp_path / "out")
     assert not result.success and "no such results database" in result.reason

@@ -399,7 +399,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150")
     p.add_argument("--u", type=float, help="attention parameter u")
     p.add_argument("--planner", help="planner name (default: the scenario's)")
-    p.add_argument("--method", default="nod", help="navigation method (default nod)")
+    p.add_argument("--method", default="nod", help="navigation method: nod (default), no-coordination, "
+                   "independent, closest-first, oracle, orca")
     p.add_argument("--noise", type=float, help="observation noise standard deviation (m)")
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")

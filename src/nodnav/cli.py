@@ -328,7 +328,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         else:
             print(f"MPC, 4 robots queueing through the corridor: {result.solves} calls, median "
                   f"{1e3 * result.median:.2f} ms, p95 {1e3 * result.p95:.2f} ms, max {1e3 * result.max:.1f} ms "
-                  f"(OSQP median {1e3 * result.qp_median:.2f} ms, p95 {1e3 * result.qp_p95:.2f} ms); "
+                  f"(QP median {1e3 * result.qp_median:.2f} ms, p95 {1e3 * result.qp_p95:.2f} ms); "
                   f"{result.infeasible} infeasible; min gap {result.min_separation:.3f} m; "
                   f"{result.arrived} robots arrived")
     else:

@@ -14,7 +14,7 @@ from nodnav.control.mpc import (
     constraint_grid,
     initial_state_nullspace,
     interpolation_matrix,
-    nearest_points_on_boxes,
+    plan_extremes,
     polygon_normals,
     qp_factor,
     slope_matrix,
@@ -127,6 +127,19 @@ def test_braking_profile_by_hand():
     np.testing.assert_allclose(pos, [p])
 
 
+def testplan_extremes_agree_with_the_world_and_direct_norms():
+    rng = np.random.default_rng(5)
+    points = np.column_stack([rng.uniform(-7.5, 7.5, 40), rng.uniform(-3.0, 3.0, 40)])  # some outside, some in walls
+    rates = rng.normal(size=(12, 2))
+    preds = rng.normal(size=(3, 40, 2))
+    clear, closest, fastest, hardest = plan_extremes(np.vstack([points, rates]), 40, 5, WORLD.obstacle_array,
+                                                      np.asarray(WORLD.bounds, dtype=float), preds)
+    assert clear == pytest.approx(WORLD.clearance(points).min(), abs=1e-12)
+    np.testing.assert_allclose(closest, np.linalg.norm(points[None] - preds, axis=-1).min(axis=1))
+    assert fastest == pytest.approx(np.linalg.norm(rates[:5], axis=1).max())
+    assert hardest == pytest.approx(np.linalg.norm(rates[5:], axis=1).max())
+
+
 def test_initial_state_nullspace():
     knots = bspline.uniform_knots(0.8, 8, 3)
     t_mat = initial_state_nullspace(knots, 3)
@@ -134,16 +147,6 @@ def test_initial_state_nullspace():
     assert np.linalg.matrix_rank(t_mat) == 9
     np.testing.assert_allclose(bspline.basis_derivative([0.0], knots, 3, 0) @ t_mat, 0.0, atol=1e-12)
     np.testing.assert_allclose(bspline.basis_derivative([0.0], knots, 3, 1) @ t_mat, 0.0, atol=1e-12)
-
-
-def test_nearest_points_on_boxes_by_hand():
-    boxes = np.array([[0.0, 0.0, 1.0, 1.0], [2.0, -1.0, 3.0, 0.0]])
-    near = nearest_points_on_boxes(np.array([[1.5, 0.5], [0.5, 0.5]]), boxes)
-    np.testing.assert_allclose(near, [[[1.0, 0.5], [2.0, 0.0]], [[0.5, 0.5], [2.0, 0.0]]])
-
-
-# ---------------------------------------------------------------------------------------------
-# The dense QP solver
 
 
 def qp(hessian, gradient, rows, lower, **state):

@@ -66,7 +66,10 @@ brake along its current velocity. Both are reported with ``success=False`` and
 
 Everything fixed for a (number of other robots, sample times) pair is precomputed once: the
 static constraint rows, the factor of the cost Hessian and the maps from the reference to the
-unconstrained minimiser; a step only writes the new half-planes (a compiled loop) and bounds.
+unconstrained minimiser; a step only writes the new half-planes and bounds. The solver and the
+per-row geometry (requirements per wall and robot, half-planes, the exact check) run as compiled
+scalar loops (numba; the same code runs, slowly, without it): a few hundred rows cost less there
+than the dozens of small array operations each would take in NumPy.
 """
 
 from __future__ import annotations
@@ -432,13 +435,6 @@ def stopping_rows(span: float, decel: float, max_closing_speed: float,
     return w_v, w_a, c - decel * span * (span / 6.0 + beta / 2.0)
 
 
-def nearest_points_on_boxes(points: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Nearest point of each axis-aligned box ``(x0, y0, x1, y1)`` to each point: ``(..., M, 2)``."""
-    p = np.asarray(points, dtype=float)[..., None, :]
-    b = np.asarray(boxes, dtype=float)
-    return np.clip(p, b[:, :2], b[:, 2:])
-
-
 def braking_profile(position: np.ndarray, velocity: np.ndarray, max_accel: float,
                     times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities ``(len(times), 2)`` when decelerating at ``max_accel`` along ``velocity``.
@@ -529,6 +525,86 @@ def _separation_rows(lin, x_now, boxes, n_walls, p0, v0, contact, need, cold, ke
                 rows[row0 + i, k] = ax * dyn_phi[i, k]
                 rows[row0 + i, nz + k] = ay * dyn_phi[i, k]
 
+
+
+@_compiled
+def plan_extremes(values, n_points, n_speed, boxes, bounds, preds):
+    """What the exact check of a plan (:meth:`BSplineMPC._violation`) compares, as a compiled loop.
+
+    ``values`` stacks the plan's positions at the ``n_points`` check times, then the points whose
+    hulls hold its velocity (``n_speed``) and its acceleration. Returns the smallest clearance of
+    the positions (the world's signed distance, as :meth:`World.clearance`: to the bounds
+    ``(x0, y0, x1, y1)`` and the rectangles ``boxes``), the closest distance to each prediction
+    ``preds`` ``(m, n_points, 2)``, the largest speed and the largest acceleration.
+    """
+    clear = np.inf
+    for i in range(n_points):
+        x, y = values[i, 0], values[i, 1]
+        c = min(min(x - bounds[0], bounds[2] - x), min(y - bounds[1], bounds[3] - y))
+        for b in range(boxes.shape[0]):
+            dx = max(boxes[b, 0] - x, x - boxes[b, 2])
+            dy = max(boxes[b, 1] - y, y - boxes[b, 3])
+            c = min(c, np.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0))
+        clear = min(clear, c)
+    closest = np.full(preds.shape[0], np.inf)
+    for j in range(preds.shape[0]):
+        for i in range(n_points):
+            closest[j] = min(closest[j], np.hypot(values[i, 0] - preds[j, i, 0], values[i, 1] - preds[j, i, 1]))
+    fastest, hardest = 0.0, 0.0
+    for i in range(n_points, values.shape[0]):
+        if i < n_points + n_speed:
+            fastest = max(fastest, np.hypot(values[i, 0], values[i, 1]))
+        else:
+            hardest = max(hardest, np.hypot(values[i, 0], values[i, 1]))
+    return clear, closest, fastest, hardest
+
+
+@_compiled
+def _group_state(pred, n_end, p0, speed, intervals, boxes, full, eps0, reach):
+    """The per-group quantities of :meth:`BSplineMPC._step_data` as a compiled loop.
+
+    ``pred`` holds each other robot's prediction at 0 and at the ``n_end`` interval ends first
+    (then more); ``speed`` bounds the robot's own speed at each end. Returns ``x_now``
+    ``(G, N, 2)``, the unit vectors ``away`` ``(G, 2)``, ``dist_now`` ``(G,)``, ``need`` ``(G,)``,
+    ``delta_sq`` ``(G, N)`` and ``far`` ``(G,)`` as documented on :class:`_StepData`.
+    """
+    n_walls, n_others = boxes.shape[0], pred.shape[0]
+    n_groups = n_walls + n_others
+    x_now = np.empty((n_groups, n_end, 2))
+    away = np.empty((n_groups, 2))
+    dist_now = np.empty(n_groups)
+    need = np.empty(n_groups)
+    delta_sq = np.empty((n_groups, n_end))
+    far = np.zeros(n_groups, dtype=np.bool_)
+    delta = np.empty(n_end)
+    for g in range(n_groups):
+        if g < n_walls:
+            qx = min(max(p0[0], boxes[g, 0]), boxes[g, 2])
+            qy = min(max(p0[1], boxes[g, 1]), boxes[g, 3])
+            for e in range(n_end):
+                x_now[g, e, 0], x_now[g, e, 1] = qx, qy
+                delta[e] = speed[e] * intervals[e]
+        else:
+            j = g - n_walls
+            qx, qy = pred[j, 0, 0], pred[j, 0, 1]
+            for e in range(n_end):
+                x_now[g, e, 0], x_now[g, e, 1] = pred[j, e + 1, 0], pred[j, e + 1, 1]
+                delta[e] = speed[e] * intervals[e] + np.hypot(pred[j, e + 1, 0] - pred[j, e, 0],
+                                                              pred[j, e + 1, 1] - pred[j, e, 1])
+        ax, ay = p0[0] - qx, p0[1] - qy
+        dist = np.hypot(ax, ay)
+        if dist > 1e-9:
+            away[g, 0], away[g, 1] = ax / dist, ay / dist
+        else:  # exactly on the group's point: push sideways
+            away[g, 0], away[g, 1] = 0.0, 1.0
+            dist = 1e-9
+        dist_now[g] = dist
+        need[g] = min(full[g], np.sqrt(max(dist * dist - delta[0] * delta[0] / 4.0, 0.0)) - eps0)
+        for e in range(n_end):
+            d = max(delta[e], delta[e + 1]) if e + 1 < n_end else delta[e]
+            delta_sq[g, e] = d * d / 4.0
+        far[g] = g < n_walls and dist > reach
+    return x_now, away, dist_now, need, delta_sq, far
 
 
 class _Problem:
@@ -632,8 +708,7 @@ class _Problem:
         self.term_offset = self.eps_end[-1] + self.term_const
         self.rows_per_group = n_end + n_term
         self.n_groups = self.n_walls + n_others
-        n_groups = self.n_walls + n_others
-        dyn_f = np.tile(np.concatenate([np.arange(n_end), f_term]), n_groups)
+        dyn_f = np.tile(np.concatenate([np.arange(n_end), f_term]), self.n_groups)
         self.dyn_phi = phi_t[dyn_f]
         self.dyn_line = phi_line[dyn_f]
         self.n_rows = self.n_static + len(dyn_f)
@@ -778,8 +853,8 @@ class BSplineMPC:
         self._problems: dict[tuple, _Problem] = {}
         self._last_problem: tuple[tuple, _Problem] | None = None
         self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        bounds = np.asarray(world.bounds, dtype=float)
-        self._bounds = (bounds[:2], bounds[2:])
+        self._world_bounds = np.asarray(world.bounds, dtype=float)
+        self._bounds = (self._world_bounds[:2], self._world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         self._previous: np.ndarray | None = None
@@ -1029,35 +1104,18 @@ class BSplineMPC:
         robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
         r = robot.radius
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
-        pred_ends = pred[:, 1:n_end + 1]
-        steps = pred_ends - pred[:, :n_end]                   # (m, N, 2)
         # The robot's own displacement over an interval: at most its reachable speed times it.
         speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
-        delta = np.empty((prob.n_groups, n_end))
-        delta[:] = speed * prob.intervals
-        delta[m_w:] += np.hypot(steps[..., 0], steps[..., 1])
-        delta_end = delta.copy()
-        np.maximum(delta[:, :-1], delta[:, 1:], out=delta_end[:, :-1])
-
-        near_now = np.clip(p0, self.obstacles[:, :2], self.obstacles[:, 2:])
-        x0 = np.concatenate([near_now, pred[:, 0]])
-        away = p0 - x0
-        dist_now = np.hypot(away[:, 0], away[:, 1])
-        if dist_now.min(initial=np.inf) <= 1e-9:  # exactly on a group's point: push sideways
-            away[dist_now <= 1e-9] = [0.0, 1.0]
-            dist_now = np.maximum(dist_now, 1e-9)
-        allowed = np.sqrt(np.maximum(dist_now**2 - delta[:, 0] ** 2 / 4.0, 0.0)) - prob.eps[0]
         full, contact = self._clearances(m_w, other_radii)
-        x_now = np.concatenate([np.broadcast_to(near_now[:, None], (m_w, n_end, 2)), pred_ends])
+        x_now, away, dist_now, need, delta_sq, far = _group_state(
+            pred, n_end, p0, speed, prob.intervals, self.obstacles, full, prob.eps[0], self._reach)
         gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
         need_box = np.minimum(r, gap - prob.eps[0])
-        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return _StepData(
-            p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now,
-            away=away / np.where(dist_now > 1e-9, dist_now, 1.0)[:, None], dist_now=dist_now, contact=contact,
-            full=full, need=np.minimum(full, allowed), delta_sq=delta_end**2 / 4.0, velocities=pred[:, -1],
-            far=dist_now > self._reach, gap_box=gap, need_box=need_box,
-            static_lower=prob.static_lower(p0, v0, box_low, box_high), n_walls=m_w,
+            p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
+            dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
+            far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
+            static_lower=prob.static_lower(p0, v0, self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]),
         )
 
     def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1106,24 +1164,20 @@ class BSplineMPC:
 
     def _violation(self, prob: _Problem, data: _StepData, c: np.ndarray, separation: bool) -> str:
         """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
-        exactly, else what it violates."""
+        exactly (true clearances and distances at the check times, speed and acceleration on
+        points whose hulls hold them), else what it violates."""
         tol = self.settings.check_tolerance
-        values = prob.b_check_rates @ c
-        pts = values[:len(prob.check_times)]
-        clear = float(self.world.clearance(pts).min())
+        clear, closest, speed, accel = plan_extremes(prob.b_check_rates @ c, len(prob.check_times), self.n_speed,
+                                                      self.obstacles, self._world_bounds, data.pred_check)
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
         if separation and prob.n_others:
-            gap = pts - data.pred_check
-            short = data.need[prob.n_walls:] - np.hypot(gap[..., 0], gap[..., 1]).min(axis=1)
+            short = data.need[prob.n_walls:] - closest
             j = int(np.argmax(short))
             if short[j] > tol:
                 return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
-        rates = values[len(prob.check_times):]
-        speed = float(np.hypot(*rates[:self.n_speed].T).max())
         if speed > self.robot.max_speed + tol:
             return f"plan exceeds the speed limit ({speed:.4f} m/s)"
-        accel = float(np.hypot(*rates[self.n_speed:].T).max())
         if accel > self.robot.max_accel + tol:
             return f"plan exceeds the acceleration limit ({accel:.4f} m/s^2)"
         return ""

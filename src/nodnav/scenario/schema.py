@@ -109,7 +109,7 @@ class ControllerParams:
     """The motion controller (appendix, Model Predictive Control)."""
 
     name: str = "mpc"
-    """Controller name: ``mpc`` (B-spline MPC with OSQP)."""
+    """Controller name: ``mpc`` (the B-spline MPC of the appendix)."""
     dt: float = 0.1
     """Control and physics step (s)."""
     horizon: float = 0.8

@@ -26,7 +26,7 @@ from typing import Any
 import yaml
 
 from nodnav.errors import NodnavError
-from nodnav.scenario.schema import nearest_hint
+from nodnav.scenario.schema import nearest_hint, yaml_error_message
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials")
 
@@ -193,10 +193,7 @@ def load_study(path: str | Path, overrides: dict | None = None) -> SweepSpec:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise StudyError(f"{path}: invalid YAML{where}: {problem}") from None
+        raise StudyError(f"{path}: {yaml_error_message(exc)}") from None
     if isinstance(data, dict):
         data = {"name": path.stem, **data, **(overrides or {})}
     return study_from_dict(data, str(path))

@@ -470,11 +470,16 @@ def load_scenario(spec: str | Path) -> Scenario:
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise ScenarioError(f"{source}: invalid YAML{where}: {problem}") from None
+        raise ScenarioError(f"{source}: {yaml_error_message(exc)}") from None
     return scenario_from_dict(data, source)
+
+
+def yaml_error_message(exc: yaml.YAMLError) -> str:
+    """'invalid YAML at line L, column C: problem', one line, for any YAML parse error."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    return f"invalid YAML{where}: {problem}"
 
 
 def _opinion_to_raw(opinion: OpinionParams) -> dict:

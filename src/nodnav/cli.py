@@ -244,10 +244,11 @@ def _names(text: str | None) -> tuple[str, ...]:
 
 def _reproduce_command(args: argparse.Namespace) -> str:
     """The command line as the report quotes it: every option that was given or matters."""
-    words = ["nodnav reproduce", f"--trials {args.trials}", f"--jobs {args.jobs}", f"--out {args.out}"]
+    words = ["nodnav reproduce", f"--trials {args.trials}", f"--jobs {args.jobs}", f"--out {args.out}",
+             f"--method-trials {args.method_trials}"]
     for flag, value in (("--methods", args.methods), ("--planners", args.planners), ("--budget", args.budget),
                         ("--fig2c-grid", args.fig2c_grid), ("--fig2c-trials", args.fig2c_trials),
-                        ("--method-trials", args.method_trials), ("--db", args.db), ("--scenarios", args.scenarios),
+                        ("--db", args.db), ("--scenarios", args.scenarios),
                         ("--parts", args.parts)):
         if value is not None:
             words.append(f"{flag} {value:g}" if isinstance(value, float) else f"{flag} {value}")
@@ -294,7 +295,8 @@ def _add_report_parsers(sub) -> None:
                    help="minutes for the whole command; trials are cut evenly to fit (default 18; 0: no limit)")
     p.add_argument("--fig2c-grid", type=int, default=5, help="Fig. 2c grid points per axis (default 5)")
     p.add_argument("--fig2c-trials", type=int, default=2, help="Fig. 2c trials per cell (default 2)")
-    p.add_argument("--method-trials", type=int, help="trials per cell of the methods comparison (default --trials)")
+    p.add_argument("--method-trials", type=int, default=20,
+                   help="trials per cell of the methods comparison, at most --trials (default 20)")
     p.add_argument("--db", help="results database (default DIR/results.sqlite)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     # For quick checks and tests: fewer scenarios, parts or heatmap points.

@@ -1,8 +1,9 @@
 """The B-spline MPC: its pure helpers against hand values, and closed loops checked at a fine step."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
-from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
 from nodnav.control.bench import benchmark_mpc, queue_references
@@ -12,11 +13,11 @@ from nodnav.control.mpc import (
     braking_profile,
     chord_inflation,
     constraint_grid,
+    infeasibility_certificate,
     initial_state_nullspace,
     interpolation_matrix,
     plan_extremes,
     polygon_normals,
-    qp_factor,
     slope_matrix,
     solve_qp,
     stopping_rows,
@@ -26,7 +27,7 @@ from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
 ROBOT = RobotSpec(origin=(-5.0, 0.0), destination=(5.0, 0.0))  # radius 0.2, 1 m/s, 2 m/s^2
-PARAMS = ControllerParams()  # dt 0.1, horizon 0.8, margin 0.02
+PARAMS = ControllerParams()  # dt 0.1, horizon 0.8
 TIMES = 0.1 * np.arange(1, 9)
 FINE = np.linspace(0.0, PARAMS.dt, 21)
 NO_OTHERS = np.zeros((0, 8, 2))
@@ -149,90 +150,34 @@ def test_initial_state_nullspace():
     np.testing.assert_allclose(bspline.basis_derivative([0.0], knots, 3, 1) @ t_mat, 0.0, atol=1e-12)
 
 
-def qp(hessian, gradient, rows, lower, **state):
-    return solve_qp(qp_factor(hessian), -np.linalg.solve(hessian, gradient), rows, lower, **state)
-
-
-def test_qp_projection_onto_a_half_plane_by_hand():
-    # min (x1 - 1)^2 + (x2 - 2)^2 subject to x1 + x2 <= 2: the projection of (1, 2) onto the
-    # line is (0.5, 1.5), where the gradient 2 (x - c) = (-1, -1) equals lambda (-1, -1), lambda = 1.
-    sol = qp(2.0 * np.eye(2), np.array([-2.0, -4.0]), np.array([[-1.0, -1.0]]), np.array([-2.0]))
+def test_qp_adapter_conventions_by_hand():
+    """``rows @ x >= lower``, cost ``x^T H x / 2 + g^T x``, bounds on the variables, infeasibility."""
+    # min (x1 - 1)^2 + (x2 - 2)^2 subject to x1 + x2 <= 2: the projection of (1, 2) onto the line
+    # x1 + x2 = 2 is (0.5, 1.5).
+    h, g = 2.0 * np.eye(2), np.array([-2.0, -4.0])
+    sol = solve_qp(h, g, np.array([[-1.0, -1.0]]), np.array([-2.0]), 1e-9)
     assert sol.success and sol.reason == ""
     np.testing.assert_allclose(sol.x, [0.5, 1.5], atol=1e-12)
-    np.testing.assert_array_equal(sol.active, [0])
-    np.testing.assert_allclose(sol.multipliers, [1.0], atol=1e-12)
-    # A row that does not bind leaves the unconstrained minimiser.
-    sol = qp(2.0 * np.eye(2), np.array([-2.0, -4.0]), np.array([[-1.0, -1.0]]), np.array([-5.0]))
+    # A row at -inf never binds: the unconstrained minimiser (1, 2).
+    sol = solve_qp(h, g, np.array([[-1.0, -1.0]]), np.array([-np.inf]), 1e-9)
     np.testing.assert_allclose(sol.x, [1.0, 2.0], atol=1e-12)
-    assert sol.active.size == 0 and sol.steps == 0
+    # Bounds x2 >= 2.5 on top of the row: x2 = 2.5 and x1 as close to 1 as x1 <= -0.5 allows.
+    sol = solve_qp(h, g, np.array([[-1.0, -1.0]]), np.array([-2.0]), 1e-9, bounds=np.array([-np.inf, 2.5]))
+    np.testing.assert_allclose(sol.x, [-0.5, 2.5], atol=1e-12)
+    # x1 >= 1 and x1 <= 0 cannot both hold.
+    sol = solve_qp(h, g, np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([1.0, 0.0]), 1e-9)
+    assert not sol.success and sol.reason == "infeasible"
 
 
-def test_qp_degenerate_box_gives_the_clipped_point():
-    """Every face of a box three times over, plus redundant rows through its corners: the
-    minimiser of ||x - c||^2 is c clipped to the box, whatever the degeneracy."""
-    lo, hi = np.array([-1.0, 0.0, 2.0]), np.array([1.0, 0.5, 3.0])
-    eye = np.eye(3)
-    rows = np.vstack([eye, -eye] * 3 + [np.ones((1, 3)), -np.ones((1, 3))])
-    lower = np.concatenate([lo, -hi] * 3 + [[lo.sum()], [-hi.sum()]])
-    rng = np.random.default_rng(3)
-    for _ in range(20):
-        c = rng.uniform(-3.0, 5.0, size=3)
-        sol = qp(2.0 * eye, -2.0 * c, rows, lower)
-        assert sol.success
-        np.testing.assert_allclose(sol.x, np.clip(c, lo, hi), atol=1e-10)
-
-
-def test_qp_random_problems_satisfy_kkt_or_carry_a_farkas_certificate():
-    rng = np.random.default_rng(7)
-    outcomes = set()
-    for trial in range(120):
-        n, m = int(rng.integers(2, 19)), int(rng.integers(1, 60))
-        a = rng.normal(size=(n, n))
-        hessian = a @ a.T + 0.1 * np.eye(n)
-        gradient = rng.normal(size=n)
-        rows = rng.normal(size=(m, n))
-        lower = rng.normal(size=m) * (2.0 if trial % 2 else 0.3)
-        sol = qp(hessian, gradient, rows, lower)
-        feasible = linprog(np.zeros(n), A_ub=-rows, b_ub=-lower, bounds=[(None, None)] * n, method="highs").status == 0
-        assert sol.success == feasible
-        outcomes.add(sol.success)
-        act, y = sol.active, sol.multipliers
-        if sol.success:
-            assert np.all(rows @ sol.x - lower >= -1e-8)                              # primal
-            assert np.all(y >= -1e-12)                                                # dual
-            np.testing.assert_allclose(hessian @ sol.x + gradient, rows[act].T @ y, atol=1e-8)  # stationary
-            np.testing.assert_allclose(rows[act] @ sol.x, lower[act], atol=1e-8)      # complementary
-        else:
-            assert sol.reason == "infeasible"
-            assert np.all(y >= -1e-12) and y @ lower[act] > 0.0
-            np.testing.assert_allclose(y @ rows[act], 0.0, atol=1e-8 * max(1.0, np.abs(y).max()))
-    assert outcomes == {True, False}
-
-
-def test_qp_start_from_a_given_active_set():
-    """Slacks s >= 0 held active from the start (the evasive QP's start) lead to the same
-    minimiser as a start from the unconstrained minimiser."""
-    rng = np.random.default_rng(11)
-    n, k, eps = 4, 3, 10.0
-    a = rng.normal(size=(n, n))
-    h_x = a @ a.T + np.eye(n)
-    g_x = rng.normal(size=n)
-    weights = np.array([5.0, 7.0, 9.0])
-    hessian = np.block([[h_x, np.zeros((n, k))], [np.zeros((k, n)), eps * np.eye(k)]])
-    gradient = np.concatenate([g_x, weights])
-    # Soft rows a_i^T x + s_i >= b_i, then the bounds s >= 0.
-    soft = np.hstack([rng.normal(size=(k, n)), np.eye(k)])
-    rows = np.vstack([soft, np.hstack([np.zeros((k, n)), np.eye(k)])])
-    lower = np.concatenate([rng.normal(size=k) + 2.0, np.zeros(k)])
-    reference = qp(hessian, gradient, rows, lower)
-    factor = np.zeros((n + k, n + k))
-    factor[n + np.arange(k), np.arange(k)] = 1.0 / np.sqrt(eps)
-    factor[:n, k:] = qp_factor(h_x)
-    start = np.concatenate([-np.linalg.solve(h_x, g_x), np.zeros(k)])
-    sol = solve_qp(factor, start, rows, lower, active=k + np.arange(k), triangular=np.eye(k) / np.sqrt(eps),
-                   multipliers=weights)
-    assert reference.success and sol.success
-    np.testing.assert_allclose(sol.x, reference.x, atol=1e-10)
+def test_infeasibility_certificate_by_hand():
+    """x1 >= 1 and x1 + x2 <= 0 and x2 >= 0 cannot all hold (their sum gives 0 >= 1); the rows
+    x2 >= -5 and (at -inf) x1 <= -3 play no part. A consistent set has no certificate."""
+    rows = np.array([[0.0, 1.0], [1.0, 0.0], [-1.0, -1.0], [0.0, 1.0], [-1.0, 0.0]])
+    lower = np.array([-5.0, 1.0, 0.0, 0.0, -np.inf])
+    np.testing.assert_array_equal(infeasibility_certificate(rows, lower), [1, 2, 3])
+    assert infeasibility_certificate(rows[:3], lower[:3]).size == 0
+    # Two parallel rows facing apart: x1 >= 1 and x1 <= 0.
+    np.testing.assert_array_equal(infeasibility_certificate(np.array([[1.0], [-1.0]]), np.array([1.0, 0.0])), [0, 1])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -383,6 +328,61 @@ def test_overlap_triggers_the_evasive_plan_which_backs_out():
     assert all(r.info["fallback"] == "evasive" for r in results[:out])
 
 
+def test_evasive_plan_keeps_clear_of_a_robot_it_can_avoid_while_another_forces_an_intrusion():
+    """Robot A overlaps ours now and drives off at 1 m/s: intruding into A's disc at first is
+    unavoidable. Robot B stands 0.5 m below, and the reference pulls through B. Keeping clear of
+    B costs tracking alone, so the evasive plan keeps B's whole margin at every instant and
+    intrudes into A no more than it would with B absent, where it would drive deep into B's disc."""
+    need = 2 * ROBOT.radius + PARAMS.safety_margin
+    a = np.array([-4.7, 0.0]) + TIMES[:, None] * [1.0, 0.0]
+    b = np.array([-5.0, -0.5])
+    whole = np.linspace(0.0, PARAMS.horizon, 161)
+
+    def evade(others):
+        ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+        res = ctl.control(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=others,
+                                  radii=[ROBOT.radius] * len(others)))
+        assert not res.success and res.reason.startswith("infeasible: evasive: overlapping robot 0")
+        assert WORLD.clearance(ctl.motion(whole)).min() >= ROBOT.radius - 1e-9
+        return res, np.linalg.norm(ctl.motion(whole) - b, axis=1).min()
+
+    res, closest_b = evade(np.stack([a, np.tile(b, (8, 1))]))
+    assert res.info["intruded"] == [0] and res.info["intrusion"] > 0.05
+    assert closest_b >= need - 1e-4
+    alone, closest_b_alone = evade(a[None])
+    assert closest_b_alone < need - 0.2                  # B is in the way of tracking
+    assert res.info["intrusion"] == pytest.approx(alone.info["intrusion"], abs=1e-3)
+
+
+def test_firm_predictions_are_softened_only_when_nothing_else_is_left():
+    """At 1 m/s in the corridor, 0.45 m behind a robot standing still: no plan keeps the margin
+    (stopping takes 0.25 m). Firm or not, that robot's prediction is the only one to soften; the
+    evasive plan softens a firm one only once keeping it hard has failed, and says so."""
+    p, v = [-1.0, 0.0], [1.0, 0.0]
+    ahead = np.tile([-0.55, 0.0], (1, 8, 1))
+    for firm in (False, True):
+        ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+        req = replace(request(p, v, np.tile([1.0, 0.0], (8, 1)), others=ahead, radii=[0.2]), firm=np.array([firm]))
+        res = ctl.control(req)
+        assert not res.success and res.info["fallback"] == "evasive"
+        assert res.info["firm_softened"] is firm and res.info["intruded"] == [0]
+
+
+def test_evasive_plan_keeps_clear_of_a_firm_prediction_when_it_can():
+    """Robot A overlaps ours now and drives off (an intrusion into it is unavoidable); B, firm,
+    stands 0.5 m below, where the reference pulls: B is kept clear, nothing firm is softened."""
+    need = 2 * ROBOT.radius + PARAMS.safety_margin
+    a = np.array([-4.7, 0.0]) + TIMES[:, None] * [1.0, 0.0]
+    b = np.array([-5.0, -0.5])
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    req = replace(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=np.stack([a, np.tile(b, (8, 1))]),
+                          radii=[0.2, 0.2]), firm=np.array([False, True]))
+    res = ctl.control(req)
+    assert not res.success and res.info["fallback"] == "evasive" and not res.info["firm_softened"]
+    whole = np.linspace(0.0, PARAMS.horizon, 161)
+    assert np.linalg.norm(ctl.motion(whole) - b, axis=1).min() >= need - 1e-4
+
+
 def test_brakes_when_no_plan_keeps_clear_of_a_wall():
     """5 cm from the upper bound at 1 m/s towards it: no plan can stop in time (0.27 m at
     1.85 m/s^2), no other robot is involved, so the robot brakes along its velocity."""
@@ -441,8 +441,9 @@ def crossing(settings, steps=60):
     """Two robots of ours cross the left room on paths 120 degrees apart at 0.8 m/s. Each is told
     the other will stand still where it is seen (the paper's prediction for a robot outside its
     game, wrong here) and, as the simulator adds, where it goes at its observed velocity.
+    The safety margin is a thin 2 cm, with which braking alone is not enough.
     Returns (closest centre distance along the motion, number of evasive steps)."""
-    ctls = [BSplineMPC(WORLD, ROBOT, PARAMS, settings) for _ in range(2)]
+    ctls = [BSplineMPC(WORLD, ROBOT, ControllerParams(safety_margin=0.02), settings) for _ in range(2)]
     centre, u = np.array([-5.2, 0.0]), np.array([np.cos(np.radians(120)), np.sin(np.radians(120))])
     pos = np.array([centre - [1.2, 0.0], centre + 1.2 * u])
     goals = np.array([centre + [1.5, 0.0], centre - 1.5 * u])
@@ -485,6 +486,8 @@ def test_malformed_requests_raise():
                                    NO_OTHERS, np.zeros(0)))
     with pytest.raises(ValueError):
         ctl.control(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2)), others=np.zeros((1, 8, 2)), radii=[]))
+    with pytest.raises(ValueError):
+        ctl.control(replace(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2))), firm=np.array([True])))
     with pytest.raises(ValueError):
         BSplineMPC(WORLD, ROBOT, ControllerParams(dt=1.0, horizon=0.8))
 

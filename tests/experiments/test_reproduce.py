@@ -17,7 +17,7 @@ from nodnav.errors import NodnavError  # noqa: E402
 from nodnav.experiments.report import (META_STUDY, STUDY_METHODS, STUDY_PLANNERS, STUDY_SUCCESS,  # noqa: E402
                                        STUDY_TABLE1)
 from nodnav.experiments.reproduce import (CostModel, Part, ReproduceOptions, check_options,  # noqa: E402
-                                          fig2c_scenario_files, next_round, pending, plan_parts, reproduce,
+                                          fig2c_scenario_files, next_round, pending, plan_parts, reproduce, round_parts,
                                           round_cost, seeds_at)
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import SweepSpec  # noqa: E402
@@ -128,6 +128,14 @@ def test_check_options():
         check_options(ReproduceOptions(methods=("teleport",)))
     with pytest.raises(NodnavError, match="budget"):
         check_options(ReproduceOptions(budget_minutes=-1.0))
+
+
+def test_rounds_complete_the_papers_evaluation_before_the_comparisons():
+    parts = plan_parts(ReproduceOptions(trials=3, scenarios=("2r-case1",), methods=("nod",),
+                                        parts=("success", "methods", "table1")))
+    assert [p.name for p in round_parts(parts, {"success": 1, "table1": 3, "methods": 1})] == ["success"]
+    assert [p.name for p in round_parts(parts, {"success": 3, "table1": 3, "methods": 1})] == ["methods"]
+    assert round_parts(parts, {"success": 3, "table1": 3, "methods": 3}) == ()
 
 
 # -- the budget, with a stand-in trial that claims to have taken a minute ---------------------------

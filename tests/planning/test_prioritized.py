@@ -14,13 +14,13 @@ from nodnav.planning.prioritized import (
     Motion,
     PrioritizedPlanner,
     blocked_bits,
-    blocked_rows,
     conflict_intervals,
     corridor_passage,
     earliest_arrival,
     entry_cell,
     free_cells,
     join_motions,
+    polyline_segments,
     relaxed_separation,
     separation_requirements,
 )
@@ -96,6 +96,30 @@ def test_corridor_passage():
     assert corridor_passage([T, T, F]) == (0, 2)
     assert corridor_passage([F, T, F, T, T]) == (3, 5)  # the last stay counts
     assert corridor_passage([F, F]) == (-1, -1)
+
+
+def test_polyline_segments_skip_empty_ones():
+    # A 3-4-5 segment, a repeated vertex, then 4 m straight down.
+    start, unit, length, arc0 = polyline_segments([[0.0, 0.0], [3.0, 4.0], [3.0, 4.0], [3.0, 0.0]])
+    assert start.tolist() == [[0.0, 0.0], [3.0, 4.0]]
+    assert np.allclose(unit, [[0.6, 0.8], [0.0, -1.0]], rtol=0.0, atol=1e-15)
+    assert length.tolist() == [5.0, 4.0] and arc0.tolist() == [0.0, 5.0]
+
+
+def test_motion_sweep_finds_the_steps_that_cut_a_corner():
+    path = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    # The move from arc 0.6 to 1.2 (step 1) passes the corner at arc 1; its chord joins the samples.
+    arc = np.array([0.0, 0.6, 1.2, 2.0])
+    samples = np.array([[0.0, 0.0], [0.6, 0.0], [1.0, 0.2], [1.0, 1.0]])
+    basis, offset, s0, length, step, chord_a, chord_b = Motion(path, samples, arc).sweep
+    assert step.tolist() == [1] and chord_a.tolist() == [[0.6, 0.0]] and chord_b.tolist() == [[1.0, 0.2]]
+    # A point's coordinates along and across each segment: (x, y) on the first, (y, -(x - 1)) on the second.
+    frame = np.array([[0.5, 0.3]]) @ basis - offset
+    assert np.allclose(frame, [[0.5, 0.3, 0.3, 0.5]], rtol=0.0, atol=1e-15)
+    assert s0.tolist() == [0.0, 1.0] and length.tolist() == [1.0, 1.0]
+    # A sample exactly on the corner: no move cuts it.
+    on = Motion(path, np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]), np.array([0.0, 1.0, 2.0]))
+    assert on.sweep[4].tolist() == []
 
 
 def test_entry_cell():
@@ -251,10 +275,25 @@ def test_earliest_arrival_cornered_and_blocked():
 @pytest.mark.parametrize("seed", range(60))
 def test_earliest_arrival_matches_brute_force(seed, wait_early):
     rng = np.random.default_rng(seed)
-    n_rows, n = int(rng.integers(2, 25)), int(rng.integers(2, 70))
-    free = rng.random((n_rows, n)) > rng.uniform(0.05, 0.4)
+    check_against_brute_force(rng, int(rng.integers(2, 25)), int(rng.integers(2, 70)), rng.uniform(0.05, 0.4), 0.1,
+                              wait_early)
+
+
+@pytest.mark.parametrize("wait_early", [True, False])
+@pytest.mark.parametrize("seed", range(10))
+def test_earliest_arrival_across_words_matches_brute_force(seed, wait_early):
+    # Lines of 65..200 cells span two to four 64-bit words: moves carry bits across words.
+    rng = np.random.default_rng(100 + seed)
+    check_against_brute_force(rng, int(rng.integers(30, 120)), int(rng.integers(65, 200)), rng.uniform(0.0, 0.1), 0.0,
+                              wait_early)
+
+
+def check_against_brute_force(rng, n_rows, n, density, final_density, wait_early):
+    """:func:`earliest_arrival` against :func:`brute_force_arrival` on random free cells
+    (``density`` of them closed, ``final_density`` in the last row)."""
+    free = rng.random((n_rows, n)) > density
     free = free[np.sort(rng.integers(0, n_rows, n_rows))]  # runs of equal steps, as in practice
-    free[-1] = rng.random(n) > 0.1
+    free[-1] = rng.random(n) >= final_density
     ok2 = rng.random(n) > 0.2
     expected, reach = brute_force_arrival(free, ok2)
     t = earliest_arrival(free, ok2, wait_early)
@@ -321,6 +360,20 @@ def test_plans_are_deterministic_and_memo_is_transparent(world):
     p.plan(request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (2, 1, 0)))
     b = p.plan(req)
     assert a.success and np.array_equal(a.trajectory.positions, b.trajectory.positions)
+
+
+def test_orders_repaired_alike_share_one_read_only_plan(world):
+    # Robots 0 and 2 stand in the corridor: every order is repaired to start with them, so the
+    # orders (1, 0, 2) and (0, 1, 2) are both planned as (0, 2, 1) and differ only in the note.
+    p = PrioritizedPlanner(world, PlannerParams())
+    pos, dest = [[-1.0, 0.0], [5.0, 1.5], [-2.0, 0.0]], [[5.5, 0.0], [-5.0, -1.5], [5.0, -1.5]]
+    a = p.plan(request(world, pos, dest, (1, 0, 2), entered=(0, 2)))
+    b = p.plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
+    fresh = PrioritizedPlanner(world, PlannerParams()).plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
+    assert a.success and a.order_planned == b.order_planned == (0, 2, 1)
+    assert a.order == (1, 0, 2) and b.order == (0, 1, 2) and "repaired" in a.reason and "repaired" in b.reason
+    assert np.array_equal(b.trajectory.positions, fresh.trajectory.positions) and b.cost == fresh.cost
+    assert not a.trajectory.positions.flags.writeable and not a.info["arrival_times"].flags.writeable
 
 
 def test_robot_already_home_stays(world, planner):
@@ -401,9 +454,18 @@ def test_conflict_intervals_windows_clip_the_steps():
 def test_blocked_bits_several_gates_and_rows():
     # Gate at cell 1 until step 2, gate at cell 3 until step 4; an interval closes cell 0 at step 3.
     bits = blocked_bits(5, 6, [(np.array([0]), np.array([3]), np.array([3]))], [(1, 2), (3, 4)])
-    rows = blocked_rows(bits)
-    assert rows == [0b11110, 0b11110, 0b11000, 0b11001, 0, 0]
-    assert rows[4] is rows[5]  # runs share one integer
+    assert bits.shape == (6, 1) and bits.dtype == np.uint64
+    assert bits[:, 0].tolist() == [0b11110, 0b11110, 0b11000, 0b11001, 0, 0]
+
+
+def test_blocked_bits_span_several_words():
+    # Cell 130 lives in the third 64-bit word, bit 2; a gate at cell 70 closes bits 6..63 of the
+    # second word and bits 0..21 of the third (cells 128..149), none of the first. Steps before 0
+    # and past the last row are ignored.
+    bits = blocked_bits(150, 3, [(np.array([130, 1]), np.array([1, -5]), np.array([10**9, 0]))], [(70, 1)])
+    assert bits.shape == (3, 3)
+    assert bits[0].tolist() == [0b10, (2**64 - 1) ^ (2**6 - 1), 2**22 - 1]
+    assert bits[1].tolist() == [0, 0, 1 << 2] and bits[2].tolist() == [0, 0, 1 << 2]
 
 
 def test_join_motions():

@@ -27,6 +27,9 @@ class ControlRequest:
     """Predicted positions p^pred_j of the other robots ``(m, K, 2)`` (m); m may be 0."""
     other_radii: np.ndarray
     """Radii of the other robots ``(m,)`` (m)."""
+    firm: np.ndarray | None = None
+    """Which predictions ``(m,)`` a controller that trades intrusions when it cannot keep clear
+    of every prediction must still keep clear of, as of a wall; ``None``: none."""
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ class JointTrajectory:
     """
 
     times: np.ndarray
-    """Sample times ``(K,)`` (s), starting at the request's time."""
+    """Sample times ``(K,)`` (s), strictly increasing, starting at the request's time."""
     positions: np.ndarray
     """Positions ``(K, n, 2)`` (m)."""
     velocities: np.ndarray
@@ -54,13 +54,13 @@ class JointTrajectory:
     def positions_at(self, t: np.ndarray | float) -> np.ndarray:
         """Positions at times ``t`` by linear interpolation, shape ``t.shape + (n, 2)``; held after the end."""
         t = np.asarray(t, dtype=float)
-        tt = np.clip(t, self.times[0], self.times[-1])
-        idx = np.clip(np.searchsorted(self.times, tt, side="right") - 1, 0, len(self.times) - 1)
-        nxt = np.minimum(idx + 1, len(self.times) - 1)
-        span = self.times[nxt] - self.times[idx]
-        w = np.where(span > 0, (tt - self.times[idx]) / np.where(span > 0, span, 1.0), 0.0)
-        w = w[..., None, None]
-        return (1.0 - w) * self.positions[idx] + w * self.positions[nxt]
+        times = self.times
+        if len(times) == 1:
+            return np.broadcast_to(self.positions[0], t.shape + self.positions.shape[1:]).copy()
+        idx = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
+        w = np.clip((t - times[idx]) / (times[idx + 1] - times[idx]), 0.0, 1.0)[..., None, None]
+        start = self.positions[idx]
+        return start + w * (self.positions[idx + 1] - start)
 
     def velocities_at(self, t: np.ndarray | float) -> np.ndarray:
         """Velocities at times ``t``, shape ``t.shape + (n, 2)``; zero after the end."""

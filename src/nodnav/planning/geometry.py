@@ -36,6 +36,15 @@ MEMO_SIZE = 1024
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
 
+try:  # numba compiles the distance and grid loops; the same code runs without it
+    from numba import njit as _numba_njit
+
+    def _compiled(fn):
+        return _numba_njit(cache=True, nogil=True)(fn)
+except ImportError:  # pragma: no cover - numba is installed in the project's environment
+    def _compiled(fn):
+        return fn
+
 
 def point_box_distance(points: np.ndarray, boxes: np.ndarray) -> np.ndarray:
     """Euclidean distance from each point to each closed box (0 inside), shape ``(P, B)``.
@@ -67,10 +76,27 @@ def segment_point_distance(a: np.ndarray, b: np.ndarray, points: np.ndarray) -> 
 
 
 def _segment_point_d2(a: np.ndarray, d: np.ndarray, p: np.ndarray) -> np.ndarray:
-    ax, ay, dx, dy = a[:, 0:1], a[:, 1:2], d[:, 0:1], d[:, 1:2]
-    rx, ry = p[:, 0] - ax, p[:, 1] - ay
-    t = (rx * dx + ry * dy) / np.maximum(dx * dx + dy * dy, 1e-300)
-    np.clip(t, 0.0, 1.0, out=t)
+    """Squared distance from each segment ``a[s] -> a[s] + d[s]`` to each point, ``(S, P)``."""
+    return _segment_point_d2_kernel(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(d, dtype=float),
+                                    np.ascontiguousarray(p, dtype=float))
+
+
+@_compiled
+def _segment_point_d2_kernel(a, d, p):
+    """The loops of :func:`_segment_point_d2`."""
+    out = np.empty((a.shape[0], p.shape[0]))
+    for s in range(a.shape[0]):
+        for q in range(p.shape[0]):
+            out[s, q] = _segment_point_d2_one(a[s, 0], a[s, 1], d[s, 0], d[s, 1], p[q, 0], p[q, 1])
+    return out
+
+
+@_compiled
+def _segment_point_d2_one(ax, ay, dx, dy, px, py):
+    """Squared distance from the segment ``(ax, ay) -> (ax + dx, ay + dy)`` to ``(px, py)``: the
+    projection's fraction along the segment, clamped to it, gives the closest point."""
+    rx, ry = px - ax, py - ay
+    t = min(max((rx * dx + ry * dy) / max(dx * dx + dy * dy, 1e-300), 0.0), 1.0)
     ex, ey = rx - t * dx, ry - t * dy
     return ex * ex + ey * ey
 
@@ -134,14 +160,56 @@ def segment_clearance(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     The distance to the (convex) boundary is a concave function along a segment, so its least
     value is at an endpoint.
     """
-    a = np.asarray(a, dtype=float).reshape(-1, 2)
-    b = np.asarray(b, dtype=float).reshape(-1, 2)
-    ends = bounds_distance(np.vstack([a, b]), world.bounds)
-    d = np.minimum(ends[:len(a)], ends[len(a):])
-    walls = world.obstacle_array
-    if len(walls):
-        d = np.minimum(d, np.sqrt(_segment_box_d2(a, b, walls).min(axis=1)))
-    return d
+    a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
+    b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
+    return _segment_clearance_kernel(a, b, np.ascontiguousarray(world.obstacle_array),
+                                     np.asarray(world.bounds, dtype=float))
+
+
+@_compiled
+def _segment_clearance_kernel(a, b, walls, bounds):
+    """The loops of :func:`segment_clearance`; each wall's distance as in :func:`segment_box_distance`."""
+    x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
+    out = np.empty(a.shape[0])
+    for s in range(a.shape[0]):
+        ax, ay, bx, by = a[s, 0], a[s, 1], b[s, 0], b[s, 1]
+        d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
+        if walls.shape[0]:
+            dx, dy = bx - ax, by - ay
+            nearest = np.inf
+            for w in range(walls.shape[0]):
+                lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
+                d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
+                d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
+                                     _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
+                                 min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
+                                     _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
+                if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
+                    d2 = 0.0
+                nearest = min(nearest, d2)
+            d = min(d, math.sqrt(nearest))
+        out[s] = d
+    return out
+
+
+@_compiled
+def _point_box_d2_one(px, py, lx, ly, hx, hy):
+    """Squared distance from a point to the closed box ``[lx, hx] x [ly, hy]`` (0 inside)."""
+    gx = max(max(lx - px, px - hx), 0.0)
+    gy = max(max(ly - py, py - hy), 0.0)
+    return gx * gx + gy * gy
+
+
+@_compiled
+def _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
+    """Whether the segment ``(ax, ay) -> (ax + dx, ay + dy)`` meets the closed box (as :func:`_hit`)."""
+    ix = 1.0 / (dx if dx != 0.0 else 1e-300)
+    iy = 1.0 / (dy if dy != 0.0 else 1e-300)
+    x1, x2 = (lx - ax) * ix, (hx - ax) * ix
+    y1, y2 = (ly - ay) * iy, (hy - ay) * iy
+    t_in = max(min(x1, x2), min(y1, y2))
+    t_out = min(max(x1, x2), max(y1, y2))
+    return t_in <= t_out and t_in <= 1.0 and t_out >= 0.0
 
 
 def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.ndarray:
@@ -191,20 +259,41 @@ def arc_length_grid(polyline: np.ndarray, spacing: float) -> ArcGrid:
     Keeping the vertices as grid points means that moving between neighbouring grid points
     never cuts a corner of the polyline.
     """
-    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
-    seg = np.diff(poly, axis=0)
-    lengths = np.linalg.norm(seg, axis=1)
-    keep = lengths > 0
-    poly_start, seg, lengths = poly[:-1][keep], seg[keep], lengths[keep]
-    if len(seg) == 0:
-        return ArcGrid(poly[:1].copy(), np.zeros(1))
-    pieces = np.maximum(np.ceil(lengths / spacing - 1e-9), 1).astype(int)
-    owner = np.repeat(np.arange(len(seg)), pieces)
-    frac = (np.arange(len(owner)) - np.repeat(np.cumsum(pieces) - pieces, pieces)) / pieces[owner]
-    pts = poly_start[owner] + frac[:, None] * seg[owner]
-    s0 = np.concatenate([[0.0], np.cumsum(lengths)])
-    arc = s0[owner] + frac * lengths[owner]
-    return ArcGrid(np.vstack([pts, poly[-1]]), np.concatenate([arc, [s0[-1]]]))
+    poly = np.ascontiguousarray(polyline, dtype=float).reshape(-1, 2)
+    return ArcGrid(*_grid_kernel(poly, float(spacing)))
+
+
+@_compiled
+def _grid_kernel(poly, spacing):
+    """The loops of :func:`arc_length_grid`: grid points and their arc lengths. Segments of zero
+    length are skipped; piece ``q`` of ``p`` on a segment sits at fraction ``q / p`` of it."""
+    n_seg = poly.shape[0] - 1
+    lengths = np.empty(max(n_seg, 0))
+    pieces = np.zeros(max(n_seg, 0), dtype=np.int64)
+    total = 0
+    for s in range(n_seg):
+        dx, dy = poly[s + 1, 0] - poly[s, 0], poly[s + 1, 1] - poly[s, 1]
+        lengths[s] = math.sqrt(dx * dx + dy * dy)
+        if lengths[s] > 0:
+            pieces[s] = max(math.ceil(lengths[s] / spacing - 1e-9), 1)
+            total += pieces[s]
+    points = np.empty((total + 1, 2))
+    arc = np.empty(total + 1)
+    k, s0 = 0, 0.0
+    for s in range(n_seg):
+        if pieces[s] == 0:
+            continue
+        dx, dy = poly[s + 1, 0] - poly[s, 0], poly[s + 1, 1] - poly[s, 1]
+        for q in range(pieces[s]):
+            frac = q / pieces[s]
+            points[k, 0] = poly[s, 0] + frac * dx
+            points[k, 1] = poly[s, 1] + frac * dy
+            arc[k] = s0 + frac * lengths[s]
+            k += 1
+        s0 += lengths[s]
+    points[k] = poly[-1] if total else poly[0]
+    arc[k] = s0
+    return points, arc
 
 
 @dataclass(frozen=True)
@@ -282,7 +371,7 @@ class VisibilityGraph:
         d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
         d_goal = np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1])
         active = np.zeros(len(centres), dtype=bool)
-        c_start, c_goal = self.world.clearance(np.array([start, goal]))
+        limits = None  # how close to the walls the path may start and end, once a disc is met
         while True:
             crossed = ~active & disc_violations(path.points, centres, radii, d_start, d_goal)
             if not crossed.any():
@@ -291,8 +380,9 @@ class VisibilityGraph:
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
             path = self._around.get(key)
             if path is None:
-                path = self._search_with_discs(start, goal, min(self.clearance, c_start) - TOL,
-                                               min(self.clearance, c_goal) - TOL, centres[active], radii[active],
+                if limits is None:
+                    limits = np.minimum(self.clearance, self.world.clearance(np.array([start, goal]))) - TOL
+                path = self._search_with_discs(start, goal, limits[0], limits[1], centres[active], radii[active],
                                                d_start[active], d_goal[active])
                 _remember(self._around, key, path)
             if not path.success:

@@ -24,14 +24,14 @@ How a query is answered
    then decides.
 4. Timing: the path is cut into cells of at most ``v_max dt / 2``; per time step the robot waits,
    advances one cell, or advances two (full speed; only where the straight chord between the
-   two cells keeps clear of walls). The set of cells reachable at each step is a Python integer
-   bitmask, ``reach[t+1] = (reach[t] | reach[t] << 1 | (reach[t] & ok2) << 2) & free[t+1]``,
-   which makes the search exact and fast; ``free[t]`` removes every cell closer than the
-   required separation to an earlier robot during ``[t, t+1]`` and every cell the corridor and
-   door rules (below) close at that step. The robot arrives at the first step at which its
+   two cells keeps clear of walls). The set of cells reachable at each step is a bitset of
+   64-bit words, ``reach[t+1] = (reach[t] | reach[t] << 1 | (reach[t] & ok2) << 2) & free[t+1]``,
+   which makes the search exact and fast (compiled with numba); ``free[t]`` removes every cell
+   closer than the required separation to an earlier robot during ``[t, t+1]`` and every cell
+   the corridor and door rules (below) close at that step. The robot arrives at the first step at which its
    destination is reachable and stays free for good. Among the equally fast timings it waits
    early (holds back, then drives through), which makes its intention legible to the others'
-   eq. (4), or, with ``waiting: late``, drives up and waits late (:func:`earliest_arrival_rows`).
+   eq. (4), or, with ``waiting: late``, drives up and waits late (:func:`earliest_arrival_bits`).
 5. Getting out of the way. Before a robot is planned, every robot after it that stands in its
    way (its path had to ignore them) or in the door zone it will come out of (below) first
    moves to a nearby spot clear of the ways of every robot still to plan, waits there, and
@@ -64,15 +64,15 @@ Reuse
 A robot's plan depends only on the state (positions, destinations, radii, speeds), on which
 robots go before it and on the set of robots after it, so a planner instance remembers, in
 bounded memos, the order-independent part of each state, each robot's plan per beginning of
-the order, each prepared geometric path, and the cells each path has closed by each planned
-motion; the closed loop asks for all ``N_r!`` orders from one state, and orders that share a
-beginning share those plans. Results do not depend on what is remembered. Share one instance
-between the robots of a trial to benefit from it.
+the order, the joint plan of each (repaired) order, each prepared geometric path, and the cells
+each path has closed by each planned motion; the closed loop asks for all ``N_r!`` orders from
+one state, orders that share a beginning share those plans, and orders repaired to the same one
+share its joint plan (whose arrays are therefore read-only). Results do not depend on what is
+remembered. Share one instance between the robots of a trial to benefit from it.
 """
 
 from __future__ import annotations
 
-import bisect
 import logging
 import math
 import time
@@ -96,6 +96,15 @@ from nodnav.scenario.schema import PlannerParams
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
+
+try:  # numba compiles the timing search and its conflict loops; the same code runs without it
+    from numba import njit as _numba_njit
+
+    def _compiled(fn):
+        return _numba_njit(cache=True, nogil=True)(fn)
+except ImportError:  # pragma: no cover - numba is installed in the project's environment
+    def _compiled(fn):
+        return fn
 
 #: Radii (m) and number of directions of the rings of candidate spots a cornered robot may back
 #: out to; the largest reach a room from anywhere in a corridor of the paper's length.
@@ -160,12 +169,22 @@ def corridor_passage(inside: np.ndarray) -> tuple[int, int]:
     ``entry`` is the first sample of the last run of samples inside, ``exit`` the first sample
     after it (``len(inside)`` if the trajectory ends inside); ``(-1, -1)`` if never inside.
     """
-    inside = np.asarray(inside, dtype=bool)
-    if not inside.any():
+    entry, exit_ = _passage_kernel(np.ascontiguousarray(inside, dtype=bool))
+    return int(entry), int(exit_)
+
+
+@_compiled
+def _passage_kernel(inside):
+    """The scan of :func:`corridor_passage`: back to the last sample inside, then to the start of its run."""
+    last = len(inside) - 1
+    while last >= 0 and not inside[last]:
+        last -= 1
+    if last < 0:
         return -1, -1
-    last = len(inside) - 1 - int(np.argmax(inside[::-1]))
-    before = np.nonzero(~inside[:last])[0]
-    return (int(before[-1]) + 1 if len(before) else 0), last + 1
+    entry = last
+    while entry > 0 and inside[entry - 1]:
+        entry -= 1
+    return entry, last + 1
 
 
 def entry_cell(inside: np.ndarray) -> int:
@@ -173,25 +192,42 @@ def entry_cell(inside: np.ndarray) -> int:
 
     A path that starts inside has already entered; only a re-entry after leaving counts.
     """
-    inside = np.asarray(inside, dtype=bool)
-    start = 0
-    if inside[0]:
-        out = np.nonzero(~inside)[0]
-        if not len(out):
-            return -1
-        start = int(out[0])
-    rest = np.nonzero(inside[start:])[0]
-    return start + int(rest[0]) if len(rest) else -1
+    return int(_entry_kernel(np.ascontiguousarray(inside, dtype=bool)))
+
+
+@_compiled
+def _entry_kernel(inside):
+    """The scan of :func:`entry_cell`: past the cells inside at the start, then to the next one inside."""
+    n, c = len(inside), 0
+    while c < n and inside[c]:
+        c += 1
+    while c < n and not inside[c]:
+        c += 1
+    return c if c < n else -1
 
 
 def polyline_segments(path: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Start points, unit directions, lengths and start arc lengths of a polyline's non-empty segments."""
-    path = np.asarray(path, dtype=float).reshape(-1, 2)
-    vec = np.diff(path, axis=0)
-    length = np.hypot(vec[:, 0], vec[:, 1])
-    keep = length > 0
-    arc0 = np.concatenate([[0.0], np.cumsum(length)])[:-1]
-    return path[:-1][keep], vec[keep] / length[keep, None], length[keep], arc0[keep]
+    return _segments_kernel(np.ascontiguousarray(path, dtype=float).reshape(-1, 2))
+
+
+@_compiled
+def _segments_kernel(path):
+    """The loop of :func:`polyline_segments`; the arc length runs on over empty segments (adding 0)."""
+    n = max(path.shape[0] - 1, 0)
+    start, unit = np.empty((n, 2)), np.empty((n, 2))
+    length, arc0 = np.empty(n), np.empty(n)
+    k, s = 0, 0.0
+    for i in range(n):
+        dx, dy = path[i + 1, 0] - path[i, 0], path[i + 1, 1] - path[i, 1]
+        h = math.hypot(dx, dy)
+        if h > 0:
+            start[k, 0], start[k, 1] = path[i, 0], path[i, 1]
+            unit[k, 0], unit[k, 1] = dx / h, dy / h
+            length[k], arc0[k] = h, s
+            k += 1
+        s += h
+    return start[:k], unit[:k], length[:k], arc0[:k]
 
 
 @dataclass(frozen=True)
@@ -224,14 +260,33 @@ class Motion:
         segments' start arc lengths and lengths, and the steps whose move cuts a corner of the
         polyline, with the chords they follow."""
         q0, unit, length, s0 = self.segments
-        basis = np.concatenate([unit, unit[:, ::-1] * (-1.0, 1.0)])
-        offset = (np.concatenate([q0, q0]) * basis).sum(axis=1)
-        corner = s0[1:]
-        step = np.searchsorted(self.arc, corner, side="left") - 1
-        valid = (step >= 0) & (step < self.last_step)
-        step, corner = step[valid], corner[valid]
-        step = step[self.arc[step + 1] > corner]
-        return basis.T.copy(), offset, s0, length, step, self.samples[step], self.samples[step + 1]
+        basis, offset, step = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
+                                            np.ascontiguousarray(self.arc), self.last_step)
+        return basis, offset, s0, length, step, self.samples[step], self.samples[step + 1]
+
+
+@_compiled
+def _sweep_kernel(q0, unit, s0, arc, last_step):
+    """The loops of :attr:`Motion.sweep`: the frames of the segments (along ``unit``, across
+    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, and the steps
+    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly)."""
+    n_seg = unit.shape[0]
+    basis = np.empty((2, 2 * n_seg))
+    offset = np.empty(2 * n_seg)
+    for j in range(n_seg):
+        ux, uy = unit[j, 0], unit[j, 1]
+        basis[0, j], basis[1, j] = ux, uy
+        basis[0, n_seg + j], basis[1, n_seg + j] = -uy, ux
+        offset[j] = q0[j, 0] * ux + q0[j, 1] * uy
+        offset[n_seg + j] = q0[j, 0] * -uy + q0[j, 1] * ux
+    step = np.empty(max(n_seg - 1, 0), dtype=np.int64)
+    k = 0
+    for j in range(1, n_seg):
+        t = np.searchsorted(arc, s0[j], side="left") - 1
+        if 0 <= t < last_step and arc[t + 1] > s0[j]:
+            step[k] = t
+            k += 1
+    return basis, offset, step[:k]
 
 
 def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -247,7 +302,7 @@ def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tu
     ``windows``, a pair of integer arrays ``(since, until)`` over the motions, keeps only the
     steps ``since[i] <= t <= until[i]`` of each motion. Returns three integer arrays of equal length.
     """
-    cells = np.asarray(cells, dtype=float).reshape(-1, 2)
+    cells = np.ascontiguousarray(cells, dtype=float).reshape(-1, 2)
     required = np.asarray(required, dtype=float).reshape(-1)
     parts = [_conflicts_with(cells, m, float(r)) for m, r in zip(motions, required)]
     if not parts:
@@ -265,35 +320,62 @@ def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tu
 
 
 def _conflicts_with(cells: np.ndarray, motion: Motion, required: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`conflict_intervals` for one motion."""
-    last_step = motion.last_step
-    end = motion.samples[-1]
-    dx, dy = cells[:, 0] - end[0], cells[:, 1] - end[1]
-    c = np.flatnonzero(dx * dx + dy * dy < (required - TOL) ** 2)
-    cols, firsts, lasts = [c], [np.full(len(c), last_step)], [np.full(len(c), FOREVER)]
+    """:func:`conflict_intervals` for one motion (``cells`` contiguous ``(N, 2)``)."""
     basis, offset, s0, length, step, chord_a, chord_b = motion.sweep
-    if last_step > 0 and len(length):
-        n_seg = len(length)
-        frame = cells @ basis - offset
-        along, perp = frame[:, :n_seg], frame[:, n_seg:]
-        half2 = required * required - perp * perp
-        half = np.sqrt(np.maximum(half2, 0.0))
-        lo = np.maximum(along - half, 0.0)
-        hi = np.minimum(along + half, length)
-        c, j = np.nonzero((half2 > TOL * required) & (lo <= hi))
-        first = np.maximum(np.searchsorted(motion.arc, lo[c, j] + s0[j], side="left") - 1, 0)
-        last = np.minimum(np.searchsorted(motion.arc, hi[c, j] + s0[j], side="right") - 1, last_step - 1)
-        ok = first <= last
-        cols.append(c[ok])
-        firsts.append(first[ok])
-        lasts.append(last[ok])
-        if len(step):
-            # Steps whose move cuts a corner of the polyline: the chord itself as well.
-            t, c = np.nonzero(segment_point_distance(chord_a, chord_b, cells) < required - TOL)
-            cols.append(c)
-            firsts.append(step[t])
-            lasts.append(step[t])
-    return np.concatenate(cols), np.concatenate(firsts), np.concatenate(lasts)
+    # The projections onto the segments' frames are taken with NumPy's matrix product, whose
+    # rounding (fused multiply-adds in BLAS) the compiled loops could not reproduce exactly.
+    frame = cells @ basis - offset if motion.last_step > 0 and len(length) else np.zeros((len(cells), 0))
+    return _intervals_kernel(cells, frame, motion.samples[-1], motion.arc, s0, length, step, chord_a, chord_b,
+                             motion.last_step, required, (required - TOL) ** 2)
+
+
+@_compiled
+def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
+    """The loops of :func:`_conflicts_with`: ``frame`` holds each cell's coordinates along
+    (first half of the columns) and across (second half) every segment, ``parked2`` is the
+    squared distance within which the parked robot blocks a cell for good."""
+    n_cells, n_seg, n_chord = cells.shape[0], length.shape[0], step.shape[0]
+    moving = last_step > 0 and n_seg > 0
+    cap = n_cells * (1 + n_seg + n_chord) if moving else n_cells
+    cols = np.empty(cap, dtype=np.int64)
+    firsts = np.empty(cap, dtype=np.int64)
+    lasts = np.empty(cap, dtype=np.int64)
+    k = 0
+    for c in range(n_cells):
+        dx, dy = cells[c, 0] - end[0], cells[c, 1] - end[1]
+        if dx * dx + dy * dy < parked2:
+            cols[k], firsts[k], lasts[k] = c, last_step, FOREVER
+            k += 1
+    if moving:
+        r2, floor = required * required, TOL * required
+        for c in range(n_cells):
+            for j in range(n_seg):
+                along, perp = frame[c, j], frame[c, n_seg + j]
+                half2 = r2 - perp * perp
+                if not half2 > floor:
+                    continue
+                half = math.sqrt(max(half2, 0.0))
+                lo, hi = max(along - half, 0.0), min(along + half, length[j])
+                if not lo <= hi:
+                    continue
+                first = max(np.searchsorted(arc, lo + s0[j], side="left") - 1, 0)
+                last = min(np.searchsorted(arc, hi + s0[j], side="right") - 1, last_step - 1)
+                if first <= last:
+                    cols[k], firsts[k], lasts[k] = c, first, last
+                    k += 1
+        # Steps whose move cuts a corner of the polyline: the chord itself as well.
+        for t in range(n_chord):
+            ax, ay = chord_a[t, 0], chord_a[t, 1]
+            dx, dy = chord_b[t, 0] - ax, chord_b[t, 1] - ay
+            norm2 = max(dx * dx + dy * dy, 1e-300)
+            for c in range(n_cells):
+                rx, ry = cells[c, 0] - ax, cells[c, 1] - ay
+                u = min(max((rx * dx + ry * dy) / norm2, 0.0), 1.0)
+                ex, ey = rx - u * dx, ry - u * dy
+                if math.sqrt(ex * ex + ey * ey) < required - TOL:
+                    cols[k], firsts[k], lasts[k] = c, step[t], step[t]
+                    k += 1
+    return cols[:k], firsts[:k], lasts[:k]
 
 
 def blocked_bits(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
@@ -301,75 +383,52 @@ def blocked_bits(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
     64-bit words, bit ``c`` of row ``t`` set when cell ``c`` is closed at step ``t``.
 
     ``intervals`` is an iterable of ``(cell, first, last)`` arrays (see
-    :func:`conflict_intervals`; steps before 0 are ignored). Each gate ``(cell, allowed)`` also
-    closes the cells at and past ``cell`` before step ``allowed`` (the corridor and door rules).
-    Overlapping intervals of a cell are merged first, so that each cell's bit is added once
-    where an interval starts and subtracted once after it ends; a running sum down the steps
-    then sets exactly the closed bits, without carries.
+    :func:`conflict_intervals`; steps outside ``0..n_rows-1`` are ignored). Each gate ``(cell,
+    allowed)`` also closes the cells at and past ``cell`` before step ``allowed`` (the corridor
+    and door rules).
     """
-    words = (n_cells + 63) // 64
-    diff = np.zeros((n_rows + 1, words), dtype="<u8")
-    parts = list(intervals)
-    if parts:
-        cols, first, last = (np.concatenate(x).astype(np.int64) for x in zip(*parts))
-        now = (first < n_rows) & (last >= 0)
-        cols, first, last = cols[now], np.maximum(first[now], 0), np.minimum(last[now], n_rows - 1)
-        if len(cols):
-            span = n_rows + 2
-            a, b = cols * span + first, cols * span + last
-            order = np.argsort(a, kind="stable")
-            a, b = a[order], np.maximum.accumulate(b[order])
-            opens = np.r_[True, a[1:] > b[:-1] + 1]
-            start, stop = a[opens], b[np.r_[opens[1:], True]]
-            cell = start // span
-            bit = np.left_shift(np.uint64(1), (cell % 64).astype(np.uint64))
-            np.add.at(diff, (start % span, cell // 64), bit)
-            np.subtract.at(diff, (stop % span + 1, cell // 64), bit)
-    bits = np.cumsum(diff[:-1], axis=0, dtype="<u8")
-    full = (1 << n_cells) - 1
-    for cell, allowed in gates:
-        if cell >= 0 and allowed > 0:
-            gate = full ^ ((1 << int(cell)) - 1)
-            bits[:allowed] |= np.frombuffer(gate.to_bytes(8 * words, "little"), dtype="<u8")
+    bits = np.zeros((n_rows, (n_cells + 63) // 64), dtype=np.uint64)
+    for cols, first, last in intervals:
+        _close_kernel(bits, np.asarray(cols, dtype=np.int64), np.asarray(first, dtype=np.int64),
+                      np.asarray(last, dtype=np.int64))
+    _close_gates(bits, n_cells, 0, gates)
     return bits
 
 
-def free_rows(bits: np.ndarray, n_cells: int) -> tuple[list[int], list[int]]:
-    """The free cells of each step as Python integers (bit ``c``: cell ``c`` is free), and the
-    steps at which they change (runs of equal steps share one integer)."""
-    full = (1 << n_cells) - 1
-    bits = np.ascontiguousarray(bits, dtype="<u8")
-    buf = bits.tobytes()
-    size = 8 * bits.shape[1]
-    starts = np.flatnonzero(np.concatenate([[True], (bits[1:] != bits[:-1]).any(axis=1)])).tolist()
-    rows: list[int] = []
-    for a, b in zip(starts, starts[1:] + [len(bits)]):
-        rows.extend([full ^ int.from_bytes(buf[a * size:(a + 1) * size], "little")] * (b - a))
-    return rows, starts
+@_compiled
+def _close_kernel(bits, cols, first, last):
+    """Set bit ``cols[i]`` in rows ``first[i]..last[i]`` of ``bits`` (clipped to its rows)."""
+    n_rows = bits.shape[0]
+    for i in range(cols.shape[0]):
+        word, bit = cols[i] // 64, np.uint64(1) << np.uint64(cols[i] % 64)
+        for t in range(max(first[i], 0), min(last[i], n_rows - 1) + 1):
+            bits[t, word] |= bit
 
 
-def blocked_rows(bits: np.ndarray) -> list[int]:
-    """The rows of :func:`blocked_bits` as Python integers (bit ``c``: cell ``c`` is closed);
-    runs of equal rows share one integer."""
-    bits = np.ascontiguousarray(bits, dtype="<u8")
-    buf = bits.tobytes()
-    size = 8 * bits.shape[1]
-    starts = np.flatnonzero(np.concatenate([[True], (bits[1:] != bits[:-1]).any(axis=1)])).tolist()
-    rows: list[int] = []
-    for a, b in zip(starts, starts[1:] + [len(bits)]):
-        rows.extend([int.from_bytes(buf[a * size:(a + 1) * size], "little")] * (b - a))
-    return rows
+def _close_gates(bits: np.ndarray, n_cells: int, t0: int, gates) -> None:
+    """Close, in rows ``0..allowed-t0-1`` of ``bits`` (step ``t0`` onwards), the cells at and past
+    ``cell`` of every gate ``(cell, allowed)``."""
+    for cell, allowed in gates:
+        if cell >= 0 and allowed > t0:
+            bits[:allowed - t0] |= _mask_words(n_cells, int(cell))
 
 
-def _relaxed_rows(cells: np.ndarray, motion: Motion, required: float, gap: float) -> list[int]:
-    """:func:`blocked_rows` against ``motion`` for a robot whose first cell is only ``gap <
-    required`` away from it: the relaxed separation holds until the step after which the motion
-    keeps ``required`` from that cell for good, the full one from then on."""
+def _mask_words(n_cells: int, since: int) -> np.ndarray:
+    """The cells ``since..n_cells-1`` as a row of 64-bit words."""
+    words = (n_cells + 63) // 64
+    mask = ((1 << n_cells) - 1) ^ ((1 << since) - 1)
+    return np.frombuffer(mask.to_bytes(8 * words, "little"), dtype="<u8").astype(np.uint64)
+
+
+def _relaxed_bits(cells: np.ndarray, motion: Motion, required: float, gap: float) -> np.ndarray:
+    """:func:`blocked_bits` against ``motion`` (one row per step of it) for a robot whose first
+    cell is only ``gap < required`` away from it: the relaxed separation holds until the step
+    after which the motion keeps ``required`` from that cell for good, the full one from then on."""
     _, _, last = conflict_intervals(cells[:1], [motion], [required])
     since = int(last.max()) + 1 if len(last) else 0
     parts = [conflict_intervals(cells, [motion], [required], ([since], [FOREVER])),
              conflict_intervals(cells, [motion], [relaxed_separation(required, gap)], ([0], [since - 1]))]
-    return blocked_rows(blocked_bits(len(cells), motion.last_step + 1, parts))
+    return blocked_bits(len(cells), motion.last_step + 1, parts)
 
 
 def free_cells(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
@@ -399,105 +458,145 @@ class Timing:
 
 
 def earliest_arrival(free: np.ndarray, ok2: np.ndarray, wait_early: bool = True) -> Timing:
-    """:func:`earliest_arrival_rows` for a boolean array ``free[t, c]`` ``(n_rows, n_cells)``."""
+    """:func:`earliest_arrival_bits` for a boolean array ``free[t, c]`` ``(n_rows, n_cells)``."""
     free = np.asarray(free, dtype=bool)
     n_rows, n_cells = free.shape
-    closed = np.zeros((n_rows, 8 * ((n_cells + 63) // 64)), dtype=np.uint8)
-    packed = np.packbits(~free, axis=1, bitorder="little")
-    closed[:, :packed.shape[1]] = packed
-    return earliest_arrival_rows(*free_rows(closed.view("<u8"), n_cells), n_cells, ok2, wait_early)
+    words = np.zeros((n_rows, 8 * ((n_cells + 63) // 64)), dtype=np.uint8)
+    packed = np.packbits(free, axis=1, bitorder="little")
+    words[:, :packed.shape[1]] = packed
+    return earliest_arrival_bits(words.view("<u8").astype(np.uint64), n_cells, ok2, wait_early)
 
 
-def earliest_arrival_rows(rows: list[int], starts: list[int], n_cells: int, ok2: np.ndarray,
-                          wait_early: bool = True) -> Timing:
+def earliest_arrival_bits(free: np.ndarray, n_cells: int, ok2: np.ndarray, wait_early: bool = True) -> Timing:
     """Earliest arrival along a line of cells, moving 0, 1 or 2 cells per step (exact search).
 
-    ``rows[t]`` has bit ``c`` set when cell ``c`` may be occupied at step ``t``; steps past the
-    last row repeat it (everything stands still by then); ``starts`` lists the steps at which
-    ``rows`` changes, in increasing order. ``ok2[c]`` allows the two-cell move
-    ``c -> c+2``. The robot starts in cell 0 at step 0 whatever ``rows[0]`` says (it is there),
+    ``free[t]`` ``(n_rows, W)`` is the bitset (64-bit words, little-endian) of the cells that
+    may be occupied at step ``t``, no bit at or past ``n_cells``; steps past the last row
+    repeat it (everything stands still by then). ``ok2[c]`` allows the two-cell move
+    ``c -> c+2``. The robot starts in cell 0 at step 0 whatever ``free[0]`` says (it is there),
     and arrives at the first step at which the last cell is reachable and stays free from then
-    on. The reachable sets are bitmasks, one Python integer per step,
-    ``reach[t+1] = (reach[t] | reach[t] << 1 | (reach[t] & ok2) << 2) & rows[t+1]``.
-    Every cell sequence consistent with that arrival is equally fast; backtracking picks, at
-    every step, the nearest such cell with ``wait_early`` (the robot holds back first and then
-    drives through at full speed) and the farthest one otherwise (it drives up and waits late).
-    Waiting early is the default because it makes a yielding robot's intention visible at once:
-    in eq. (4) its plans for "I go first" and "I yield" then differ from the first window on,
-    instead of only once it reaches the corridor. When driving at full speed meets no obstacle, that is
-    the answer and the search is skipped; while the steps stay the same and the reachable set
-    stops growing, the search jumps to the next change.
+    on. The reachable sets are bitsets, ``reach[t+1] = (reach[t] | reach[t] << 1 | (reach[t] &
+    ok2) << 2) & free[t+1]``. Every cell sequence consistent with that arrival is equally fast;
+    backtracking picks, at every step, the nearest such cell with ``wait_early`` (the robot
+    holds back first and then drives through at full speed) and the farthest one otherwise (it
+    drives up and waits late). Waiting early is the default because it makes a yielding robot's
+    intention visible at once: in eq. (4) its plans for "I go first" and "I yield" then differ
+    from the first window on, instead of only once it reaches the corridor. When driving at full
+    speed meets no obstacle, that is the answer and the search is skipped.
     """
-    n_rows, n = len(rows), n_cells
-    goal = 1 << (n - 1)
-    step2 = int.from_bytes(np.packbits(np.asarray(ok2, dtype=bool)[:n], bitorder="little").tobytes(), "little")
-    last_row = rows[-1]
-    if not last_row & goal:
+    ok2 = np.ascontiguousarray(np.asarray(ok2, dtype=bool)[:n_cells])
+    status, step, cells = _arrival_kernel(np.ascontiguousarray(free, dtype=np.uint64), n_cells, ok2, bool(wait_early))
+    if status == _ARRIVED:
+        return Timing(True, "", cells)
+    if status == _PARKED_ON_GOAL:
         return Timing(False, "its destination stays blocked by a robot parked next to it", np.zeros(1, dtype=int))
+    if status == _CORNERED:
+        return Timing(False, f"cornered at step {step}: every cell it can reach is too close to an earlier robot",
+                      np.zeros(1, dtype=int), trapped_at=step)
+    return Timing(False, "cannot reach its destination: its path stays blocked after every earlier robot has parked",
+                  np.zeros(1, dtype=int))
+
+
+#: Outcomes of :func:`_arrival_kernel`.
+_ARRIVED, _PARKED_ON_GOAL, _CORNERED, _BLOCKED = 0, 1, 2, 3
+
+
+@_compiled
+def _has(row, c):
+    """Whether bit ``c`` is set in the bitset ``row``."""
+    return (row[c // 64] >> np.uint64(c % 64)) & np.uint64(1) != 0
+
+
+@_compiled
+def _arrival_kernel(free, n, ok2, wait_early):
+    """The search of :func:`earliest_arrival_bits`: ``(outcome, step cornered at, cells)``."""
+    n_rows, words = free.shape
+    none = np.zeros(0, dtype=np.int64)
+    goal = n - 1
+    if not _has(free[n_rows - 1], goal):
+        return _PARKED_ON_GOAL, -1, none
     earliest = 0
     for t in range(n_rows - 1, 0, -1):
-        if not rows[t] & goal:
+        if not _has(free[t], goal):
             earliest = t + 1
             break
-    if (~step2) & ((1 << max(n - 2, 0)) - 1):
-        dash = [0]
-        c = 0
-        while c < n - 1:
-            c += 2 if c + 2 < n and (step2 >> c) & 1 else 1
-            dash.append(c)
-    else:
-        dash = list(range(0, n - 1, 2)) + [n - 1]
-    if len(dash) > earliest and all((rows[t] if t < n_rows else last_row) >> c & 1 for t, c in enumerate(dash) if t):
-        return Timing(True, "", np.array(dash))
-    reach = [1]
-    r = 1
+    # Full speed all the way: two cells a step wherever allowed.
+    dash = np.empty(n, dtype=np.int64)
+    dash[0] = 0
+    m, c = 1, 0
+    while c < n - 1:
+        c += 2 if c + 2 < n and ok2[c] else 1
+        dash[m] = c
+        m += 1
+    if m > earliest:
+        clear = True
+        for t in range(1, m):
+            if not _has(free[min(t, n_rows - 1)], dash[t]):
+                clear = False
+                break
+        if clear:
+            return _ARRIVED, -1, dash[:m].copy()
+    step2 = np.zeros(words, dtype=np.uint64)
+    for c in range(n):
+        if ok2[c]:
+            step2[c // 64] |= np.uint64(1) << np.uint64(c % 64)
+    # After the last row nothing changes, so the reachable set must grow at every step: at
+    # most n more steps.
+    reach = np.zeros((n_rows + n + 1, words), dtype=np.uint64)
+    reach[0, 0] = 1
     t = 0
-    while not (r & goal and t >= earliest):
+    one, top, top2 = np.uint64(1), np.uint64(63), np.uint64(62)
+    while not (_has(reach[t], goal) and t >= earliest):
+        row = free[min(t + 1, n_rows - 1)]
+        carry1 = carry2 = np.uint64(0)
+        same = empty = True
+        for w in range(words):
+            a = reach[t, w]
+            b = a & step2[w]
+            nxt = (a | (a << one) | carry1 | (b << np.uint64(2)) | carry2) & row[w]
+            carry1, carry2 = a >> top, b >> top2
+            reach[t + 1, w] = nxt
+            same &= nxt == a
+            empty &= nxt == 0
         t += 1
-        row = rows[t] if t < n_rows else last_row
-        nxt = (r | (r << 1) | ((r & step2) << 2)) & row
-        if nxt == 0:
-            return Timing(False, f"cornered at step {t}: every cell it can reach is too close to an earlier robot",
-                          np.zeros(1, dtype=int), trapped_at=t)
-        if nxt == r:
-            if t >= n_rows:
-                return Timing(False, "cannot reach its destination: its path stays blocked after every earlier "
-                                     "robot has parked", np.zeros(1, dtype=int))
-            # Nothing changes while the steps stay the same: jump to the last step of the run
-            # (or to when the destination is free for good), sharing one object.
-            run = bisect.bisect_right(starts, t)
-            end = starts[run] - 1 if run < len(starts) else n_rows - 1
-            if r & goal:
-                end = min(end, max(t, earliest))
-            if end > t:
-                reach.extend([r] * (end - t))
-                t = end
-        else:
-            r = nxt
-        reach.append(r)
-    cells = np.empty(t + 1, dtype=int)
+        if empty:
+            return _CORNERED, t, none
+        if same and t >= n_rows:
+            return _BLOCKED, -1, none
+    cells = np.empty(t + 1, dtype=np.int64)
     c = n - 1
     for s in range(t, 0, -1):
         cells[s] = c
         prev = reach[s - 1]
         if wait_early:
-            if c >= 2 and (prev >> (c - 2)) & (step2 >> (c - 2)) & 1:
+            if c >= 2 and ok2[c - 2] and _has(prev, c - 2):
                 c -= 2
-            elif c >= 1 and (prev >> (c - 1)) & 1:
+            elif c >= 1 and _has(prev, c - 1):
                 c -= 1
-        elif not (prev is reach[s] or (prev >> c) & 1):
-            c = c - 1 if (prev >> (c - 1)) & 1 else c - 2
+        elif not _has(prev, c):
+            c = c - 1 if _has(prev, c - 1) else c - 2
     cells[0] = c
-    return Timing(True, "", cells)
+    return _ARRIVED, -1, cells
 
 
 def _dash_clashes(path: np.ndarray, step: float, others: np.ndarray, required: np.ndarray) -> bool:
     """Whether driving along ``path`` at ``step`` per step and then standing at its end comes
     closer than ``required`` to robots at ``others[t]`` ``(T, m, 2)`` at some step after the first."""
     grid = arc_length_grid(path, step).points
-    at = grid[np.minimum(np.arange(len(others)), len(grid) - 1)]
-    gap = np.linalg.norm(others - at[:, None], axis=2)
-    return bool((gap[1:] < required - TOL).any())
+    limit = np.asarray(required, dtype=float).reshape(-1) - TOL
+    return bool(_dash_kernel(grid, np.ascontiguousarray(others, dtype=float), limit))
+
+
+@_compiled
+def _dash_kernel(grid, others, limit):
+    """The loops of :func:`_dash_clashes`: the robot is at ``grid[t]`` (at its end once past it)."""
+    for t in range(1, others.shape[0]):
+        at = grid[min(t, grid.shape[0] - 1)]
+        for i in range(others.shape[1]):
+            dx, dy = others[t, i, 0] - at[0], others[t, i, 1] - at[1]
+            if math.sqrt(dx * dx + dy * dy) < limit[i]:
+                return True
+    return False
 
 
 def retreat_spots(centre: np.ndarray) -> np.ndarray:
@@ -619,6 +718,12 @@ class _State:
     """Why no order can be planned (a destination outside free space, overlapping ones), or empty."""
 
 
+def _reject(order: tuple, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray):
+    """Raise the error for a malformed request."""
+    raise ValueError(f"malformed request: order {order} for {len(pos)} robots, positions {pos.shape}, destinations "
+                     f"{dest.shape}, radii {radii.tolist()}, max_speeds {vmax.tolist()}")
+
+
 def _state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str:
     for k in np.flatnonzero(clear < radii - TOL):
         return (f"robot {k}: destination ({dest[k, 0]:.3f}, {dest[k, 1]:.3f}) is not in free space "
@@ -646,6 +751,25 @@ class _Attempt:
     trapped: bool = False
     evasions: tuple = ()
     """``(robot, motion)`` of the robots after it that get out of its way first."""
+
+
+@dataclass(frozen=True)
+class _Joint:
+    """Every robot planned in one order: what all results for that order share."""
+
+    success: bool
+    reason: str
+    cost: float = math.inf
+    """Sum of the arrival times (s)."""
+    trajectory: JointTrajectory | None = None
+    arrival: np.ndarray | None = None
+    """Each robot's arrival time after the request's time (s)."""
+    lengths: np.ndarray | None = None
+    """Each robot's path length (m)."""
+    paths: tuple = ()
+    """Each robot's polyline."""
+    retreats: tuple = ()
+    """The robots that back out of the way of robots before them."""
 
 
 @dataclass(frozen=True)
@@ -681,6 +805,7 @@ class PrioritizedPlanner:
         self._rows: dict[tuple, tuple] = {}
         self._states: dict[tuple, _State] = {}
         self._attempts: dict[tuple, _Attempt] = {}
+        self._joints: dict[tuple, _Joint] = {}
 
     @property
     def wall_margin(self) -> float:
@@ -699,35 +824,47 @@ class PrioritizedPlanner:
     def plan(self, request: PlanRequest) -> PlanResult:
         """Plan every robot of the request through the corridor in its (feasible) passing order."""
         began = time.perf_counter()
-        result = self._plan(request)
-        return replace(result, compute_time=time.perf_counter() - began)
-
-    # -----------------------------------------------------------------------------------------
-
-    def _plan(self, request: PlanRequest) -> PlanResult:
         world = request.world
-        # Copies: the memos keep them, and the caller may reuse its arrays.
-        pos = np.array(request.positions, dtype=float).reshape(-1, 2)
-        dest = np.array(request.destinations, dtype=float).reshape(-1, 2)
-        radii = np.array(request.radii, dtype=float).reshape(-1)
-        vmax = np.array(request.max_speeds, dtype=float).reshape(-1)
-        n = len(pos)
+        pos = np.asarray(request.positions, dtype=float).reshape(-1, 2)
+        dest = np.asarray(request.destinations, dtype=float).reshape(-1, 2)
+        radii = np.asarray(request.radii, dtype=float).reshape(-1)
+        vmax = np.asarray(request.max_speeds, dtype=float).reshape(-1)
         order = tuple(int(k) for k in request.order)
-        if (sorted(order) != list(range(n)) or dest.shape != pos.shape or radii.shape != (n,) or vmax.shape != (n,)
-                or not (np.isfinite(pos).all() and np.isfinite(dest).all() and (radii > 0).all() and (vmax > 0).all())):
-            raise ValueError(f"malformed request: order {order} for {n} robots, positions {pos.shape}, destinations "
-                             f"{dest.shape}, radii {radii.tolist()}, max_speeds {vmax.tolist()}")
-        state = self._state(world, pos, dest, radii, vmax)
+        if sorted(order) != list(range(len(pos))):
+            _reject(order, pos, dest, radii, vmax)
+        state = self._state(world, pos, dest, radii, vmax, order)
         entered = tuple(int(k) for k in request.entered)
         entered += tuple(k for k in order if state.inside[k] and k not in entered)
         planned = feasible_order(order, entered)
 
         def failure(reason: str) -> PlanResult:
             logger.debug("fast planner: order %s failed: %s", planned, reason)
-            return replace(PlanResult.failure(request, reason), order_planned=planned)
+            return replace(PlanResult.failure(request, reason, time.perf_counter() - began), order_planned=planned)
 
         if state.problem:
             return failure(state.problem)
+        # Orders repaired to the same one share its joint plan; only the notes differ.
+        key = (state.key, planned, float(request.t0))
+        joint = self._joints.get(key)
+        if joint is None:
+            joint = self._joint(world, state, planned, float(request.t0))
+            _remember(self._joints, key, joint)
+        if not joint.success:
+            return failure(joint.reason)
+        notes = []
+        if planned != order:
+            notes.append(f"order {order} repaired to {planned}: robots {entered} have already entered the corridor")
+        if joint.retreats:
+            notes.append(f"robots {joint.retreats} back out of the way of robots before them")
+        info = {"arrival_times": joint.arrival, "path_lengths": joint.lengths, "paths": joint.paths,
+                "retreats": joint.retreats, "entered": entered}
+        return PlanResult(True, "; ".join(notes), joint.cost, joint.trajectory, order, planned,
+                          time.perf_counter() - began, info)
+
+    # -----------------------------------------------------------------------------------------
+
+    def _joint(self, world: World, state: _State, planned: tuple, t0: float) -> _Joint:
+        """Every robot planned in the order ``planned``, one after the other."""
         plans: dict[int, _RobotPlan] = {}
         heads: dict[int, Motion] = {}
         for rank, k in enumerate(planned):
@@ -740,18 +877,39 @@ class PrioritizedPlanner:
                 attempt = self._plan_robot(world, state, k, layout)
                 _remember(self._attempts, key, attempt)
             if not attempt.success:
-                return failure(f"robot {k}: {attempt.reason}")
+                return _Joint(False, f"robot {k}: {attempt.reason}")
             plans[k] = attempt.plan
             heads.pop(k, None)
             heads.update(attempt.evasions)
-        return self._result(request, order, planned, entered, plans)
+        dt = float(self.params.dt)
+        n = len(plans)
+        steps = max(p.arrival for p in plans.values()) + 1
+        positions = np.empty((steps, n, 2))
+        for k, p in plans.items():
+            positions[:p.arrival + 1, k] = p.motion.samples
+            positions[p.arrival + 1:, k] = p.motion.samples[-1]
+        trajectory = JointTrajectory.from_positions(t0 + dt * np.arange(steps), positions)
+        arrival = np.array([plans[k].arrival * dt for k in range(n)])
+        lengths = np.array([float(plans[k].motion.segments[2].sum()) for k in range(n)])
+        # Shared by every result of this order: nobody may change them in place.
+        for a in (trajectory.times, trajectory.positions, trajectory.velocities, arrival, lengths):
+            a.setflags(write=False)
+        return _Joint(True, "", float(arrival.sum()), trajectory, arrival, lengths,
+                      tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat))
 
-    def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray) -> _State:
-        """What every order planned from this state shares (memoised)."""
+    def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
+               order: tuple) -> _State:
+        """What every order planned from this state shares (memoised; checked when first seen,
+        ``order`` is only quoted in the error)."""
         key = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
         state = self._states.get(key)
         if state is None:
             n = len(pos)
+            if (dest.shape != pos.shape or radii.shape != (n,) or vmax.shape != (n,) or not (
+                    np.isfinite(pos).all() and np.isfinite(dest).all() and (radii > 0).all() and (vmax > 0).all())):
+                _reject(order, pos, dest, radii, vmax)
+            # Copies: the memos keep them, and the caller may reuse its arrays.
+            pos, dest, radii, vmax = pos.copy(), dest.copy(), radii.copy(), vmax.copy()
             clear = world.clearance(dest)
             dirs = crossing_directions(world, pos, dest)
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
@@ -951,36 +1109,30 @@ class PrioritizedPlanner:
         (:func:`relaxed_separation`)."""
         cells, n = track.cells, len(track.cells)
         n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
-        closed = [0] * n_rows
+        closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
         for j, m in fixed:
             r = float(state.required[j, k])
             here = m.samples[min(t0, m.last_step)]
             gap = math.hypot(here[0] - cells[0, 0], here[1] - cells[0, 1])
-            rows = self._blocked_rows(cells, m, r) if gap >= r else _relaxed_rows(cells, m, r, gap)
-            part = rows[t0:] if t0 < len(rows) else rows[-1:]
-            closed[:len(part)] = [a | b for a, b in zip(closed, part)]
-            if part[-1]:
-                tail = part[-1]
-                closed[len(part):] = [a | tail for a in closed[len(part):]]
-        full = (1 << n) - 1
-        for c, allowed in gates:
-            if c >= 0 and allowed > t0:
-                gate = full ^ ((1 << c) - 1)
-                closed[:allowed - t0] = [a | gate for a in closed[:allowed - t0]]
-        rows = [full ^ a for a in closed]
-        starts = [0] + [t for t in range(1, n_rows) if closed[t] != closed[t - 1]]
-        return earliest_arrival_rows(rows, starts, n, track.ok2, self.params.waiting == "early")
+            bits = self._blocked(cells, m, r) if gap >= r else _relaxed_bits(cells, m, r, gap)
+            # Rows past the motion's last step repeat it: it stands still from then on.
+            part = bits[min(t0, len(bits) - 1):]
+            closed[:len(part)] |= part
+            closed[len(part):] |= part[-1]
+        _close_gates(closed, n, t0, gates)
+        free = ~closed
+        free[:, -1] &= _mask_words(n, 0)[-1]
+        return earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
 
-    def _blocked_rows(self, cells: np.ndarray, motion: Motion, required: float) -> list[int]:
-        """The cells too close to ``motion`` at each of its steps (:func:`blocked_rows`; memoised:
+    def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
+        """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
         the same path meets the same motion in many orders, and equal motions in others)."""
         key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
         hit = self._rows.get(key)
         if hit is None:
-            rows = blocked_rows(blocked_bits(len(cells), motion.last_step + 1,
-                                             [conflict_intervals(cells, [motion], [required])]))
-            # The cells are kept with the rows so that their id stays theirs while remembered.
-            hit = (cells, rows)
+            bits = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [required])])
+            # The cells are kept with the bits so that their id stays theirs while remembered.
+            hit = (cells, bits)
             _remember(self._rows, key, hit)
         return hit[1]
 
@@ -1146,30 +1298,3 @@ class PrioritizedPlanner:
             if timing.success:
                 steps = timing.cells
                 yield Motion(way.points, track.cells[steps], track.arc[steps], track.segments)
-
-    def _result(self, request: PlanRequest, order, planned, entered, plans: dict[int, _RobotPlan]) -> PlanResult:
-        dt = float(self.params.dt)
-        n = len(plans)
-        steps = max(p.arrival for p in plans.values()) + 1
-        positions = np.empty((steps, n, 2))
-        for k, p in plans.items():
-            positions[:p.arrival + 1, k] = p.motion.samples
-            positions[p.arrival + 1:, k] = p.motion.samples[-1]
-        times = request.t0 + dt * np.arange(steps)
-        trajectory = JointTrajectory.from_positions(times, positions)
-        arrival = np.array([plans[k].arrival * dt for k in range(n)])
-        lengths = np.array([float(plans[k].motion.segments[2].sum()) for k in range(n)])
-        retreats = tuple(k for k in planned if plans[k].retreat)
-        notes = []
-        if planned != order:
-            notes.append(f"order {order} repaired to {planned}: robots {entered} have already entered the corridor")
-        if retreats:
-            notes.append(f"robots {retreats} back out of the way of robots before them")
-        info = {
-            "arrival_times": arrival,
-            "path_lengths": lengths,
-            "paths": tuple(plans[k].motion.path for k in range(n)),
-            "retreats": retreats,
-            "entered": entered,
-        }
-        return PlanResult(True, "; ".join(notes), float(arrival.sum()), trajectory, order, planned, 0.0, info)

@@ -117,7 +117,8 @@ class ControllerParams:
     w2: float = 1e-6
     """Velocity weight w_2 of the MPC cost (s^2); paper: 1e-6."""
     safety_margin: float = 0.02
-    """Separation kept by the MPC beyond 2 r_robot (m)."""
+    """Separation kept by the MPC beyond 2 r_robot (m); below the planner's ``margin`` so that the
+    MPC can track plans that keep exactly that (not in the paper)."""
 
 
 @dataclass(frozen=True)
@@ -128,10 +129,11 @@ class SimParams:
     """A robot has arrived when it is this close to its destination (m)."""
     collision_tolerance: float = 1e-3
     """Penetration beyond which a contact counts as a collision (m)."""
-    deadlock_time: float = 15.0
+    deadlock_time: float = 10.0
     """A trial is a deadlock when no robot has progressed for this long (s)."""
-    progress_epsilon: float = 0.05
-    """Decrease of a robot's distance-to-go that counts as progress (m)."""
+    progress_epsilon: float = 0.2
+    """Decrease of a robot's distance-to-go below its best so far that counts as progress (m); a
+    robot radius, so that robots creeping a few centimetres at a time in a jam do not count."""
     observation_noise: float = 0.0
     """Standard deviation of the position noise in what each robot observes of the others (m)."""
 

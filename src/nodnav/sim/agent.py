@@ -18,7 +18,7 @@ from nodnav.decision.estimation import estimate_social_term, estimated_opinions
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, social_sum, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
-from nodnav.decision.strategies import consistency_weights, passing_orders, projected_order_ids
+from nodnav.decision.strategies import consistency_weights, passing_orders, project_order, projected_order_ids
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT
@@ -81,12 +81,14 @@ class PlanCache:
     def __init__(self, planner: Planner):
         self.planner = planner
         self._plans: dict[tuple, PlanResult] = {}
+        self._states: dict[tuple, tuple[PlanResult, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
 
     def clear(self) -> None:
-        """Forget every plan (called when the state of the world has moved on)."""
+        """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
+        self._states.clear()
 
     def plan(self, request: PlanRequest) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round."""
@@ -101,6 +103,33 @@ class PlanCache:
         else:
             self.hits += 1
         return result
+
+    def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
+        """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
+
+        Every robot of a round evaluates the plans of the round before against the same window,
+        so each plan is evaluated once per round whoever asks.
+        """
+        key = (id(result), times.tobytes())
+        hit = self._states.get(key)
+        if hit is None:
+            traj = result.trajectory
+            states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
+            hit = self._states[key] = (result, states)  # holding the result keeps its id unique
+        return hit[1]
+
+
+def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders) -> list[PlanRequest]:
+    """The planning queries of ``robots`` (scenario indices, in increasing index) passing in each
+    of ``orders`` (passing orders of every robot, projected onto ``robots``), from what ``view``
+    shows; the queries share their state arrays."""
+    local_of = {k: m for m, k in enumerate(robots)}
+    rows = list(robots)
+    state = dict(world=scenario.world, positions=view.positions[rows].copy(), velocities=view.velocities[rows].copy(),
+                 destinations=scenario.destinations[rows], radii=scenario.radii[rows],
+                 max_speeds=scenario.max_speeds[rows],
+                 entered=tuple(local_of[k] for k in view.entered if k in local_of), t0=view.t)
+    return [PlanRequest(order=tuple(local_of[k] for k in project_order(order, robots)), **state) for order in orders]
 
 
 def approach_sides(scenario: Scenario) -> np.ndarray:
@@ -143,14 +172,11 @@ class NODAgent:
     def _update_opinion(self, view: RobotView) -> None:
         """Eqs. (4), (9), (8): compare the others' observed motion with last period's plans."""
         robots, plans = self.previous
-        players = robots[1:]
+        players = tuple(k for k in robots if k != self.index)
         social = np.zeros(len(self.orders))
         if players and self.social:
-            local = list(range(1, len(robots)))
-            planned = np.stack([
-                np.concatenate([p.trajectory.positions_at(view.window_times)[:, local],
-                                p.trajectory.velocities_at(view.window_times)[:, local]], axis=-1).transpose(1, 0, 2)
-                for p in plans])  # (N_s, N_k, M, 4)
+            columns = [robots.index(k) for k in players]
+            planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (N_s, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
@@ -168,29 +194,16 @@ class NODAgent:
         return tuple(sorted(select_game_players(L, self.index, self.n_players)))
 
     def plan_all(self, view: RobotView, robots: tuple[int, ...]) -> list[PlanResult]:
-        """The joint plan for every strategy, projected onto ``robots``; one query per distinct projection.
+        """The joint plan for every strategy, projected onto ``robots`` listed in increasing index;
+        one query per distinct projection.
 
         Queries list the robots in increasing index whoever asks, so that robots posing the
-        same joint problem pose the same query and share its answer through the plan cache;
-        each answer is then relabelled to the order of ``robots``.
+        same joint problem pose the same query and share its answer through the plan cache.
         """
-        s = self.scenario
-        canonical = sorted(robots)
-        local_of = {k: m for m, k in enumerate(canonical)}
-        positions = view.positions[canonical].copy()
-        velocities = view.velocities[canonical].copy()
-        entered = tuple(local_of[k] for k in view.entered if k in local_of)
-        back = [local_of[k] for k in robots]
         ids = projected_order_ids(self.orders, robots)
-        by_class: dict[int, PlanResult] = {}
-        for j, order in enumerate(self.orders):
-            if ids[j] in by_class:
-                continue
-            local_order = tuple(local_of[int(k)] for k in order if int(k) in local_of)
-            request = PlanRequest(world=s.world, positions=positions, velocities=velocities,
-                                  destinations=s.destinations[canonical], radii=s.radii[canonical],
-                                  max_speeds=s.max_speeds[canonical], order=local_order, entered=entered, t0=view.t)
-            by_class[ids[j]] = relabel(self.plans.plan(request), back)
+        first = np.unique(ids, return_index=True)[1]  # one strategy of each distinct projection
+        requests = joint_requests(self.scenario, view, robots, self.orders[first])
+        by_class = {ids[j]: self.plans.plan(request) for j, request in zip(first, requests)}
         return [by_class[ids[j]] for j in range(len(self.orders))]
 
     def decide(self, view: RobotView) -> Decision:
@@ -201,7 +214,8 @@ class NODAgent:
         x = strategy_probabilities(self.z, self.params.eta)
         strategy = int(self.rng.choice(len(x), p=x))
         robots = (self.index, *players)
-        plans = self.plan_all(view, robots)
-        self.previous = (robots, plans)
-        return Decision(strategy=strategy, robots=robots, plan=plans[strategy], opinions=self.z.copy(),
-                        probabilities=x, players=players)
+        canonical = tuple(sorted(robots))
+        plans = self.plan_all(view, canonical)
+        self.previous = (canonical, plans)
+        return Decision(strategy=strategy, robots=robots, plan=relabel(plans[strategy], [canonical.index(k) for k in robots]),
+                        opinions=self.z.copy(), probabilities=x, players=players)

@@ -41,14 +41,14 @@ import numpy as np
 from nodnav.control import ControlResult
 from nodnav.decision.opinion import strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
-from nodnav.decision.strategies import passing_orders, project_order, strategy_index
+from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
 from nodnav.experiments.metrics import arrival_times
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
 from nodnav.planning.geometry import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides
+from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests
 from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
 
 log = logging.getLogger(__name__)
@@ -174,14 +174,8 @@ def plan_for_order(scenario: Scenario, plans: PlanCache, view: RobotView, robots
     The query lists the robots in increasing index, as :meth:`NODAgent.plan_all` does, so that
     robots posing the same joint problem share the answer through the plan cache.
     """
-    canonical = sorted(robots)
-    local_of = {k: m for m, k in enumerate(canonical)}
-    request = PlanRequest(world=scenario.world, positions=view.positions[canonical].copy(),
-                          velocities=view.velocities[canonical].copy(), destinations=scenario.destinations[canonical],
-                          radii=scenario.radii[canonical], max_speeds=scenario.max_speeds[canonical],
-                          order=tuple(local_of[k] for k in project_order(order, robots)),
-                          entered=tuple(local_of[k] for k in view.entered if k in local_of), t0=view.t)
-    return relabel(plans.plan(request), [local_of[k] for k in robots])
+    canonical = tuple(sorted(robots))
+    return relabel(plans.plan(joint_requests(scenario, view, canonical, [order])[0]), [canonical.index(k) for k in robots])
 
 
 class FixedOrderMethod(PlannedMethod):

@@ -21,6 +21,17 @@ from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
 MPC_SAMPLES = 8
 
 
+def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: np.ndarray,
+                          times: np.ndarray) -> np.ndarray:
+    """Where robots moving at ``velocities`` are at ``times`` if they brake at once along their
+    velocity with deceleration ``decel`` until they stop, ``(n, K, 2)``."""
+    speed = np.linalg.norm(velocities, axis=1)
+    heading = np.divide(velocities, speed[:, None], out=np.zeros_like(velocities), where=speed[:, None] > 0)
+    tau = np.minimum(times[None, :], (speed / decel)[:, None])  # (n, K): braking time so far
+    travelled = speed[:, None] * tau - 0.5 * decel[:, None] * tau * tau
+    return positions[:, None, :] + heading[:, None, :] * travelled[..., None]
+
+
 class Method(Protocol):
     """A decentralised navigation method for every robot of a trial."""
 
@@ -48,6 +59,16 @@ class PlannedMethod:
         self.decisions: dict[int, Decision] = {}
         horizon = scenario.controller.horizon
         self.sample_times = horizon * np.arange(1, MPC_SAMPLES + 1) / MPC_SAMPLES
+        self._offsets = np.concatenate([[0.0], self.sample_times])
+        n = scenario.n_robots
+        self._others = [[k for k in range(n) if k != i] for i in range(n)]
+        # Radii of the others, once for each of the three predictions of every other robot.
+        self._other_radii = [np.tile(np.delete(scenario.radii, i), 3) for i in range(n)]
+        # Where the others would be if they braked now is where they can at least be: an
+        # evasive plan may intrude into the other predictions, never into that one.
+        self._firm = np.repeat([False, False, True], n - 1)
+        accel = np.array([r.max_accel for r in scenario.robots])
+        self._decel = [np.delete(accel, i) for i in range(n)]
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """Run every robot's decision rule; subclasses implement :meth:`decide_robot`."""
@@ -60,39 +81,43 @@ class PlannedMethod:
         raise NotImplementedError
 
     def predictions(self, i: int, t: float, view: RobotView) -> np.ndarray:
-        """Where robot ``i`` expects every other robot over the MPC horizon ``(2 (N_r - 1), K, 2)``.
+        """Where robot ``i`` expects every other robot over the MPC horizon ``(3 (N_r - 1), K, 2)``.
 
         The first ``N_r - 1`` rows are the paper's predictions: a game player follows its path in
         ``i``'s selected joint plan, displaced so that it starts from where it is observed now
         (the plan is up to a period old); any other robot is held still at its observed position
-        (appendix). The last ``N_r - 1`` rows extrapolate every other robot at its observed
-        velocity. The paper's predictions are what the others *should* do if they agree with
-        ``i``; while they do not (yet), they may be doing something else, and keeping clear of
-        what they are actually doing is what keeps every pair apart in the meantime.
+        (appendix). The paper's predictions are what the others *should* do if they agree with
+        ``i``; while they do not (yet), they may be doing something else. So every other robot is
+        also kept clear of where it is actually going, in the two ways its motion can continue
+        that matter most: at its observed velocity (the next ``N_r - 1`` rows: a robot that keeps
+        coming) and braking at once along it (the last ``N_r - 1`` rows: a robot ahead that stops,
+        which a follower trusting the first two would run into).
         """
-        decision = self.decisions[i]
-        others = [k for k in range(self.scenario.n_robots) if k != i]
+        return self._predictions(i, view, self._planned(i, t))
+
+    def _planned(self, i: int, t: float) -> np.ndarray:
+        """Robot ``i``'s selected joint plan at ``t`` and at the MPC sample times after it ``(1 + K, n_plan, 2)``."""
+        return self.decisions[i].plan.trajectory.positions_at(t + self._offsets)
+
+    def _predictions(self, i: int, view: RobotView, planned: np.ndarray) -> np.ndarray:
+        """:meth:`predictions` from the plan's samples (:meth:`_planned`)."""
+        others = self._others[i]
         now = view.positions[others]
         pred = np.repeat(now[:, None, :], len(self.sample_times), axis=1)
-        traj = decision.plan.trajectory
-        planned_now = traj.positions_at(t)
-        ahead = traj.positions_at(t + self.sample_times)  # (K, n_plan, 2)
-        for m, k in enumerate(decision.robots[1:], start=1):
-            pred[others.index(k)] += ahead[:, m] - planned_now[m]
-        moving = now[:, None, :] + view.velocities[others][:, None, :] * self.sample_times[None, :, None]
-        return np.concatenate([pred, moving])
+        for m, k in enumerate(self.decisions[i].robots[1:], start=1):
+            pred[others.index(k)] += planned[1:, m] - planned[0, m]
+        v = view.velocities[others]
+        moving = now[:, None, :] + v[:, None, :] * self.sample_times[None, :, None]
+        return np.concatenate([pred, moving, braking_extrapolation(now, v, self._decel[i], self.sample_times)])
 
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
-        radii = self.scenario.radii
         for i, view in views.items():
-            traj = self.decisions[i].plan.trajectory
-            reference = traj.positions_at(t + self.sample_times)[:, 0]
-            others_radii = np.delete(radii, i)
-            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
-                                     sample_times=self.sample_times, others=self.predictions(i, t, view),
-                                     other_radii=np.concatenate([others_radii, others_radii]))
+            planned = self._planned(i, t)
+            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=planned[1:, 0],
+                                     sample_times=self.sample_times, others=self._predictions(i, view, planned),
+                                     other_radii=self._other_radii[i], firm=self._firm)
             out[i] = self.controllers[i].control(request)
         return out
 

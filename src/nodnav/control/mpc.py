@@ -774,8 +774,6 @@ class BSplineMPC:
         """
         start = time.perf_counter()
         p0, v0, ref, times, others, other_radii, firm = self._validated(request)
-        near = np.flatnonzero(self._within_reach(p0, times, others, other_radii))
-        others, other_radii, firm = others[near], other_radii[near], firm[near]
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii)
         effort = _Effort()
@@ -792,7 +790,7 @@ class BSplineMPC:
         overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
         if overlapping.size:
             j = int(overlapping[0])
-            why = f"overlapping robot {near[j]} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
+            why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
         else:
             best, why, conflict = self._track(prob, data, lin, cold, effort)
@@ -813,28 +811,10 @@ class BSplineMPC:
             return self._brake(request, prob, start, effort, why)
         self._previous, self._braking = plan, None
         return self._result(False, f"infeasible: evasive: {why}", plan, prob, data, start,
-                            {"fallback": "evasive", "intrusion": intrusion, "intruded": near[intruded].tolist(),
+                            {"fallback": "evasive", "intrusion": intrusion, "intruded": intruded.tolist(),
                              "firm_softened": firm_softened, **effort.as_info()})
 
     # -- internals ---------------------------------------------------------------------------
-
-    def _within_reach(self, p0: np.ndarray, times: np.ndarray, others: np.ndarray, other_radii: np.ndarray) -> np.ndarray:
-        """Which predictions a plan could come near enough to constrain: the others are left out
-        of the QP, whose solution they cannot change. A plan stays within ``max_speed T_MPC`` of
-        ``p0``; a prediction, piecewise linear through its samples (continued back to 0 along its
-        first segment), within its longest segment of a sample; its rows ask for at most the full
-        clearance plus the terminal stopping distance at twice the top speed (:func:`stopping_rows`)."""
-        if not len(others):
-            return np.zeros(0, dtype=bool)
-        gaps = np.hypot(*(others - p0).transpose(2, 0, 1)).min(axis=1)
-        steps = np.hypot(*np.diff(others, axis=1).transpose(2, 0, 1))
-        back = times[0] / (times[1] - times[0]) if len(times) > 1 else 0.0
-        spread = np.maximum(steps.max(axis=1, initial=0.0), back * steps[:, 0] if steps.shape[1] else 0.0)
-        closing = 2.0 * self.robot.max_speed
-        stop = closing * closing / (2.0 * self.settings.terminal_decel * self.robot.max_accel)
-        reach = (self.robot.radius + other_radii + self.params.safety_margin + self.robot.max_speed * self.horizon
-                 + stop + 0.1)
-        return gaps - spread < reach
 
     def _result(self, success: bool, reason: str, c: np.ndarray, prob: _Problem, data: _StepData, start: float,
                 info: dict) -> ControlResult:

@@ -411,7 +411,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("sweep", help="run many trials, resumably, into a results database")
     p.add_argument("--study", help="YAML study file (the options below override its keys)")
     p.add_argument("--name", help="study name (default: the study file's stem, else 'sweep')")
-    p.add_argument("--scenario", action="append", dest="scenarios", help="built-in name or YAML path (repeatable)")
+    p.add_argument("--scenario", action="append", dest="scenarios",
+                   help="built-in name, YAML path, or 'all' for every built-in scenario (repeatable)")
     p.add_argument("--players", action="append", help="game players K or 'all' (repeatable)")
     p.add_argument("--init", action="append", choices=("zero", "distance"), help="initial opinions (repeatable)")
     p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable)")

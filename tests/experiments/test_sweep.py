@@ -85,6 +85,8 @@ def test_study_file_round_trip(tmp_path):
     cli = study_from_dict({"scenarios": ["2r-case1"], "players": ["1", "all"], "bias": ["S1=2"], "trials": "5"},
                           "command line")
     assert (cli.name, cli.players, cli.bias, cli.trials) == ("sweep", (1, "all"), ((("S1", 2.0),),), 5)
+    every = study_from_dict({"scenarios": ["all"]}, "command line").scenarios
+    assert len(every) == 10 and {"2r-case1", "4r-case4"} <= set(every)
 
 
 @pytest.mark.parametrize("text, message", [

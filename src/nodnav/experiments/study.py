@@ -3,7 +3,7 @@
 A study file::
 
     name: game-reduction          # optional; default: the file's stem ('sweep' on the command line)
-    scenarios: [3r-case1, 4r-case4]
+    scenarios: [3r-case1, 4r-case4]   # or all: every built-in scenario
     players: [0, 1, all]          # optional; default: each scenario's own setting
     init: [zero, distance]        # optional; default: each scenario's own setting
     bias: [none, {S3: 150, S5: 150}]   # optional; 'none', a mapping or "S3=150,S5=150"
@@ -26,7 +26,7 @@ from typing import Any
 import yaml
 
 from nodnav.errors import NodnavError
-from nodnav.scenario.schema import nearest_hint, yaml_error_message
+from nodnav.scenario.schema import builtin_names, nearest_hint, yaml_error_message
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials")
 
@@ -128,6 +128,11 @@ def _names(value: Any, where: str) -> tuple[str, ...]:
     return tuple(names)
 
 
+def _scenario_names(value: Any, where: str) -> tuple[str, ...]:
+    names = _names(value, where)
+    return tuple(builtin_names()) if names == ("all",) else names
+
+
 def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
     names = _names(value, where)
     for n in names:
@@ -164,7 +169,7 @@ def study_from_dict(data: Any, source: str = "study") -> SweepSpec:
         raise StudyError(f"{source}: trials: expected a whole number >= 1, got {trials!r}")
     spec = SweepSpec(
         name=name.strip(),
-        scenarios=_names(data["scenarios"], f"{source}: scenarios"),
+        scenarios=_scenario_names(data["scenarios"], f"{source}: scenarios"),
         trials=trials,
         methods=_choices(data.get("methods", "nod"), known_methods(), f"{source}: methods", "method"),
     )

@@ -81,7 +81,7 @@ class PlanCache:
     def __init__(self, planner: Planner):
         self.planner = planner
         self._plans: dict[tuple, PlanResult] = {}
-        self._states: dict[tuple, tuple[PlanResult, np.ndarray]] = {}
+        self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
 
@@ -108,14 +108,15 @@ class PlanCache:
         """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
 
         Every robot of a round evaluates the plans of the round before against the same window,
-        so each plan is evaluated once per round whoever asks.
+        and orders a planner repairs to the same one share a trajectory, so each trajectory is
+        evaluated once per round whoever asks.
         """
-        key = (id(result), times.tobytes())
+        traj = result.trajectory
+        key = (id(traj), times.tobytes())
         hit = self._states.get(key)
         if hit is None:
-            traj = result.trajectory
             states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
-            hit = self._states[key] = (result, states)  # holding the result keeps its id unique
+            hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
         return hit[1]
 
 

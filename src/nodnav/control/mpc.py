@@ -59,7 +59,7 @@ How it becomes a short sequence of small convex QPs:
 When the tracking QP has no solution, the robot does not brake blindly: an evasive QP with the
 same dynamics, limits and (hard) wall constraints softens the separation rows of the robots
 involved in the conflict (those owning rows of a Farkas certificate of the infeasibility, found
-by a small linear program, :func:`infeasibility_certificate`, as DAQP returns none) with
+by a small linear program, :func:`infeasibility_certificate`, as DAQP's QP solve returns none) with
 non-negative slacks under a large exact (L1) penalty, weighted towards the near future, and so
 returns the plan that intrudes least into the others' predicted discs. Which
 side to pass a robot on is a non-convex choice: the evasive QP is solved linearised about the
@@ -169,6 +169,8 @@ class QPSolution:
     """The minimiser (unspecified on failure)."""
     iterations: int
     """Active-set changes the solver made."""
+    active: np.ndarray
+    """Mask over ``bounds`` then rows: the constraints active at the minimiser (all False on failure)."""
 
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
@@ -178,33 +180,57 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
     as simple bounds, cheaper than rows. Rows or bounds at ``-inf`` never bind. A row may be
     violated by up to ``tol`` (DAQP's primal tolerance), so callers tighten their rows by it.
-    ``start_active`` (a mask over ``bounds``) makes those bounds DAQP's initial working set: a
-    guess of the constraints active at the minimiser saves the iterations that would add them.
+    ``start_active`` (a mask over ``bounds`` then rows) makes those constraints DAQP's initial
+    working set: a guess of the constraints active at the minimiser (such as the previous
+    step's :attr:`QPSolution.active`) saves the iterations that would add them. The minimiser
+    does not depend on the guess; a guess DAQP cannot start from is dropped.
     """
     low = np.ascontiguousarray(lower if bounds is None else np.concatenate([bounds, lower]), dtype=float)
-    # DAQP's constraint flags: 1 active, 2 at the lower bound.
-    sense = None if start_active is None else np.concatenate(
-        [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
-    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient, dtype=float),
-                                  np.ascontiguousarray(rows, dtype=float), np.full(len(low), np.inf), low, sense,
-                                  primal_tol=tol)
+    h, g, a = (np.ascontiguousarray(m, dtype=float) for m in (hessian, gradient, rows))
+    upper = np.full(len(low), np.inf)
+    for guess in ((start_active, None) if start_active is not None else (None,)):
+        # DAQP's constraint flags: 1 active, 2 at the lower bound.
+        sense = None if guess is None else np.where(guess, 3, 0).astype(np.intc)
+        x, _, flag, info = daqp.solve(h, g, a, upper, low, sense, primal_tol=tol)
+        if flag != -6:  # -6: the guessed working set is linearly dependent
+            break
+    lam = np.asarray(info["lam"])
     return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
-                      x=np.asarray(x), iterations=int(info["iterations"]))
+                      x=np.asarray(x), iterations=int(info["iterations"]),
+                      active=lam != 0.0 if flag == 1 else np.zeros(len(low), dtype=bool))
 
 
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
     """Rows that together admit no ``x`` with ``rows @ x >= lower``: the support of a Farkas certificate.
 
     ``{x : A x >= b}`` is empty exactly when some ``y >= 0`` has ``A^T y = 0`` and ``b^T y > 0``
-    (Farkas' lemma). The linear program ``max b^T y`` over ``A^T y = 0``, ``sum y = 1``,
-    ``y >= 0`` (HiGHS) finds one at a vertex, which uses few rows. Returns the indices of the rows
-    with ``y > 0`` (empty if the rows are consistent). Rows at ``-inf`` never take part.
+    (Farkas' lemma). Such a ``y`` (normalised to ``sum y = 1``) is the dual solution of the
+    linear program "least uniform relaxation": minimise ``t >= 0`` subject to
+    ``A x + t >= b``, positive exactly when the rows conflict. DAQP solves it with proximal
+    regularisation (about 1.5 ms for a few hundred rows) and, being an active-set method, stops
+    at a vertex, whose support is an irreducible infeasible subset: few rows. Should DAQP not
+    converge, SciPy's HiGHS solves the dual LP (``max b^T y`` over ``A^T y = 0``, ``sum y = 1``,
+    ``y >= 0``) instead, about 8 ms. Returns the indices of the rows with ``y > 0`` (empty if
+    the rows are consistent). Rows at ``-inf`` never take part.
     """
     rows, lower = np.asarray(rows, dtype=float), np.asarray(lower, dtype=float)
     finite = np.flatnonzero(np.isfinite(lower))
-    a = rows[finite]
-    res = linprog(-lower[finite], A_eq=np.vstack([a.T, np.ones(len(finite))]),
-                  b_eq=np.append(np.zeros(rows.shape[1]), 1.0), bounds=(0.0, None), method="highs")
+    a, b = rows[finite], lower[finite]
+    n = a.shape[1]
+    # Variables (t, x); t >= 0 is DAQP's simple bound, the first entry of the bound vectors.
+    cost = np.zeros(n + 1)
+    cost[0] = 1.0
+    relaxed = np.hstack([np.ones((len(b), 1)), a])
+    low = np.concatenate([[0.0], b])
+    tx, _, flag, info = daqp.solve(np.zeros((n + 1, n + 1)), cost, relaxed, np.full(len(low), np.inf), low, None,
+                                   eps_prox=1.0)
+    if flag == 1:
+        if tx[0] <= 0.0:
+            return np.zeros(0, dtype=int)
+        # DAQP's multipliers of active lower bounds are negative.
+        return finite[-np.asarray(info["lam"])[1:] > 1e-12]
+    res = linprog(-b, A_eq=np.vstack([a.T, np.ones(len(finite))]), b_eq=np.append(np.zeros(n), 1.0),
+                  bounds=(0.0, None), method="highs")
     if res.status != 0 or -res.fun <= 0.0:
         return np.zeros(0, dtype=int)
     return finite[res.x > 1e-12]
@@ -581,6 +607,9 @@ class _Problem:
         self.dyn_phi = phi_t[dyn_f]
         self.dyn_line = phi_line[dyn_f]
         self.n_rows = self.n_static + len(dyn_f)
+        # The group of every row (-1: static rows).
+        self.row_group = np.concatenate([np.full(self.n_static, -1),
+                                         np.repeat(np.arange(self.n_groups), self.rows_per_group)])
         # Row alpha^T phi_f is [alpha_x phi_f, alpha_y phi_f]; the dynamic rows are written per QP.
         self.rows = np.zeros((self.n_rows, 2 * self.nz))
         by_coordinate = self.rows.reshape(self.n_rows, 2, self.nz)
@@ -619,8 +648,7 @@ class _Problem:
 
     def conflicting_others(self, rows: np.ndarray) -> np.ndarray:
         """Indices of the other robots owning any of the given rows."""
-        dyn = rows[(rows >= self.n_static) & (rows < self.n_rows)] - self.n_static
-        group = dyn // self.rows_per_group - self.n_walls
+        group = self.row_group[rows[rows < self.n_rows]] - self.n_walls
         return np.unique(group[group >= 0])
 
     def gradient(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
@@ -743,11 +771,14 @@ class BSplineMPC:
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         self._previous: np.ndarray | None = None
         self._braking: tuple[np.ndarray, np.ndarray] | None = None
+        # Active sets of the last solved QPs, warm starts for the next step's (see _track, _elastic).
+        self._active: dict = {}
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
         self._previous = None
         self._braking = None
+        self._active = {}
 
     def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
         """The motion chosen at the last control step, ``times`` after it: positions (``order`` 0)
@@ -838,7 +869,11 @@ class BSplineMPC:
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = self._write_separation(prob, data, lin, cold, data.need)
-            sol = self._solve(prob.hessian, gradient, prob.rows, lower, effort)
+            warm = self._active.get("track")
+            sol = self._solve(prob.hessian, gradient, prob.rows, lower, effort,
+                              start_active=warm[1] if warm is not None and warm[0] is prob else None)
+            if sol.success:
+                self._active["track"] = (prob, sol.active)
             if not sol.success:
                 why = f"tracking QP {sol.reason}"
                 # DAQP can also stop cycling on an infeasible degenerate QP; the LP decides.
@@ -863,21 +898,25 @@ class BSplineMPC:
                  firm: np.ndarray, effort: _Effort):
         """The plan that intrudes least into the other robots' predicted discs.
 
-        Keeping out of a disc is not convex: which side to pass on is a choice. Two
-        linearisations are tried (:meth:`_elastic`): the half-planes of the previous plan (pass
-        the others as planned), and half-planes that keep the current arrangement (at every end
-        the normal points from the other robot's position now to the robot's: back away from a
-        robot coming head-on, run ahead of one coming from behind). The plan kept is the one
-        whose first true intrusion into a disc (at the check times, beyond ``check_tolerance``)
-        comes later, the time the others have to react; on a tie, the one whose intrusion summed
-        with the penalty's weights (``T_MPC / tau``) is smaller, then the first.
+        The robots to soften are found first (:meth:`_softened`). Keeping out of a disc is not
+        convex: which side to pass on is a choice. Two linearisations are tried
+        (:meth:`_elastic`): the half-planes of the previous plan (pass the others as planned),
+        and half-planes that keep the current arrangement (at every end the normal points from
+        the other robot's position now to the robot's: back away from a robot coming head-on,
+        run ahead of one coming from behind). The plan kept is the one whose first true
+        intrusion into a disc (at the check times, beyond ``check_tolerance``) comes later, the
+        time the others have to react; on a tie, the one whose intrusion summed with the
+        penalty's weights (``T_MPC / tau``) is smaller, then the first.
 
         Returns (control points or None, largest true intrusion (m), the robots whose discs it enters).
         """
         tol = self.settings.check_tolerance
         best, best_score = (None, np.inf, np.zeros(0, dtype=int)), (np.inf, np.inf)
+        soft = self._softened(prob, data, lin, cold, conflict, firm, effort)
+        if soft is None:
+            return best
         for keep_arrangement in (False, True):
-            c = self._elastic(prob, data, lin, cold, conflict, firm, effort, keep_arrangement)
+            c = self._elastic(prob, data, lin, cold, soft, effort, keep_arrangement)
             if c is None:
                 continue
             gap = prob.b_check @ c - data.pred_check
@@ -892,9 +931,39 @@ class BSplineMPC:
                 break  # no intrusion at all: nothing can do better
         return best
 
-    def _elastic(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, conflict: np.ndarray,
-                 firm: np.ndarray, effort: _Effort, keep_arrangement: bool) -> np.ndarray | None:
-        """The tracking QP with the separation rows of the robots in ``conflict`` softened.
+    def _softened(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, conflict: np.ndarray,
+                  firm: np.ndarray, effort: _Effort) -> np.ndarray | None:
+        """The groups whose separation rows the evasive QP softens (mask over walls then robots),
+        or None if softening cannot make it feasible.
+
+        First the robots in ``conflict``; then, as long as the rows kept hard conflict, the
+        robots of an infeasibility certificate of those rows (:func:`infeasibility_certificate`),
+        except the request's ``firm`` predictions, which stay hard like walls. Every row of a
+        softened robot carries a slack, so it can never take part in a certificate: the evasive
+        QP is feasible exactly when its hard rows are, and those are the same for both
+        linearisations. The robots kept hard are kept clear whatever that costs in intrusion
+        into the softened ones: softening every robot at once instead let the plan trade a late
+        intrusion into an uninvolved robot for a smaller early one, and collided more often in
+        closed loop.
+        """
+        soft = np.zeros(prob.n_groups, dtype=bool)
+        soft[prob.n_walls + np.asarray(conflict, dtype=int)] = True
+        if not soft.any():
+            return None
+        lower = self._write_separation(prob, data, lin, cold, data.need)
+        while True:
+            hard = np.where(soft[prob.row_group], -np.inf, lower)
+            more = prob.n_walls + self._certified_conflict(prob, prob.rows, hard, effort)
+            if more.size == 0:
+                return soft
+            more = more[~firm[more - prob.n_walls]]
+            if soft[more].all():
+                return None  # walls, bounds, limits and firm predictions alone conflict
+            soft[more] = True
+
+    def _elastic(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, soft: np.ndarray,
+                 effort: _Effort, keep_arrangement: bool) -> np.ndarray | None:
+        """The tracking QP with the separation rows of the ``soft`` groups softened.
 
         Each interval end (and the terminal rows together) of a softened robot gets a slack
         ``s >= 0`` in its rows, costing ``w s + c s^2 / 2`` with ``w``
@@ -903,41 +972,35 @@ class BSplineMPC:
         first. Softened robots must keep ``r_i + r_j + margin``, not the relaxed requirement, so
         the plan steers out of their discs; with ``keep_arrangement`` their half-planes keep the
         current arrangement (see :meth:`_write_separation`). Walls, the box, speed and
-        acceleration stay hard; the slacks' ``s >= 0`` are simple bounds, active at the solver's
-        start. If the softened problem is infeasible too, the robots in its certificate are
-        softened as well, except the request's ``firm`` predictions, which stay hard like walls.
-        The robots kept hard are kept clear whatever that costs in intrusion into the softened
-        ones: softening every robot at once instead let the plan trade a late intrusion into an
-        uninvolved robot for a smaller early one, and collided more often in closed loop.
+        acceleration stay hard; the slacks' ``s >= 0`` are simple bounds. The solver starts
+        from the active set of the last evasive solution with this linearisation.
 
-        Returns the control points, or None if walls, bounds and limits alone conflict (or the
-        plan fails their exact check).
+        Returns the control points, or None if the solver fails (or the plan fails the exact
+        check of walls, bounds and limits).
         """
         n, m, spg = 2 * prob.nz, prob.n_rows, len(prob.slack_weights)
-        soft = np.zeros(prob.n_groups, dtype=bool)
-        soft[prob.n_walls + np.asarray(conflict, dtype=int)] = True
         gradient = np.concatenate([prob.gradient(data.v0, data.ref_local), prob.slack_gradient])
-        while soft.any():
-            robots = np.flatnonzero(soft[prob.n_walls:])
-            lower = self._write_separation(prob, data, lin, cold, np.where(soft, data.full, data.need),
-                                           soft if keep_arrangement else None)
-            slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
-            var = np.concatenate([np.arange(n), n + slacks])
-            rows = np.hstack([prob.rows, prob.slack_columns[:, slacks]])
-            sol = self._solve(prob.evasive_hessian[np.ix_(var, var)], gradient[var], rows, lower, effort,
-                              bounds=prob.slack_bounds[var], start_active=prob.slack_bounds[var] == 0.0)
-            if sol.success:
-                c = self._control_points(data, sol.x[:n])
-                return None if self._violation(prob, data, c, separation=False) else c
-            # The certificate also counts the slacks' bounds, as rows after the others.
-            bound_rows = np.hstack([np.zeros((len(slacks), n)), np.eye(len(slacks))])
-            more = prob.n_walls + self._certified_conflict(prob, np.vstack([rows, bound_rows]),
-                                                           np.append(lower, np.zeros(len(slacks))), effort)
-            more = more[~firm[more - prob.n_walls]]
-            if soft[more].all():
-                return None  # walls, bounds, limits and firm predictions alone conflict
-            soft[more] = True
-        return None
+        kind = ("evasive", keep_arrangement)
+        warm = self._active.get(kind)
+        if warm is not None and warm[0] is prob:
+            slack_active, row_active = warm[1].copy(), warm[2]
+        else:  # slacks start at 0
+            slack_active, row_active = np.ones(len(prob.slack_gradient), dtype=bool), np.zeros(m, dtype=bool)
+        robots = np.flatnonzero(soft[prob.n_walls:])
+        lower = self._write_separation(prob, data, lin, cold, np.where(soft, data.full, data.need),
+                                       soft if keep_arrangement else None)
+        slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
+        var = np.concatenate([np.arange(n), n + slacks])
+        rows = np.hstack([prob.rows, prob.slack_columns[:, slacks]])
+        sol = self._solve(prob.evasive_hessian[np.ix_(var, var)], gradient[var], rows, lower, effort,
+                          bounds=prob.slack_bounds[var],
+                          start_active=np.concatenate([np.zeros(n, dtype=bool), slack_active[slacks], row_active]))
+        if not sol.success:
+            return None
+        slack_active[slacks] = sol.active[n:n + len(slacks)]
+        self._active[kind] = (prob, slack_active, sol.active[n + len(slacks):])
+        c = self._control_points(data, sol.x[:n])
+        return None if self._violation(prob, data, c, separation=False) else c
 
     def _certified_conflict(self, prob: _Problem, rows: np.ndarray, lower: np.ndarray, effort: _Effort) -> np.ndarray:
         """The other robots owning rows of an infeasibility certificate of ``rows @ x >= lower``."""

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
 from nodnav.control.bench import benchmark_mpc, queue_references
@@ -169,6 +170,26 @@ def test_qp_adapter_conventions_by_hand():
     assert not sol.success and sol.reason == "infeasible"
 
 
+def test_solve_qp_warm_start_never_changes_the_minimiser():
+    """A strictly convex QP has one minimiser: starting from the right working set, from a wrong
+    one, from a dependent one (a row twice) or from more constraints than variables must all
+    give it. Minimise |x - (2, 2)|^2 / 2 subject to x1 + x2 <= 2 (row 0, active: x = (1, 1)),
+    x1 >= -1 (row 1) and x1 + x2 <= 2 again (row 2)."""
+    h, g = np.eye(2), np.array([-2.0, -2.0])
+    rows = np.array([[-1.0, -1.0], [1.0, 0.0], [-1.0, -1.0]])
+    lower = np.array([-2.0, -1.0, -2.0])
+    for guess in ([True, False, False], [False, True, False], [True, False, True], [True, True, True],
+                  [False, False, False]):
+        sol = solve_qp(h, g, rows, lower, 1e-9, start_active=np.array(guess))
+        assert sol.success, guess
+        np.testing.assert_allclose(sol.x, [1.0, 1.0], atol=1e-9)
+    # The active set it reports is a valid guess for the next solve.
+    first = solve_qp(h, g, rows, lower, 1e-9)
+    assert first.active[0] or first.active[2]
+    np.testing.assert_allclose(solve_qp(h, g, rows, lower, 1e-9, start_active=first.active).x, [1.0, 1.0],
+                               atol=1e-9)
+
+
 def test_infeasibility_certificate_by_hand():
     """x1 >= 1 and x1 + x2 <= 0 and x2 >= 0 cannot all hold (their sum gives 0 >= 1); the rows
     x2 >= -5 and (at -inf) x1 <= -3 play no part. A consistent set has no certificate."""
@@ -178,6 +199,55 @@ def test_infeasibility_certificate_by_hand():
     assert infeasibility_certificate(rows[:3], lower[:3]).size == 0
     # Two parallel rows facing apart: x1 >= 1 and x1 <= 0.
     np.testing.assert_array_equal(infeasibility_certificate(np.array([[1.0], [-1.0]]), np.array([1.0, 0.0])), [0, 1])
+
+
+def _feasible(rows, lower):
+    """Whether some x has rows @ x >= lower, decided by HiGHS (an independent LP solver)."""
+    res = linprog(np.zeros(rows.shape[1]), A_ub=-rows, b_ub=-lower, bounds=(None, None), method="highs")
+    return res.status == 0
+
+
+def test_infeasibility_certificate_is_an_infeasible_subsystem():
+    """On random systems made infeasible by a planted contradiction (a . x >= 1 and a . x <= -1),
+    the certified rows alone are infeasible (checked by HiGHS) and include the planted pair;
+    consistent systems (x = 0 meets every row) get no certificate."""
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        n, m = int(rng.integers(2, 8)), int(rng.integers(5, 40))
+        rows = rng.normal(size=(m, n))
+        lower = rng.normal(size=m) - 4.0  # consistent: x = 0 is 4 clear of most rows
+        lower = np.minimum(lower, -0.5)
+        assert infeasibility_certificate(rows, lower).size == 0
+        a = rng.normal(size=n)
+        bad_rows, bad_lower = np.vstack([rows, a, -a]), np.append(lower, [1.0, 1.0])
+        support = infeasibility_certificate(bad_rows, bad_lower)
+        assert support.size and not _feasible(bad_rows[support], bad_lower[support])
+        assert {m, m + 1} <= set(support.tolist())
+
+
+def test_infeasibility_certificate_without_daqp_falls_back_to_highs(monkeypatch):
+    """Should DAQP not converge, the HiGHS dual LP gives the same hand-checked certificate."""
+    import nodnav.control.mpc as mpc
+
+    def not_converged(*args, **kwargs):
+        return np.zeros(3), 0.0, -4, {"lam": np.zeros(6), "iterations": 0}
+
+    monkeypatch.setattr(mpc.daqp, "solve", not_converged)
+    rows = np.array([[0.0, 1.0], [1.0, 0.0], [-1.0, -1.0], [0.0, 1.0], [-1.0, 0.0]])
+    lower = np.array([-5.0, 1.0, 0.0, 0.0, -np.inf])
+    np.testing.assert_array_equal(mpc.infeasibility_certificate(rows, lower), [1, 2, 3])
+
+
+def test_rows_with_a_private_slack_never_enter_a_certificate():
+    """Why the evasive QP's soft set is grown on the hard rows alone: a row ``a . x + s >= b``
+    with ``s >= 0`` can always be met by raising ``s``, so no Farkas certificate uses it. Here
+    x >= 1 and x <= 0 conflict (hard); the softened x >= 5 and x <= -5 must not be named."""
+    # Variables (x, s1, s2); rows: hard x >= 1, hard -x >= 0, soft x + s1 >= 5, soft -x + s2 >= 5, s >= 0.
+    rows = np.array([[1.0, 0, 0], [-1.0, 0, 0], [1.0, 1, 0], [-1.0, 0, 1], [0, 1.0, 0], [0, 0, 1.0]])
+    lower = np.array([1.0, 0.0, 5.0, 5.0, 0.0, 0.0])
+    np.testing.assert_array_equal(infeasibility_certificate(rows, lower), [0, 1])
+    # Without the hard pair the system is feasible whatever the soft rows demand.
+    assert infeasibility_certificate(rows[2:], lower[2:]).size == 0
 
 
 # ---------------------------------------------------------------------------------------------

@@ -183,21 +183,28 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     ``start_active`` (a mask over ``bounds`` then rows) makes those constraints DAQP's initial
     working set: a guess of the constraints active at the minimiser (such as the previous
     step's :attr:`QPSolution.active`) saves the iterations that would add them. The minimiser
-    does not depend on the guess; a guess DAQP cannot start from is dropped.
+    does not depend on the guess; unless the warm solve ends cleanly (optimal, finite), it is
+    solved again from an empty working set, so a bad guess costs time, never correctness.
     """
     low = np.ascontiguousarray(lower if bounds is None else np.concatenate([bounds, lower]), dtype=float)
     h, g, a = (np.ascontiguousarray(m, dtype=float) for m in (hessian, gradient, rows))
     upper = np.full(len(low), np.inf)
-    for guess in ((start_active, None) if start_active is not None else (None,)):
+    # A guess of more constraints than variables cannot be a working set.
+    guesses = [None] if start_active is None or start_active.sum() > len(g) else [start_active, None]
+    for guess in guesses:
         # DAQP's constraint flags: 1 active, 2 at the lower bound.
         sense = None if guess is None else np.where(guess, 3, 0).astype(np.intc)
         x, _, flag, info = daqp.solve(h, g, a, upper, low, sense, primal_tol=tol)
-        if flag != -6:  # -6: the guessed working set is linearly dependent
+        x = np.asarray(x)
+        # From a dependent working set DAQP can stop at once with a non-finite x, or fail:
+        # only a clean solution is trusted, else it starts again from nothing.
+        if flag == 1 and np.isfinite(x).all():
             break
+    success = flag == 1 and np.isfinite(x).all()
     lam = np.asarray(info["lam"])
-    return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
-                      x=np.asarray(x), iterations=int(info["iterations"]),
-                      active=lam != 0.0 if flag == 1 else np.zeros(len(low), dtype=bool))
+    reason = "" if success else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}") if flag != 1 else "non-finite solution"
+    return QPSolution(success=success, reason=reason, x=x, iterations=int(info["iterations"]),
+                      active=lam != 0.0 if success else np.zeros(len(low), dtype=bool))
 
 
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -170,26 +170,6 @@ def test_qp_adapter_conventions_by_hand():
     assert not sol.success and sol.reason == "infeasible"
 
 
-def test_solve_qp_warm_start_never_changes_the_minimiser():
-    """A strictly convex QP has one minimiser: starting from the right working set, from a wrong
-    one, from a dependent one (a row twice) or from more constraints than variables must all
-    give it. Minimise |x - (2, 2)|^2 / 2 subject to x1 + x2 <= 2 (row 0, active: x = (1, 1)),
-    x1 >= -1 (row 1) and x1 + x2 <= 2 again (row 2)."""
-    h, g = np.eye(2), np.array([-2.0, -2.0])
-    rows = np.array([[-1.0, -1.0], [1.0, 0.0], [-1.0, -1.0]])
-    lower = np.array([-2.0, -1.0, -2.0])
-    for guess in ([True, False, False], [False, True, False], [True, False, True], [True, True, True],
-                  [False, False, False]):
-        sol = solve_qp(h, g, rows, lower, 1e-9, start_active=np.array(guess))
-        assert sol.success, guess
-        np.testing.assert_allclose(sol.x, [1.0, 1.0], atol=1e-9)
-    # The active set it reports is a valid guess for the next solve.
-    first = solve_qp(h, g, rows, lower, 1e-9)
-    assert first.active[0] or first.active[2]
-    np.testing.assert_allclose(solve_qp(h, g, rows, lower, 1e-9, start_active=first.active).x, [1.0, 1.0],
-                               atol=1e-9)
-
-
 def test_infeasibility_certificate_by_hand():
     """x1 >= 1 and x1 + x2 <= 0 and x2 >= 0 cannot all hold (their sum gives 0 >= 1); the rows
     x2 >= -5 and (at -inf) x1 <= -3 play no part. A consistent set has no certificate."""

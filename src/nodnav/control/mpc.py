@@ -169,8 +169,6 @@ class QPSolution:
     """The minimiser (unspecified on failure)."""
     iterations: int
     """Active-set changes the solver made."""
-    active: np.ndarray
-    """Mask over ``bounds`` then rows: the constraints active at the minimiser (all False on failure)."""
 
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
@@ -180,31 +178,18 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
     as simple bounds, cheaper than rows. Rows or bounds at ``-inf`` never bind. A row may be
     violated by up to ``tol`` (DAQP's primal tolerance), so callers tighten their rows by it.
-    ``start_active`` (a mask over ``bounds`` then rows) makes those constraints DAQP's initial
-    working set: a guess of the constraints active at the minimiser (such as the previous
-    step's :attr:`QPSolution.active`) saves the iterations that would add them. The minimiser
-    does not depend on the guess; unless the warm solve ends cleanly (optimal, finite), it is
-    solved again from an empty working set, so a bad guess costs time, never correctness.
+    ``start_active`` (a mask over ``bounds``) makes those bounds DAQP's initial working set: a
+    guess of the constraints active at the minimiser saves the iterations that would add them.
     """
     low = np.ascontiguousarray(lower if bounds is None else np.concatenate([bounds, lower]), dtype=float)
-    h, g, a = (np.ascontiguousarray(m, dtype=float) for m in (hessian, gradient, rows))
-    upper = np.full(len(low), np.inf)
-    # A guess of more constraints than variables cannot be a working set.
-    guesses = [None] if start_active is None or start_active.sum() > len(g) else [start_active, None]
-    for guess in guesses:
-        # DAQP's constraint flags: 1 active, 2 at the lower bound.
-        sense = None if guess is None else np.where(guess, 3, 0).astype(np.intc)
-        x, _, flag, info = daqp.solve(h, g, a, upper, low, sense, primal_tol=tol)
-        x = np.asarray(x)
-        # From a dependent working set DAQP can stop at once with a non-finite x, or fail:
-        # only a clean solution is trusted, else it starts again from nothing.
-        if flag == 1 and np.isfinite(x).all():
-            break
-    success = flag == 1 and np.isfinite(x).all()
-    lam = np.asarray(info["lam"])
-    reason = "" if success else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}") if flag != 1 else "non-finite solution"
-    return QPSolution(success=success, reason=reason, x=x, iterations=int(info["iterations"]),
-                      active=lam != 0.0 if success else np.zeros(len(low), dtype=bool))
+    # DAQP's constraint flags: 1 active, 2 at the lower bound.
+    sense = None if start_active is None else np.concatenate(
+        [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
+    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient, dtype=float),
+                                  np.ascontiguousarray(rows, dtype=float), np.full(len(low), np.inf), low, sense,
+                                  primal_tol=tol)
+    return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
+                      x=np.asarray(x), iterations=int(info["iterations"]))
 
 
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
@@ -214,8 +199,9 @@ def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray
     (Farkas' lemma). Such a ``y`` (normalised to ``sum y = 1``) is the dual solution of the
     linear program "least uniform relaxation": minimise ``t >= 0`` subject to
     ``A x + t >= b``, positive exactly when the rows conflict. DAQP solves it with proximal
-    regularisation (about 1.5 ms for a few hundred rows) and, being an active-set method, stops
-    at a vertex, whose support is an irreducible infeasible subset: few rows. Should DAQP not
+    regularisation (well under a millisecond for the MPC's few hundred rows) and, keeping its
+    working set linearly independent, ends at a vertex, whose support is an irreducible
+    infeasible subset: few rows. Should DAQP not
     converge, SciPy's HiGHS solves the dual LP (``max b^T y`` over ``A^T y = 0``, ``sum y = 1``,
     ``y >= 0``) instead, about 8 ms. Returns the indices of the rows with ``y > 0`` (empty if
     the rows are consistent). Rows at ``-inf`` never take part.
@@ -778,14 +764,11 @@ class BSplineMPC:
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         self._previous: np.ndarray | None = None
         self._braking: tuple[np.ndarray, np.ndarray] | None = None
-        # Active sets of the last solved QPs, warm starts for the next step's (see _track, _elastic).
-        self._active: dict = {}
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
         self._previous = None
         self._braking = None
-        self._active = {}
 
     def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
         """The motion chosen at the last control step, ``times`` after it: positions (``order`` 0)
@@ -876,11 +859,7 @@ class BSplineMPC:
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = self._write_separation(prob, data, lin, cold, data.need)
-            warm = self._active.get("track")
-            sol = self._solve(prob.hessian, gradient, prob.rows, lower, effort,
-                              start_active=warm[1] if warm is not None and warm[0] is prob else None)
-            if sol.success:
-                self._active["track"] = (prob, sol.active)
+            sol = self._solve(prob.hessian, gradient, prob.rows, lower, effort)
             if not sol.success:
                 why = f"tracking QP {sol.reason}"
                 # DAQP can also stop cycling on an infeasible degenerate QP; the LP decides.
@@ -905,25 +884,28 @@ class BSplineMPC:
                  firm: np.ndarray, effort: _Effort):
         """The plan that intrudes least into the other robots' predicted discs.
 
-        The robots to soften are found first (:meth:`_softened`). Keeping out of a disc is not
-        convex: which side to pass on is a choice. Two linearisations are tried
-        (:meth:`_elastic`): the half-planes of the previous plan (pass the others as planned),
-        and half-planes that keep the current arrangement (at every end the normal points from
-        the other robot's position now to the robot's: back away from a robot coming head-on,
-        run ahead of one coming from behind). The plan kept is the one whose first true
-        intrusion into a disc (at the check times, beyond ``check_tolerance``) comes later, the
-        time the others have to react; on a tie, the one whose intrusion summed with the
-        penalty's weights (``T_MPC / tau``) is smaller, then the first.
+        Keeping out of a disc is not convex: which side to pass on is a choice. Two
+        linearisations are tried (:meth:`_elastic`): the half-planes of the previous plan (pass
+        the others as planned), and half-planes that keep the current arrangement (at every end
+        the normal points from the other robot's position now to the robot's: back away from a
+        robot coming head-on, run ahead of one coming from behind). Both soften the same robots:
+        the second starts from the robots the first had to soften. The plan kept is the one
+        whose first true intrusion into a disc (at the check times, beyond ``check_tolerance``)
+        comes later, the time the others have to react; on a tie, the one whose intrusion summed
+        with the penalty's weights (``T_MPC / tau``) is smaller, then the first.
 
         Returns (control points or None, largest true intrusion (m), the robots whose discs it enters).
         """
         tol = self.settings.check_tolerance
         best, best_score = (None, np.inf, np.zeros(0, dtype=int)), (np.inf, np.inf)
-        soft = self._softened(prob, data, lin, cold, conflict, firm, effort)
-        if soft is None:
-            return best
+        soft = np.zeros(prob.n_groups, dtype=bool)
+        soft[prob.n_walls + np.asarray(conflict, dtype=int)] = True
         for keep_arrangement in (False, True):
-            c = self._elastic(prob, data, lin, cold, soft, effort, keep_arrangement)
+            if not soft.any():
+                break
+            c, soft = self._elastic(prob, data, lin, cold, soft, firm, effort, keep_arrangement)
+            if soft is None:
+                break  # walls, bounds, limits and firm predictions alone conflict
             if c is None:
                 continue
             gap = prob.b_check @ c - data.pred_check
@@ -938,38 +920,8 @@ class BSplineMPC:
                 break  # no intrusion at all: nothing can do better
         return best
 
-    def _softened(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, conflict: np.ndarray,
-                  firm: np.ndarray, effort: _Effort) -> np.ndarray | None:
-        """The groups whose separation rows the evasive QP softens (mask over walls then robots),
-        or None if softening cannot make it feasible.
-
-        First the robots in ``conflict``; then, as long as the rows kept hard conflict, the
-        robots of an infeasibility certificate of those rows (:func:`infeasibility_certificate`),
-        except the request's ``firm`` predictions, which stay hard like walls. Every row of a
-        softened robot carries a slack, so it can never take part in a certificate: the evasive
-        QP is feasible exactly when its hard rows are, and those are the same for both
-        linearisations. The robots kept hard are kept clear whatever that costs in intrusion
-        into the softened ones: softening every robot at once instead let the plan trade a late
-        intrusion into an uninvolved robot for a smaller early one, and collided more often in
-        closed loop.
-        """
-        soft = np.zeros(prob.n_groups, dtype=bool)
-        soft[prob.n_walls + np.asarray(conflict, dtype=int)] = True
-        if not soft.any():
-            return None
-        lower = self._write_separation(prob, data, lin, cold, data.need)
-        while True:
-            hard = np.where(soft[prob.row_group], -np.inf, lower)
-            more = prob.n_walls + self._certified_conflict(prob, prob.rows, hard, effort)
-            if more.size == 0:
-                return soft
-            more = more[~firm[more - prob.n_walls]]
-            if soft[more].all():
-                return None  # walls, bounds, limits and firm predictions alone conflict
-            soft[more] = True
-
     def _elastic(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, soft: np.ndarray,
-                 effort: _Effort, keep_arrangement: bool) -> np.ndarray | None:
+                 firm: np.ndarray, effort: _Effort, keep_arrangement: bool):
         """The tracking QP with the separation rows of the ``soft`` groups softened.
 
         Each interval end (and the terminal rows together) of a softened robot gets a slack
@@ -979,35 +931,45 @@ class BSplineMPC:
         first. Softened robots must keep ``r_i + r_j + margin``, not the relaxed requirement, so
         the plan steers out of their discs; with ``keep_arrangement`` their half-planes keep the
         current arrangement (see :meth:`_write_separation`). Walls, the box, speed and
-        acceleration stay hard; the slacks' ``s >= 0`` are simple bounds. The solver starts
-        from the active set of the last evasive solution with this linearisation.
+        acceleration stay hard; the slacks' ``s >= 0`` are simple bounds, active at the solver's
+        start.
 
-        Returns the control points, or None if the solver fails (or the plan fails the exact
-        check of walls, bounds and limits).
+        If the softened problem is infeasible too, the robots in an infeasibility certificate
+        are softened as well, except the request's ``firm`` predictions, which stay hard like
+        walls. A row with its own slack can always be met, so it never takes part in a
+        certificate: the certificate is computed on the rows kept hard alone (fewer variables),
+        and they do not depend on the linearisation of the softened ones. The robots kept hard
+        are kept clear whatever that costs in intrusion into the softened ones: softening every
+        robot at once instead let the plan trade a late intrusion into an uninvolved robot for a
+        smaller early one, and collided more often in closed loop.
+
+        Returns (control points or None if the QP fails or its plan fails the exact check of
+        walls, bounds and limits; the softened groups, or None if walls, bounds, limits and firm
+        predictions alone conflict).
         """
-        n, m, spg = 2 * prob.nz, prob.n_rows, len(prob.slack_weights)
+        n, spg = 2 * prob.nz, len(prob.slack_weights)
+        soft = soft.copy()
         gradient = np.concatenate([prob.gradient(data.v0, data.ref_local), prob.slack_gradient])
-        kind = ("evasive", keep_arrangement)
-        warm = self._active.get(kind)
-        if warm is not None and warm[0] is prob:
-            slack_active, row_active = warm[1].copy(), warm[2]
-        else:  # slacks start at 0
-            slack_active, row_active = np.ones(len(prob.slack_gradient), dtype=bool), np.zeros(m, dtype=bool)
-        robots = np.flatnonzero(soft[prob.n_walls:])
-        lower = self._write_separation(prob, data, lin, cold, np.where(soft, data.full, data.need),
-                                       soft if keep_arrangement else None)
-        slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
-        var = np.concatenate([np.arange(n), n + slacks])
-        rows = np.hstack([prob.rows, prob.slack_columns[:, slacks]])
-        sol = self._solve(prob.evasive_hessian[np.ix_(var, var)], gradient[var], rows, lower, effort,
-                          bounds=prob.slack_bounds[var],
-                          start_active=np.concatenate([np.zeros(n, dtype=bool), slack_active[slacks], row_active]))
-        if not sol.success:
-            return None
-        slack_active[slacks] = sol.active[n:n + len(slacks)]
-        self._active[kind] = (prob, slack_active, sol.active[n + len(slacks):])
-        c = self._control_points(data, sol.x[:n])
-        return None if self._violation(prob, data, c, separation=False) else c
+        while True:
+            robots = np.flatnonzero(soft[prob.n_walls:])
+            lower = self._write_separation(prob, data, lin, cold, np.where(soft, data.full, data.need),
+                                           soft if keep_arrangement else None)
+            slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
+            var = np.concatenate([np.arange(n), n + slacks])
+            rows = np.hstack([prob.rows, prob.slack_columns[:, slacks]])
+            sol = self._solve(prob.evasive_hessian[np.ix_(var, var)], gradient[var], rows, lower, effort,
+                              bounds=prob.slack_bounds[var], start_active=prob.slack_bounds[var] == 0.0)
+            if sol.success:
+                c = self._control_points(data, sol.x[:n])
+                return (None if self._violation(prob, data, c, separation=False) else c), soft
+            hard = np.where(soft[prob.row_group], -np.inf, lower)
+            more = prob.n_walls + self._certified_conflict(prob, prob.rows, hard, effort)
+            if more.size == 0:
+                return None, soft  # the solver failed on a problem the certificate finds consistent
+            more = more[~firm[more - prob.n_walls]]
+            if soft[more].all():
+                return None, None
+            soft[more] = True
 
     def _certified_conflict(self, prob: _Problem, rows: np.ndarray, lower: np.ndarray, effort: _Effort) -> np.ndarray:
         """The other robots owning rows of an infeasibility certificate of ``rows @ x >= lower``."""

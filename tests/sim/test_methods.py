@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from nodnav.sim.methods import braking_extrapolation
+from nodnav.sim.methods import braking_extrapolation, horizon_predictions
 
 
 def test_braking_extrapolation_stops_after_the_braking_distance():
@@ -20,3 +20,21 @@ def test_braking_extrapolation_holds_a_robot_at_rest():
     got = braking_extrapolation(np.array([[0.5, 0.0], [1.0, 1.0]]), np.zeros((2, 2)), np.array([2.0, 1.0]),
                                 np.array([0.1, 0.8]))
     assert np.array_equal(got, np.repeat([[[0.5, 0.0]], [[1.0, 1.0]]], 2, axis=1))
+
+
+def test_horizon_predictions_by_hand():
+    """Robot A is column 1 of a plan that moves it +1 m in x per second from (0, 0); robot B is
+    not in the plan. Observed: A at (5, 5) moving (0, 1) m/s, B at (1, 1) at rest."""
+    times = np.array([0.4, 0.8])
+    planned = np.zeros((3, 2, 2))
+    planned[:, 1, 0] = [0.0, 0.4, 0.8]
+    got = horizon_predictions(planned, np.array([1, -1]), np.array([[5.0, 5.0], [1.0, 1.0]]),
+                              np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([2.0, 2.0]), times)
+    assert got.shape == (6, 2, 2)
+    np.testing.assert_allclose(got[0], [[5.4, 5.0], [5.8, 5.0]])  # the plan's motion, from where A is
+    np.testing.assert_allclose(got[1], [[1.0, 1.0], [1.0, 1.0]])  # B held still
+    np.testing.assert_allclose(got[2], [[5.0, 5.4], [5.0, 5.8]])  # A at constant velocity
+    np.testing.assert_allclose(got[3], [[1.0, 1.0], [1.0, 1.0]])
+    # A braking at 2 m/s^2 from 1 m/s stops after 0.5 s and 0.25 m: 0.4 - 0.16 = 0.24 m at 0.4 s.
+    np.testing.assert_allclose(got[4], [[5.0, 5.24], [5.0, 5.25]])
+    np.testing.assert_allclose(got[5], [[1.0, 1.0], [1.0, 1.0]])

@@ -7,7 +7,8 @@ import pytest
 
 from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict
 from nodnav.sim.history import History
-from nodnav.sim.simulator import Simulation, run_trial
+from nodnav.scenario.world import paper_world
+from nodnav.sim.simulator import Simulation, contact_counts, run_trial
 
 
 def test_head_on_pair_passes_without_collision():
@@ -100,3 +101,23 @@ def test_deadlock_is_declared_when_nobody_progresses():
             break
     assert sim.outcome == "deadlock"
     assert sim.t == pytest.approx(2.0, abs=sim.dt)
+
+
+def _contacts(previous, current, radii=(0.2, 0.2), tol=1e-6):
+    world = paper_world()
+    return contact_counts(np.array(previous, float), np.array(current, float), np.array(radii, float), tol,
+                          np.array([0.25, 0.5, 0.75, 1.0]), world.bounds_array, world.obstacle_array)
+
+
+def test_contacts_between_control_steps_are_caught():
+    """Two robots (radius 0.2) in the open room swapping places 1 m apart are 1 m apart at both
+    ends of the step but meet half-way; side by side 0.5 m apart they never touch."""
+    assert _contacts([[-5.0, 0.0], [-4.0, 0.0]], [[-4.0, 0.0], [-5.0, 0.0]]) == (1, 0)
+    assert _contacts([[-5.0, 0.0], [-5.0, 0.5]], [[-4.0, 0.0], [-4.0, 0.5]]) == (0, 0)
+
+
+def test_wall_contacts_are_counted_per_robot():
+    """In the corridor (walls at |y| = 0.35) a robot of radius 0.2 at y = 0.1 has 0.25 m of
+    clearance; at y = 0.2 only 0.15 m: in the wall. The other robot stays on the axis."""
+    assert _contacts([[0.0, 0.1], [1.0, 0.0]], [[0.0, 0.2], [1.0, 0.0]]) == (0, 1)
+    assert _contacts([[0.0, 0.1], [1.0, 0.0]], [[0.0, 0.12], [1.0, 0.0]]) == (0, 0)

@@ -87,6 +87,7 @@ import daqp
 import numpy as np
 from scipy.optimize import linprog
 
+from nodnav.compiled import compiled as _compiled
 from nodnav.control import bspline
 from nodnav.control.base import ControlRequest, ControlResult
 from nodnav.scenario.schema import ControllerParams, RobotSpec
@@ -94,14 +95,6 @@ from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
 
-try:  # numba compiles the per-row geometry loops; the same code runs, slowly, without it
-    from numba import njit as _numba_njit
-
-    def _compiled(fn):
-        return _numba_njit(cache=True, nogil=True)(fn)
-except ImportError:  # pragma: no cover - numba is installed in the project's environment
-    def _compiled(fn):
-        return fn
 
 DEGREE = 3
 """The paper's third-order (cubic) B-spline."""
@@ -756,6 +749,7 @@ class BSplineMPC:
         self._shift = np.linalg.lstsq(bspline.basis(fit, self.knots, DEGREE),
                                       bspline.basis(fit + self.dt, self.knots, DEGREE), rcond=None)[0]
         self._problems: dict[tuple, _Problem] = {}
+        self._valid_times = b""
         self._last_problem: tuple[tuple, _Problem] | None = None
         self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._world_bounds = np.asarray(world.bounds, dtype=float)
@@ -1006,8 +1000,11 @@ class BSplineMPC:
         if k == 0 or ref.shape != (k, 2) or others.shape != (len(radii), k, 2):
             raise ValueError(f"inconsistent request shapes: reference {ref.shape}, sample_times {times.shape}, "
                              f"others {others.shape}, other_radii {radii.shape}")
-        if times[0] <= 0 or times[-1] > self.horizon + 1e-9 or (k > 1 and np.diff(times).min() <= 0):
-            raise ValueError(f"sample_times must increase within (0, {self.horizon}], got {times}")
+        stamp = times.tobytes()
+        if stamp != self._valid_times:  # usually the same times as last step
+            if times[0] <= 0 or times[-1] > self.horizon + 1e-9 or (k > 1 and np.diff(times).min() <= 0):
+                raise ValueError(f"sample_times must increase within (0, {self.horizon}], got {times}")
+            self._valid_times = stamp
         # A sum is finite only if every term is (NaN and infinities propagate).
         if not np.isfinite(p0.sum() + v0.sum() + ref.sum() + others.sum() + radii.sum()):
             raise ValueError("request contains non-finite values")

@@ -23,7 +23,28 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.scenario.world import World
+
+
+@compiled
+def interpolate_positions(times: np.ndarray, positions: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """Positions ``(len(query), n, 2)`` at the times ``query`` of the joint path sampled at
+    ``times`` (strictly increasing) as ``positions`` ``(K, n, 2)``: linear between samples,
+    held after the last and, before the first, the first segment's start."""
+    out = np.empty((query.shape[0], positions.shape[1], 2))
+    k = times.shape[0]
+    for q in range(query.shape[0]):
+        if k == 1:
+            out[q] = positions[0]
+            continue
+        i = min(max(np.searchsorted(times, query[q], side="right") - 1, 0), k - 2)
+        w = min(max((query[q] - times[i]) / (times[i + 1] - times[i]), 0.0), 1.0)
+        for m in range(positions.shape[1]):
+            for d in range(2):
+                start = positions[i, m, d]
+                out[q, m, d] = start + w * (positions[i + 1, m, d] - start)
+    return out
 
 
 @dataclass(frozen=True)
@@ -54,13 +75,8 @@ class JointTrajectory:
     def positions_at(self, t: np.ndarray | float) -> np.ndarray:
         """Positions at times ``t`` by linear interpolation, shape ``t.shape + (n, 2)``; held after the end."""
         t = np.asarray(t, dtype=float)
-        times = self.times
-        if len(times) == 1:
-            return np.broadcast_to(self.positions[0], t.shape + self.positions.shape[1:]).copy()
-        idx = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(times) - 2)
-        w = np.clip((t - times[idx]) / (times[idx + 1] - times[idx]), 0.0, 1.0)[..., None, None]
-        start = self.positions[idx]
-        return start + w * (self.positions[idx + 1] - start)
+        flat = interpolate_positions(self.times, self.positions, t.reshape(-1))
+        return flat.reshape(t.shape + self.positions.shape[1:])
 
     def velocities_at(self, t: np.ndarray | float) -> np.ndarray:
         """Velocities at times ``t``, shape ``t.shape + (n, 2)``; zero after the end."""

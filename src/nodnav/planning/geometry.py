@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
+from nodnav.compiled import compiled as _compiled
 from nodnav.scenario.world import World
 
 #: Numerical slack of every distance comparison (m).
@@ -36,14 +37,6 @@ MEMO_SIZE = 1024
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
 
-try:  # numba compiles the distance and grid loops; the same code runs without it
-    from numba import njit as _numba_njit
-
-    def _compiled(fn):
-        return _numba_njit(cache=True, nogil=True)(fn)
-except ImportError:  # pragma: no cover - numba is installed in the project's environment
-    def _compiled(fn):
-        return fn
 
 
 def point_box_distance(points: np.ndarray, boxes: np.ndarray) -> np.ndarray:

@@ -81,6 +81,7 @@ from functools import cached_property
 
 import numpy as np
 
+from nodnav.compiled import compiled as _compiled
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
 from nodnav.planning.geometry import (
     TOL,
@@ -97,14 +98,6 @@ from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
 
-try:  # numba compiles the timing search and its conflict loops; the same code runs without it
-    from numba import njit as _numba_njit
-
-    def _compiled(fn):
-        return _numba_njit(cache=True, nogil=True)(fn)
-except ImportError:  # pragma: no cover - numba is installed in the project's environment
-    def _compiled(fn):
-        return fn
 
 #: Radii (m) and number of directions of the rings of candidate spots a cornered robot may back
 #: out to; the largest reach a room from anywhere in a corridor of the paper's length.

@@ -86,16 +86,8 @@ from pathlib import Path
 
 import numpy as np
 
+from nodnav.compiled import compiled as _njit
 from nodnav.scenario.world import World
-
-try:  # numba compiles the scalar kernels (builds run about 12x faster); the code runs without it
-    from numba import njit as _numba_njit
-
-    def _njit(fn):
-        return _numba_njit(cache=True, nogil=True)(fn)
-except ImportError:  # pragma: no cover - numba is installed in the project's environment
-    def _njit(fn):
-        return fn
 
 log = logging.getLogger(__name__)
 

@@ -6,12 +6,38 @@ Points are ``(..., 2)`` arrays in metres.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
+from nodnav.compiled import compiled
+
 #: Sides of the corridor, as returned by :meth:`World.side_of`.
 LEFT, INSIDE, RIGHT = -1, 0, 1
+
+
+@compiled
+def clearance_of(points: np.ndarray, bounds: np.ndarray, obstacles: np.ndarray) -> np.ndarray:
+    """Signed distance ``(N,)`` from each of ``points`` ``(N, 2)`` to the nearest of the
+    rectangles ``obstacles`` ``(M, 4)`` or the box ``bounds`` ``(4,)``; negative inside a wall.
+
+    To a rectangle it is the length of the point's excess over the rectangle's extent when
+    outside, minus the distance to the nearest side when inside.
+    """
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        x, y = points[i, 0], points[i, 1]
+        d = min(min(x - bounds[0], bounds[2] - x), min(y - bounds[1], bounds[3] - y))
+        for o in range(obstacles.shape[0]):
+            dx = max(obstacles[o, 0] - x, x - obstacles[o, 2])
+            dy = max(obstacles[o, 1] - y, y - obstacles[o, 3])
+            outside = math.hypot(max(dx, 0.0), max(dy, 0.0))
+            inside = min(max(dx, dy), 0.0)
+            d = min(d, outside + inside)
+        out[i] = d
+    return out
 
 
 @dataclass(frozen=True)
@@ -55,24 +81,21 @@ class World:
     entrances: tuple[tuple[float, float], tuple[float, float]]
     """Left and right entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0)."""
 
-    @property
+    @cached_property
     def obstacle_array(self) -> np.ndarray:
         """Walls as an ``(M, 4)`` array."""
         return np.asarray(self.obstacles, dtype=float).reshape(-1, 4)
 
+    @cached_property
+    def bounds_array(self) -> np.ndarray:
+        """The outer boundary as a ``(4,)`` array."""
+        return np.asarray(self.bounds, dtype=float)
+
     def clearance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (m) from each point to the nearest wall or boundary; negative inside a wall."""
         p = np.asarray(points, dtype=float)
-        x, y = p[..., 0], p[..., 1]
-        x0, y0, x1, y1 = self.bounds
-        d = np.minimum(np.minimum(x - x0, x1 - x), np.minimum(y - y0, y1 - y))
-        for ox0, oy0, ox1, oy1 in self.obstacles:
-            dx = np.maximum(ox0 - x, x - ox1)
-            dy = np.maximum(oy0 - y, y - oy1)
-            outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
-            inside = np.minimum(np.maximum(dx, dy), 0.0)
-            d = np.minimum(d, outside + inside)
-        return d
+        flat = np.ascontiguousarray(p.reshape(-1, 2))
+        return clearance_of(flat, self.bounds_array, self.obstacle_array).reshape(p.shape[:-1])
 
     def is_free(self, points: np.ndarray, radius: float | np.ndarray) -> np.ndarray:
         """Whether a disc of ``radius`` centred at each point lies in free space."""

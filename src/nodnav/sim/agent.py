@@ -161,6 +161,9 @@ class NODAgent:
         self.sides = approach_sides(scenario)
         self.z = self._initial_opinions()
         self.previous: tuple[tuple[int, ...], list[PlanResult]] | None = None
+        # Pure functions of the (fixed) orders and a set of robots, asked again every period.
+        self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
+        self._weights: dict[tuple[int, ...], np.ndarray] = {}
 
     def _initial_opinions(self) -> np.ndarray:
         if self.params.init == "distance":
@@ -182,7 +185,9 @@ class NODAgent:
             dt = float(view.window_times[1] - view.window_times[0])
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime)
-            A = consistency_weights(self.orders, self.index, players)
+            A = self._weights.get(players)
+            if A is None:
+                A = self._weights[players] = consistency_weights(self.orders, self.index, players)
             social = social_sum(r, np.ones((1, len(players))), A)[0]
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
@@ -201,8 +206,11 @@ class NODAgent:
         Queries list the robots in increasing index whoever asks, so that robots posing the
         same joint problem pose the same query and share its answer through the plan cache.
         """
-        ids = projected_order_ids(self.orders, robots)
-        first = np.unique(ids, return_index=True)[1]  # one strategy of each distinct projection
+        if robots not in self._projection_ids:
+            ids = projected_order_ids(self.orders, robots)
+            # ... and one strategy of each distinct projection
+            self._projection_ids[robots] = ids, np.unique(ids, return_index=True)[1]
+        ids, first = self._projection_ids[robots]
         requests = joint_requests(self.scenario, view, robots, self.orders[first])
         by_class = {ids[j]: self.plans.plan(request) for j, request in zip(first, requests)}
         return [by_class[ids[j]] for j in range(len(self.orders))]

@@ -8,10 +8,12 @@ and MPC wherever they can, so that only the decision rule differs.
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, make_controller
 from nodnav.planning import make_planner
 from nodnav.scenario.schema import Scenario
@@ -21,15 +23,47 @@ from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
 MPC_SAMPLES = 8
 
 
+@compiled
 def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: np.ndarray,
                           times: np.ndarray) -> np.ndarray:
     """Where robots moving at ``velocities`` are at ``times`` if they brake at once along their
     velocity with deceleration ``decel`` until they stop, ``(n, K, 2)``."""
-    speed = np.linalg.norm(velocities, axis=1)
-    heading = np.divide(velocities, speed[:, None], out=np.zeros_like(velocities), where=speed[:, None] > 0)
-    tau = np.minimum(times[None, :], (speed / decel)[:, None])  # (n, K): braking time so far
-    travelled = speed[:, None] * tau - 0.5 * decel[:, None] * tau * tau
-    return positions[:, None, :] + heading[:, None, :] * travelled[..., None]
+    out = np.empty((positions.shape[0], times.shape[0], 2))
+    for j in range(positions.shape[0]):
+        vx, vy = velocities[j, 0], velocities[j, 1]
+        speed = math.sqrt(vx * vx + vy * vy)
+        hx, hy = (vx / speed, vy / speed) if speed > 0 else (0.0, 0.0)
+        stop = speed / decel[j]
+        for s in range(times.shape[0]):
+            tau = min(times[s], stop)  # braking time so far
+            travelled = speed * tau - 0.5 * decel[j] * tau * tau
+            out[j, s, 0] = positions[j, 0] + hx * travelled
+            out[j, s, 1] = positions[j, 1] + hy * travelled
+    return out
+
+
+@compiled
+def horizon_predictions(planned: np.ndarray, columns: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
+                        decel: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """The three predictions of every other robot over the MPC horizon, ``(3 n, K, 2)``.
+
+    ``planned`` ``(1 + K, n_plan, 2)`` is the robot's joint plan now and at ``times``; other
+    robot ``j``, observed at ``positions[j]`` moving at ``velocities[j]``, is column
+    ``columns[j]`` of it (-1: not in the plan). Rows ``0..n-1``: the plan's motion displaced to
+    start where the robot is now (held still if not in the plan); ``n..2n-1``: constant
+    velocity; ``2n..3n-1``: :func:`braking_extrapolation`.
+    """
+    n, k = positions.shape[0], times.shape[0]
+    out = np.empty((3 * n, k, 2))
+    out[2 * n:] = braking_extrapolation(positions, velocities, decel, times)
+    for j in range(n):
+        m = columns[j]
+        for s in range(k):
+            for d in range(2):
+                shift = planned[1 + s, m, d] - planned[0, m, d] if m >= 0 else 0.0
+                out[j, s, d] = positions[j, d] + shift
+                out[n + j, s, d] = positions[j, d] + velocities[j, d] * times[s]
+    return out
 
 
 class Method(Protocol):
@@ -93,30 +127,26 @@ class PlannedMethod:
         coming) and braking at once along it (the last ``N_r - 1`` rows: a robot ahead that stops,
         which a follower trusting the first two would run into).
         """
-        return self._predictions(i, view, self._planned(i, t))
+        return self._horizon(i, t, view)[1]
 
-    def _planned(self, i: int, t: float) -> np.ndarray:
-        """Robot ``i``'s selected joint plan at ``t`` and at the MPC sample times after it ``(1 + K, n_plan, 2)``."""
-        return self.decisions[i].plan.trajectory.positions_at(t + self._offsets)
-
-    def _predictions(self, i: int, view: RobotView, planned: np.ndarray) -> np.ndarray:
-        """:meth:`predictions` from the plan's samples (:meth:`_planned`)."""
+    def _horizon(self, i: int, t: float, view: RobotView) -> tuple[np.ndarray, np.ndarray]:
+        """Robot ``i``'s reference (its path in its selected plan at the MPC sample times after
+        ``t``, ``(K, 2)``) and :meth:`predictions`."""
+        decision = self.decisions[i]
+        planned = decision.plan.trajectory.positions_at(t + self._offsets)
         others = self._others[i]
-        now = view.positions[others]
-        pred = np.repeat(now[:, None, :], len(self.sample_times), axis=1)
-        for m, k in enumerate(self.decisions[i].robots[1:], start=1):
-            pred[others.index(k)] += planned[1:, m] - planned[0, m]
-        v = view.velocities[others]
-        moving = now[:, None, :] + v[:, None, :] * self.sample_times[None, :, None]
-        return np.concatenate([pred, moving, braking_extrapolation(now, v, self._decel[i], self.sample_times)])
+        columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in others], dtype=np.int64)
+        predictions = horizon_predictions(planned, columns, view.positions[others], view.velocities[others],
+                                          self._decel[i], self.sample_times)
+        return planned[1:, 0], predictions
 
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
         for i, view in views.items():
-            planned = self._planned(i, t)
-            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=planned[1:, 0],
-                                     sample_times=self.sample_times, others=self._predictions(i, view, planned),
+            reference, predictions = self._horizon(i, t, view)
+            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
+                                     sample_times=self.sample_times, others=predictions,
                                      other_radii=self._other_radii[i], firm=self._firm)
             out[i] = self.controllers[i].control(request)
         return out

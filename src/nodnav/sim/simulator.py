@@ -9,16 +9,18 @@ says whether the trial is over. :func:`run_trial` runs a whole trial and returns
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.decision.strategies import orders_agree, passing_orders, strategy_index
 from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import INSIDE, distance_to_go
+from nodnav.scenario.world import INSIDE, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
 from nodnav.sim.history import History
 from nodnav.sim.methods import make_method
@@ -29,6 +31,37 @@ OUTCOMES = ("success", "collision", "deadlock", "timeout")
 
 #: Sub-steps at which contacts are checked between two control steps (motion is linear there).
 CONTACT_SUBSTEPS = 4
+
+
+@compiled
+def contact_counts(previous: np.ndarray, current: np.ndarray, radii: np.ndarray, tol: float, weights: np.ndarray,
+                   bounds: np.ndarray, obstacles: np.ndarray) -> tuple[int, int]:
+    """Pairs of robots that overlap, and robots that enter a wall, at some sub-step of a control
+    step: the robots move linearly from ``previous`` to ``current`` ``(N, 2)`` and are checked at
+    the fractions ``weights`` of it; contact is a distance ``tol`` (m) under the radii's sum, or a
+    clearance (:func:`~nodnav.scenario.world.clearance_of`) ``tol`` under the radius."""
+    n = previous.shape[0]
+    path = np.empty((weights.shape[0] * n, 2))
+    for s in range(weights.shape[0]):
+        w = weights[s]
+        for i in range(n):
+            for d in range(2):
+                path[s * n + i, d] = (1 - w) * previous[i, d] + w * current[i, d]
+    clear = clearance_of(path, bounds, obstacles)
+    pairs, walls = 0, 0
+    for i in range(n):
+        hit_wall = False
+        for k in range(i + 1, n):
+            hit = False
+            for s in range(weights.shape[0]):
+                dx = path[s * n + i, 0] - path[s * n + k, 0]
+                dy = path[s * n + i, 1] - path[s * n + k, 1]
+                hit = hit or math.sqrt(dx * dx + dy * dy) < (radii[i] + radii[k]) - tol
+            pairs += hit
+        for s in range(weights.shape[0]):
+            hit_wall = hit_wall or clear[s * n + i] < radii[i] - tol
+        walls += hit_wall
+    return pairs, walls
 
 
 @dataclass
@@ -116,6 +149,7 @@ class Simulation:
         ctrl = scenario.controller
         self.dt = ctrl.dt
         self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
+        self._substeps = np.linspace(0.0, 1.0, CONTACT_SUBSTEPS + 1)[1:]
         self.sides = approach_sides(scenario)
         self.k = 0
         self.t = 0.0
@@ -232,13 +266,8 @@ class Simulation:
 
     def _judge(self, previous: np.ndarray) -> None:
         s, world = self.scenario, self.scenario.world
-        tol = s.sim.collision_tolerance
-        w = np.linspace(0.0, 1.0, CONTACT_SUBSTEPS + 1)[1:, None, None]
-        path = (1 - w) * previous[None] + w * self.positions[None]  # (substeps, N_r, 2)
-        gaps = path[:, :, None, :] - path[:, None, :, :]
-        overlap = np.linalg.norm(gaps, axis=-1) < (s.radii[:, None] + s.radii[None, :]) - tol
-        pair_hits = int(np.triu(overlap.any(axis=0), k=1).sum())
-        wall_hits = int((world.clearance(path) < s.radii[None] - tol).any(axis=0).sum())
+        pair_hits, wall_hits = contact_counts(previous, self.positions, s.radii, s.sim.collision_tolerance,
+                                              self._substeps, world.bounds_array, world.obstacle_array)
         if pair_hits or wall_hits:
             self.collisions = pair_hits + wall_hits
             self._finish("collision")

@@ -218,6 +218,19 @@ def test_infeasibility_certificate_without_daqp_falls_back_to_highs(monkeypatch)
     np.testing.assert_array_equal(mpc.infeasibility_certificate(rows, lower), [1, 2, 3])
 
 
+def test_softened_rows_are_the_soft_groups_rows_only():
+    """Softening the last robot must not soften the static rows (box, speed, acceleration): they
+    belong to no group (a negative group index must not wrap round to the last one)."""
+    prob = BSplineMPC(WORLD, ROBOT, PARAMS)._problem(2, TIMES)
+    soft = np.zeros(prob.n_groups, dtype=bool)
+    soft[-1] = True
+    rows = prob.softened_rows(soft)
+    assert not rows[:prob.n_static].any()
+    assert rows.sum() == prob.rows_per_group
+    assert (np.flatnonzero(rows) >= prob.n_rows - prob.rows_per_group).all()
+    assert not prob.softened_rows(np.zeros(prob.n_groups, dtype=bool)).any()
+
+
 def test_rows_with_a_private_slack_never_enter_a_certificate():
     """Why the evasive QP's soft set is grown on the hard rows alone: a row ``a . x + s >= b``
     with ``s >= 0`` can always be met by raising ``s``, so no Farkas certificate uses it. Here

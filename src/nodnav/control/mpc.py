@@ -632,6 +632,11 @@ class _Problem:
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
 
+    def softened_rows(self, soft: np.ndarray) -> np.ndarray:
+        """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);
+        the static rows belong to none."""
+        return (self.row_group >= 0) & soft[np.maximum(self.row_group, 0)]
+
     def conflicting_others(self, rows: np.ndarray) -> np.ndarray:
         """Indices of the other robots owning any of the given rows."""
         group = self.row_group[rows[rows < self.n_rows]] - self.n_walls
@@ -956,7 +961,7 @@ class BSplineMPC:
             if sol.success:
                 c = self._control_points(data, sol.x[:n])
                 return (None if self._violation(prob, data, c, separation=False) else c), soft
-            hard = np.where(soft[prob.row_group], -np.inf, lower)
+            hard = np.where(prob.softened_rows(soft), -np.inf, lower)
             more = prob.n_walls + self._certified_conflict(prob, prob.rows, hard, effort)
             if more.size == 0:
                 return None, soft  # the solver failed on a problem the certificate finds consistent

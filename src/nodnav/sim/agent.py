@@ -120,9 +120,16 @@ class PlanCache:
         return hit[1]
 
 
+def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
+    """A passing order of every robot projected onto ``robots`` (scenario indices) and numbered
+    by the robots' places in ``robots``, as a planning query of those robots expects it."""
+    local_of = {k: m for m, k in enumerate(robots)}
+    return tuple(local_of[k] for k in project_order(order, robots))
+
+
 def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders) -> list[PlanRequest]:
     """The planning queries of ``robots`` (scenario indices, in increasing index) passing in each
-    of ``orders`` (passing orders of every robot, projected onto ``robots``), from what ``view``
+    of ``orders`` (numbered by place in ``robots``, :func:`local_order`), from what ``view``
     shows; the queries share their state arrays."""
     local_of = {k: m for m, k in enumerate(robots)}
     rows = list(robots)
@@ -130,7 +137,7 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
                  destinations=scenario.destinations[rows], radii=scenario.radii[rows],
                  max_speeds=scenario.max_speeds[rows],
                  entered=tuple(local_of[k] for k in view.entered if k in local_of), t0=view.t)
-    return [PlanRequest(order=tuple(local_of[k] for k in project_order(order, robots)), **state) for order in orders]
+    return [PlanRequest(order=order, **state) for order in orders]
 
 
 def approach_sides(scenario: Scenario) -> np.ndarray:
@@ -162,7 +169,7 @@ class NODAgent:
         self.z = self._initial_opinions()
         self.previous: tuple[tuple[int, ...], list[PlanResult]] | None = None
         # Pure functions of the (fixed) orders and a set of robots, asked again every period.
-        self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
+        self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, list]] = {}
         self._weights: dict[tuple[int, ...], np.ndarray] = {}
 
     def _initial_opinions(self) -> np.ndarray:
@@ -208,10 +215,10 @@ class NODAgent:
         """
         if robots not in self._projection_ids:
             ids = projected_order_ids(self.orders, robots)
-            # ... and one strategy of each distinct projection
-            self._projection_ids[robots] = ids, np.unique(ids, return_index=True)[1]
-        ids, first = self._projection_ids[robots]
-        requests = joint_requests(self.scenario, view, robots, self.orders[first])
+            first = np.unique(ids, return_index=True)[1]  # one strategy of each distinct projection
+            self._projection_ids[robots] = ids, first, [local_order(o, robots) for o in self.orders[first]]
+        ids, first, orders = self._projection_ids[robots]
+        requests = joint_requests(self.scenario, view, robots, orders)
         by_class = {ids[j]: self.plans.plan(request) for j, request in zip(first, requests)}
         return [by_class[ids[j]] for j in range(len(self.orders))]
 

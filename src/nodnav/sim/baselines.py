@@ -48,7 +48,7 @@ from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relab
 from nodnav.planning.geometry import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests
+from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
 from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
 
 log = logging.getLogger(__name__)
@@ -175,7 +175,8 @@ def plan_for_order(scenario: Scenario, plans: PlanCache, view: RobotView, robots
     robots posing the same joint problem share the answer through the plan cache.
     """
     canonical = tuple(sorted(robots))
-    return relabel(plans.plan(joint_requests(scenario, view, canonical, [order])[0]), [canonical.index(k) for k in robots])
+    request = joint_requests(scenario, view, canonical, [local_order(order, canonical)])[0]
+    return relabel(plans.plan(request), [canonical.index(k) for k in robots])
 
 
 class FixedOrderMethod(PlannedMethod):

@@ -188,11 +188,10 @@ class Simulation:
         A robot counts as entered from the first step it is seen inside the corridor; one seen
         back on the side it came from has backed out and no longer counts.
         """
-        world = self.scenario.world
-        for log_, positions in [(self.entered_true, self.positions)] + [
-                (self.entered_seen[i], self.observed[i][-1][:, :2]) for i in range(self.scenario.n_robots)]:
-            side = world.side_of(positions)
-            for k in range(self.scenario.n_robots):
+        n = self.scenario.n_robots
+        seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
+        for log_, side in zip([self.entered_true] + self.entered_seen, self.scenario.world.side_of(seen).tolist()):
+            for k in range(n):
                 if side[k] == INSIDE and k not in log_:
                     log_.append(k)
                 elif side[k] == self.sides[k] and k in log_ and self.sides[k] != INSIDE:

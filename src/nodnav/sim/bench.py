@@ -7,7 +7,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodnav.planning import make_planner
 from nodnav.scenario.schema import load_scenario
 from nodnav.sim.simulator import Simulation, run_trial
 
@@ -29,8 +28,7 @@ class SimBenchmark:
     outcomes: tuple[str, ...]
     """Outcome of each trial."""
     setup_time: float
-    """Wall time to construct the planner (e.g. loading or building roadmaps) and to load the
-    compiled kernels, paid once per process, not per trial (s)."""
+    """Wall time to load the compiled kernels, paid once per process, not per trial (s)."""
 
     @property
     def speedups(self) -> np.ndarray:
@@ -50,25 +48,25 @@ class SimBenchmark:
         d = self.to_dict()
         return (f"{self.scenario} with {self.planner}, {len(self.seeds)} trials: "
                 f"{d['speedup_total']:.1f}x real time overall (median {d['speedup_median']:.1f}x, "
-                f"slowest {d['speedup_min']:.1f}x); set-up {self.setup_time:.1f} s (planner, compiled kernels); "
+                f"slowest {d['speedup_min']:.1f}x); set-up {self.setup_time:.1f} s (compiled kernels); "
                 f"outcomes {', '.join(self.outcomes)}")
 
 
 def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast", seeds=(1, 2, 3)) -> SimBenchmark:
     """Run trials of ``scenario_name`` with all robots as game players and time them.
 
-    A study pays its set-up once per worker process: building the planner and loading the
-    compiled (numba) kernels, which one decision period of a throw-away trial does. That is
-    timed as the set-up; the warm-up uses its own planner, so no plan it computed is reused.
+    Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
+    reuses what another planned. A study also pays a set-up once per worker process, loading
+    the compiled (numba) kernels, which one decision period of a throw-away trial does; that is
+    timed apart as the set-up.
     """
     scenario = load_scenario(scenario_name).with_overrides(game_players="all", **{"planner.name": planner})
     start = time.perf_counter()
-    warm_up = Simulation(scenario, seed=0, planner=make_planner(scenario.planner, scenario.world))
+    warm_up = Simulation(scenario, seed=0)
     for _ in range(warm_up.steps_per_decision + 1):
         warm_up.step()
-    shared = make_planner(scenario.planner, scenario.world)
     setup = time.perf_counter() - start
-    results = [run_trial(scenario, seed=s, planner=shared) for s in seeds]
+    results = [run_trial(scenario, seed=s) for s in seeds]
     return SimBenchmark(scenario=scenario.name, planner=planner, seeds=tuple(seeds),
                         sim_times=tuple(r.sim_time for r in results), wall_times=tuple(r.wall_time for r in results),
                         outcomes=tuple(r.outcome for r in results), setup_time=setup)

@@ -186,7 +186,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(json.dumps(summary))
     else:
         order = ",".join(map(str, summary["corridor_entry_order"])) or "-"
-        print(f"{scenario.name} seed {args.seed} ({args.method}, {scenario.n_players} game players): "
+        # Game players are a setting of nod only.
+        setting = f"{args.method}, {scenario.n_players} game players" if args.method == "nod" else args.method
+        print(f"{scenario.name} seed {args.seed} ({setting}): "
               f"{result.outcome.upper()} at t = {result.sim_time:.1f} s (wall {result.wall_time:.1f} s)")
         print(f"  corridor entry order {order}, strategy "
               f"{'S' + str(summary['strategy']) if summary['strategy'] else '-'}, consensus {summary['consensus']}, "

@@ -139,3 +139,6 @@ def test_relabel_permutes_robots_and_orders():
     assert np.array_equal(out.trajectory.positions[:, 2], pos[:, 0])
     # Old order (2, 0, 1) -> new labels (1, 2, 0).
     assert out.order == (1, 2, 0) and out.order_planned == (1, 2, 0) and out.cost == 3.0
+    # The planner's info stays in the query's numbering and says who is who, also when relabelled again.
+    assert out.info["query_robots"] == (1, 2, 0)
+    assert relabel(out, [2, 0, 1]).info["query_robots"] == (0, 1, 2)

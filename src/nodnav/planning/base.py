@@ -150,7 +150,8 @@ class PlanResult:
     compute_time: float = 0.0
     """Wall time spent answering the query (s)."""
     info: dict = field(default_factory=dict)
-    """Planner-specific diagnostics."""
+    """Planner-specific diagnostics; per-robot entries are numbered as the query's robots (after
+    :func:`relabel`, ``info["query_robots"][j]`` is the query's number of robot ``j``)."""
 
     @property
     def repaired(self) -> bool:
@@ -165,11 +166,17 @@ class PlanResult:
 
 
 def relabel(result: PlanResult, robots: list[int]) -> PlanResult:
-    """The same plan with its robots listed as ``robots`` (old indices, in the new order)."""
+    """The same plan with its robots listed as ``robots`` (old indices, in the new order).
+
+    The planner's ``info`` is left in the query's numbering (its contents are planner-specific);
+    ``info["query_robots"]`` says which query robot each new robot is.
+    """
     new_of = {old: new for new, old in enumerate(robots)}
+    query = result.info.get("query_robots", tuple(range(result.trajectory.n_robots)))
     return replace(result, trajectory=result.trajectory.subset(robots),
                    order=tuple(new_of[k] for k in result.order),
-                   order_planned=tuple(new_of[k] for k in result.order_planned))
+                   order_planned=tuple(new_of[k] for k in result.order_planned),
+                   info={**result.info, "query_robots": tuple(query[k] for k in robots)})
 
 
 @runtime_checkable

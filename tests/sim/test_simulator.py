@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict
-from nodnav.sim.history import History
 from nodnav.scenario.world import paper_world
+from nodnav.sim.history import History
 from nodnav.sim.simulator import Simulation, contact_counts, run_trial
 
 

@@ -194,10 +194,10 @@ def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray
     ``A x + t >= b``, positive exactly when the rows conflict. DAQP solves it with proximal
     regularisation (well under a millisecond for the MPC's few hundred rows) and, keeping its
     working set linearly independent, ends at a vertex, whose support is an irreducible
-    infeasible subset: few rows. Should DAQP not
-    converge, SciPy's HiGHS solves the dual LP (``max b^T y`` over ``A^T y = 0``, ``sum y = 1``,
-    ``y >= 0``) instead, about 8 ms. Returns the indices of the rows with ``y > 0`` (empty if
-    the rows are consistent). Rows at ``-inf`` never take part.
+    infeasible subset: few rows. Should DAQP not converge, SciPy's HiGHS solves the dual LP
+    (``max b^T y`` over ``A^T y = 0``, ``sum y = 1``, ``y >= 0``) instead, about 8 ms. Returns
+    the indices of the rows with ``y > 0`` (empty if the rows are consistent). Rows at ``-inf``
+    never take part.
     """
     rows, lower = np.asarray(rows, dtype=float), np.asarray(lower, dtype=float)
     finite = np.flatnonzero(np.isfinite(lower))
@@ -639,7 +639,7 @@ class _Problem:
 
     def conflicting_others(self, rows: np.ndarray) -> np.ndarray:
         """Indices of the other robots owning any of the given rows."""
-        group = self.row_group[rows[rows < self.n_rows]] - self.n_walls
+        group = self.row_group[rows] - self.n_walls
         return np.unique(group[group >= 0])
 
     def gradient(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
@@ -655,7 +655,6 @@ class _Problem:
         static = self.static_base - (self.static_alpha @ v0) * self.static_line
         static[:self.n_box] += (box[None, :] + self.eps_end[:, None]).ravel()
         return static
-
 
 
 @dataclass(frozen=True)
@@ -757,7 +756,7 @@ class BSplineMPC:
         self._valid_times = b""
         self._last_problem: tuple[tuple, _Problem] | None = None
         self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        self._world_bounds = np.asarray(world.bounds, dtype=float)
+        self._world_bounds = world.bounds_array
         self._bounds = (self._world_bounds[:2], self._world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
@@ -863,7 +862,7 @@ class BSplineMPC:
                 why = f"tracking QP {sol.reason}"
                 # DAQP can also stop cycling on an infeasible degenerate QP; the LP decides.
                 certified = self._certified_conflict(prob, prob.rows, lower, effort)
-                if certified.size:
+                if certified is not None and certified.size:
                     conflict = certified
                 break
             c = self._control_points(data, sol.x)
@@ -962,20 +961,22 @@ class BSplineMPC:
                 c = self._control_points(data, sol.x[:n])
                 return (None if self._violation(prob, data, c, separation=False) else c), soft
             hard = np.where(prob.softened_rows(soft), -np.inf, lower)
-            more = prob.n_walls + self._certified_conflict(prob, prob.rows, hard, effort)
-            if more.size == 0:
+            certified = self._certified_conflict(prob, prob.rows, hard, effort)
+            if certified is None:
                 return None, soft  # the solver failed on a problem the certificate finds consistent
-            more = more[~firm[more - prob.n_walls]]
-            if soft[more].all():
+            more = prob.n_walls + certified[~firm[certified]]
+            if soft[more].all():  # also when the certificate names no robot at all
                 return None, None
             soft[more] = True
 
-    def _certified_conflict(self, prob: _Problem, rows: np.ndarray, lower: np.ndarray, effort: _Effort) -> np.ndarray:
-        """The other robots owning rows of an infeasibility certificate of ``rows @ x >= lower``."""
+    def _certified_conflict(self, prob: _Problem, rows: np.ndarray, lower: np.ndarray,
+                            effort: _Effort) -> np.ndarray | None:
+        """The other robots owning rows of an infeasibility certificate of ``rows @ x >= lower``
+        (empty if walls and limits alone conflict), or None if the rows are consistent."""
         t = time.perf_counter()
         support = infeasibility_certificate(rows, lower)
         effort.qp_time += time.perf_counter() - t
-        return prob.conflicting_others(support)
+        return prob.conflicting_others(support) if support.size else None
 
     def _solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray,
                effort: _Effort, bounds: np.ndarray | None = None, start_active: np.ndarray | None = None) -> QPSolution:

@@ -155,8 +155,7 @@ def segment_clearance(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
     a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
     b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
-    return _segment_clearance_kernel(a, b, np.ascontiguousarray(world.obstacle_array),
-                                     np.asarray(world.bounds, dtype=float))
+    return _segment_clearance_kernel(a, b, world.obstacle_array, world.bounds_array)
 
 
 @_compiled

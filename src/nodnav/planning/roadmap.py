@@ -513,7 +513,7 @@ class CompiledRules:
         return CompiledRules((np.ascontiguousarray(clearance, dtype=np.float64),
                               np.ascontiguousarray(directions, dtype=np.int64),
                               np.ascontiguousarray(min_separation, dtype=np.float64),
-                              np.asarray(world.bounds, dtype=np.float64), world.obstacle_array,
+                              world.bounds_array, world.obstacle_array,
                               float(world.corridor.x_min), float(world.corridor.x_max)))
 
     def state_ok(self, x: np.ndarray) -> bool:

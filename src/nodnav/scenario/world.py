@@ -40,6 +40,12 @@ def clearance_of(points: np.ndarray, bounds: np.ndarray, obstacles: np.ndarray) 
     return out
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a = np.ascontiguousarray(a)
+    a.setflags(write=False)
+    return a
+
+
 @dataclass(frozen=True)
 class Corridor:
     """The single-file passage, an axis-aligned box."""
@@ -83,13 +89,13 @@ class World:
 
     @cached_property
     def obstacle_array(self) -> np.ndarray:
-        """Walls as an ``(M, 4)`` array."""
-        return np.asarray(self.obstacles, dtype=float).reshape(-1, 4)
+        """Walls as an ``(M, 4)`` array (read-only: computed once and shared)."""
+        return _read_only(np.asarray(self.obstacles, dtype=float).reshape(-1, 4))
 
     @cached_property
     def bounds_array(self) -> np.ndarray:
-        """The outer boundary as a ``(4,)`` array."""
-        return np.asarray(self.bounds, dtype=float)
+        """The outer boundary as a ``(4,)`` array (read-only: computed once and shared)."""
+        return _read_only(np.asarray(self.bounds, dtype=float))
 
     def clearance(self, points: np.ndarray) -> np.ndarray:
         """Signed distance (m) from each point to the nearest wall or boundary; negative inside a wall."""

@@ -53,6 +53,10 @@ class OpinionParams:
     """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
     bias: dict[str, float] = field(default_factory=dict)
     """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
+    nonplayers: str = "entered"
+    """How robots outside N_i(t) enter the robot's planning: ``static`` (the paper: not planned,
+    held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the
+    front of the order, where history has put them)."""
 
     def bias_vector(self, n_strategies: int) -> np.ndarray:
         """The bias b_i as an array over strategies S1..S_{N_s}."""
@@ -122,6 +126,21 @@ class ControllerParams:
 
 
 @dataclass(frozen=True)
+class ExecutionParams:
+    """How a robot follows its selected joint plan between decisions (not in the paper)."""
+
+    mode: str = "gated"
+    """``gated``: by the plan's precedences, waiting for the robots it depends on to move on
+    (:mod:`nodnav.sim.execution`); ``timed``: by the clock, as the appendix."""
+    lag: float = 0.3
+    """Least time between the two samples of a precedence (s); rules out waiting cycles between
+    robots that pass each other closely."""
+    tolerance: float = 0.05
+    """Distance within which an observed robot counts as still at the earliest of its nearest
+    planned samples (m): how far it must move before it counts as having moved on."""
+
+
+@dataclass(frozen=True)
 class SimParams:
     """How a trial is simulated and judged."""
 
@@ -162,6 +181,8 @@ class Scenario:
     """The motion controller."""
     sim: SimParams = SimParams()
     """Simulation and outcome settings."""
+    execution: ExecutionParams = ExecutionParams()
+    """How robots follow their plans between decisions."""
 
     @property
     def n_robots(self) -> int:
@@ -326,6 +347,8 @@ def _world(data: Any) -> World:
 def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     """Opinion parameters from a mapping, with their cross-field checks."""
     opinion = _params(OpinionParams, data, where)
+    if opinion.nonplayers not in ("static", "entered"):
+        raise ScenarioError(f"{where}.nonplayers: expected 'static' or 'entered', got {opinion.nonplayers!r}")
     if opinion.init not in ("zero", "distance", "given"):
         raise ScenarioError(f"{where}.init: expected 'zero', 'distance' or 'given', got {opinion.init!r}")
     n_s = math.factorial(n_robots)
@@ -343,7 +366,7 @@ def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
 
 
 _TOP_KEYS = ("name", "description", "world", "robot_defaults", "robots", "opinion", "game_players",
-             "time_limit", "planner", "controller", "sim")
+             "time_limit", "planner", "controller", "sim", "execution")
 _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
 
 
@@ -443,12 +466,15 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     if abs(ratio - round(ratio)) > 1e-9:
         raise ScenarioError(f"opinion.T ({opinion.T} s) must be a whole multiple of controller.dt ({controller.dt} s)")
     sim = _params(SimParams, data.get("sim"), "sim")
+    execution = _params(ExecutionParams, data.get("execution"), "execution")
+    if execution.mode not in ("gated", "timed"):
+        raise ScenarioError(f"execution.mode: expected 'gated' or 'timed', got {execution.mode!r}")
     description = data.get("description", "")
     if not isinstance(description, str):
         raise ScenarioError(f"{source}: 'description' must be text")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,
                     game_players=game_players, time_limit=time_limit, planner=planner,
-                    controller=controller, sim=sim)
+                    controller=controller, sim=sim, execution=execution)
 
 
 def builtin_names() -> list[str]:
@@ -515,6 +541,7 @@ def _to_raw(scenario: Scenario) -> dict:
         "planner": dataclasses.asdict(scenario.planner),
         "controller": dataclasses.asdict(scenario.controller),
         "sim": dataclasses.asdict(scenario.sim),
+        "execution": dataclasses.asdict(scenario.execution),
     }
 
 

@@ -167,7 +167,7 @@ class NODAgent:
         self.bias = self.params.bias_vector(len(self.orders))
         self.sides = approach_sides(scenario)
         self.z = self._initial_opinions()
-        self.previous: tuple[tuple[int, ...], list[PlanResult]] | None = None
+        self.previous: tuple[tuple[int, ...], tuple[int, ...], list[PlanResult]] | None = None
         # Pure functions of the (fixed) orders and a set of robots, asked again every period.
         self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, list]] = {}
         self._weights: dict[tuple[int, ...], np.ndarray] = {}
@@ -181,9 +181,8 @@ class NODAgent:
         return np.zeros(len(self.orders))
 
     def _update_opinion(self, view: RobotView) -> None:
-        """Eqs. (4), (9), (8): compare the others' observed motion with last period's plans."""
-        robots, plans = self.previous
-        players = tuple(k for k in robots if k != self.index)
+        """Eqs. (4), (9), (8): compare the players' observed motion with last period's plans."""
+        robots, players, plans = self.previous
         social = np.zeros(len(self.orders))
         if players and self.social:
             columns = [robots.index(k) for k in players]
@@ -222,6 +221,19 @@ class NODAgent:
         by_class = {ids[j]: self.plans.plan(request) for j, request in zip(first, requests)}
         return [by_class[ids[j]] for j in range(len(self.orders))]
 
+    def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
+        """Robots that are not game players but join the plan, as robots whose place in the order
+        is already decided: with ``nonplayers: entered``, every robot seen inside the corridor.
+
+        Planning with them costs little (history fixes them at the front of every order, so all
+        orders share their plans) and keeps a robot from planning into a corridor that someone
+        it does not play with is coming through; they take no part in eq. (4).
+        """
+        if self.params.nonplayers != "entered":
+            return ()
+        inside = self.scenario.world.in_corridor(view.positions)
+        return tuple(k for k in view.entered if inside[k] and k != self.index and k not in players)
+
     def decide(self, view: RobotView) -> Decision:
         """Algorithm 1, procedure RobotNavigation(t)."""
         if self.previous is not None:
@@ -229,9 +241,9 @@ class NODAgent:
         players = self._select_players(view)
         x = strategy_probabilities(self.z, self.params.eta)
         strategy = int(self.rng.choice(len(x), p=x))
-        robots = (self.index, *players)
+        robots = (self.index, *players, *self.committed(view, players))
         canonical = tuple(sorted(robots))
         plans = self.plan_all(view, canonical)
-        self.previous = (canonical, plans)
+        self.previous = (canonical, players, plans)
         return Decision(strategy=strategy, robots=robots, plan=relabel(plans[strategy], [canonical.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players)

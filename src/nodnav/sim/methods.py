@@ -18,6 +18,7 @@ from nodnav.control import ControlRequest, ControlResult, make_controller
 from nodnav.planning import make_planner
 from nodnav.scenario.schema import Scenario
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
+from nodnav.sim.execution import ExecutionSettings, PlanExecution
 
 #: Number of MPC constraint samples over the horizon.
 MPC_SAMPLES = 8
@@ -103,6 +104,11 @@ class PlannedMethod:
         self._firm = np.repeat([False, False, True], n - 1)
         accel = np.array([r.max_accel for r in scenario.robots])
         self._decel = [np.delete(accel, i) for i in range(n)]
+        ex = scenario.execution
+        self._execution_settings = ExecutionSettings(
+            gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
+            margin=scenario.planner.margin, tolerance=ex.tolerance)
+        self._executions: dict[int, tuple[Decision, PlanExecution]] = {}
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """Run every robot's decision rule; subclasses implement :meth:`decide_robot`."""
@@ -129,11 +135,25 @@ class PlannedMethod:
         """
         return self._horizon(i, t, view)[1]
 
+    def execution(self, i: int) -> PlanExecution:
+        """Robot ``i``'s execution of its current decision's plan (a new one after each decision)."""
+        decision = self.decisions[i]
+        held = self._executions.get(i)
+        if held is None or held[0] is not decision:
+            radii = self.scenario.radii[list(decision.robots)]
+            held = self._executions[i] = (decision, PlanExecution(decision.plan.trajectory, decision.robots, radii,
+                                                                  self._execution_settings))
+        return held[1]
+
     def _horizon(self, i: int, t: float, view: RobotView) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``i``'s reference (its path in its selected plan at the MPC sample times after
-        ``t``, ``(K, 2)``) and :meth:`predictions`."""
+        ``t``, ``(K, 2)``) and :meth:`predictions`; read by precedence or by the clock
+        (:mod:`nodnav.sim.execution`)."""
         decision = self.decisions[i]
-        planned = decision.plan.trajectory.positions_at(t + self._offsets)
+        if self._execution_settings.gated:
+            planned = self.execution(i).read(self._offsets)
+        else:
+            planned = decision.plan.trajectory.positions_at(t + self._offsets)
         others = self._others[i]
         columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in others], dtype=np.int64)
         predictions = horizon_predictions(planned, columns, view.positions[others], view.velocities[others],
@@ -144,7 +164,10 @@ class PlannedMethod:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
         for i, view in views.items():
+            execution = self.execution(i)
+            execution.observe(view.positions[list(self.decisions[i].robots)])
             reference, predictions = self._horizon(i, t, view)
+            execution.advance()
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=self._other_radii[i], firm=self._firm)

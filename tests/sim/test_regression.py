@@ -1,0 +1,28 @@
+"""Small deterministic scenarios, one per failure class fixed, each with the seeds that failed.
+
+Each YAML file in ``regression/`` says what went wrong on the commit named in it; here the same
+trials must succeed.
+"""
+
+from pathlib import Path
+
+import pytest
+
+from nodnav.scenario.schema import load_scenario
+from nodnav.sim.simulator import run_trial
+
+HERE = Path(__file__).parent / "regression"
+
+CASES = [
+    ("pair-at-one-mouth.yaml", (4, 5, 9)),
+    ("head-on-one-player.yaml", (1, 2, 3, 4)),
+]
+
+
+@pytest.mark.parametrize("name, seeds", CASES, ids=[c[0].removesuffix(".yaml") for c in CASES])
+def test_trials_that_failed_now_succeed(name, seeds):
+    scenario = load_scenario(HERE / name)
+    for seed in seeds:
+        result = run_trial(scenario, seed=seed)
+        assert result.outcome == "success", f"{name} seed {seed}: {result.outcome} at {result.sim_time:.1f} s"
+        assert result.min_separation >= max(scenario.radii) * 2

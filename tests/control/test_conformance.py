@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from nodnav.control import CONTROLLERS, Controller, ControlRequest, ControlResult, make_controller
+from nodnav.control.base import STEP_FRACTIONS
 from nodnav.scenario.schema import ControllerParams, RobotSpec
 from nodnav.scenario.world import paper_world
 
@@ -39,6 +40,12 @@ def check_result(res, req):
     np.testing.assert_allclose(res.velocity, (res.next_position - req.position) / DT, atol=1e-12)
     assert res.solve_time >= 0.0 and isinstance(res.info, dict)
     assert isinstance(res.reason, str) and (res.success or res.reason)
+    if res.step_positions is not None:
+        # The motion within the step ends where the step does and moves no faster than allowed.
+        assert res.step_positions.shape == (len(STEP_FRACTIONS), 2)
+        np.testing.assert_allclose(res.step_positions[-1], res.next_position, atol=1e-12)
+        hops = np.diff(np.vstack([req.position, res.step_positions]), axis=0)
+        assert np.all(np.linalg.norm(hops, axis=1) <= ROBOT.max_speed * DT * np.diff([0, *STEP_FRACTIONS]) + 1e-9)
 
 
 def test_registry_builds_a_controller(name):

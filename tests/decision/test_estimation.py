@@ -103,3 +103,15 @@ def test_shape_errors_are_reported():
         estimated_opinions(np.zeros((5, 4)), np.zeros((3, 5, 4)), 0.1)
     with pytest.raises(ValueError):
         estimated_opinions(np.zeros((2, 5, 4)), np.zeros((3, 2, 5, 4)), 0.0)
+
+
+def test_strategies_without_a_plan_get_no_support_and_the_rest_are_centred_among_themselves():
+    # Three strategies; the second has no joint path. The other two, -1 and -3, are centred on
+    # their own mean -2: +1 and -1.
+    z_prime = np.array([[-1.0, 0.0, -3.0]])
+    r = estimate_social_term(z_prime, np.array([True, False, True]))
+    expected = 0.5 * (np.tanh(np.array([1.0, -1.0])) + 1.0)
+    np.testing.assert_allclose(r[0, [0, 2]], expected)
+    assert r[0, 1] == 0.0
+    # No strategy with a plan: no evidence, R(0) = 1/2 everywhere.
+    np.testing.assert_allclose(estimate_social_term(z_prime, np.zeros(3, dtype=bool)), 0.5)

@@ -12,6 +12,7 @@ from nodnav.decision.opinion import (
     opinion_update,
     relative_opinions,
     saturation,
+    selection_probabilities,
     social_sum,
     step_size,
     strategy_probabilities,
@@ -362,3 +363,12 @@ def test_relabelling_commutes_with_the_generalized_rate(rng):
         A_new = reduced_weights(orders, players_new)
         rate_new = generalized_opinion_rate(z_new, 10.0, 1.0, 0.0, players_new, A_new)
         np.testing.assert_allclose(rate_new[np.ix_(pi, sigma)], rate, rtol=1e-12, atol=1e-12)
+
+
+def test_selection_renormalises_over_the_strategies_with_a_plan():
+    x = np.array([0.5, 0.3, 0.2])
+    np.testing.assert_allclose(selection_probabilities(x, np.array([False, True, True])), [0.0, 0.6, 0.4])
+    np.testing.assert_array_equal(selection_probabilities(x, np.ones(3, dtype=bool)), x)
+    np.testing.assert_allclose(selection_probabilities(np.array([1.0, 0.0, 0.0]), np.array([False, True, True])),
+                               [0.0, 0.5, 0.5])
+    np.testing.assert_array_equal(selection_probabilities(x, np.zeros(3, dtype=bool)), x)

@@ -8,7 +8,7 @@ import pytest
 from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import paper_world
 from nodnav.sim.history import History
-from nodnav.sim.simulator import Simulation, contact_counts, run_trial
+from nodnav.sim.simulator import Simulation, contact_counts, run_trial, straight_substeps
 
 
 def test_head_on_pair_passes_without_collision():
@@ -87,7 +87,7 @@ def test_history_round_trip(tmp_path):
 def test_collision_is_detected():
     sim = Simulation(load_scenario("2r-case2"), seed=1)
     sim.positions[1] = sim.positions[0] + np.array([0.3, 0.0])  # overlapping discs of radius 0.2
-    sim._judge(sim.positions.copy())
+    sim._judge(np.repeat(sim.positions[None], 4, axis=0))
     assert sim.outcome == "collision" and sim.collisions == 1
 
 
@@ -96,7 +96,7 @@ def test_deadlock_is_declared_when_nobody_progresses():
     sim = Simulation(s, seed=1)
     for _ in range(25):
         sim.t += sim.dt
-        sim._judge(sim.positions.copy())
+        sim._judge(np.repeat(sim.positions[None], 4, axis=0))
         if sim.outcome:
             break
     assert sim.outcome == "deadlock"
@@ -105,8 +105,8 @@ def test_deadlock_is_declared_when_nobody_progresses():
 
 def _contacts(previous, current, radii=(0.2, 0.2), tol=1e-6):
     world = paper_world()
-    return contact_counts(np.array(previous, float), np.array(current, float), np.array(radii, float), tol,
-                          np.array([0.25, 0.5, 0.75, 1.0]), world.bounds_array, world.obstacle_array)
+    path = straight_substeps(np.array(previous, float), np.array(current, float), np.array([0.25, 0.5, 0.75, 1.0]))
+    return contact_counts(path, np.array(radii, float), tol, world.bounds_array, world.obstacle_array)
 
 
 def test_contacts_between_control_steps_are_caught():
@@ -121,3 +121,19 @@ def test_wall_contacts_are_counted_per_robot():
     clearance; at y = 0.2 only 0.15 m: in the wall. The other robot stays on the axis."""
     assert _contacts([[0.0, 0.1], [1.0, 0.0]], [[0.0, 0.2], [1.0, 0.0]]) == (0, 1)
     assert _contacts([[0.0, 0.1], [1.0, 0.0]], [[0.0, 0.12], [1.0, 0.0]]) == (0, 0)
+
+
+def test_contacts_are_checked_on_the_curve_the_robot_drives_not_its_chord():
+    """A robot of radius 0.2 swinging round the corner (-3, 0.35) of the corridor's upper wall,
+    in the room (x < -3, where the corner is the nearest point of any wall), on an arc 0.21 m
+    from it: free. The chord between the step's ends passes 0.21 cos(40 deg) = 0.16 m from the
+    corner: in the wall."""
+    world = paper_world()
+    corner = np.array([-3.0, 0.35])
+    angles = np.radians([185.0, 205.0, 225.0, 245.0, 265.0])  # start, then the four sub-steps
+    curve = corner + 0.21 * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    radii, tol = np.array([0.2]), 1e-6
+    on_curve = contact_counts(curve[1:, None, :], radii, tol, world.bounds_array, world.obstacle_array)
+    chord = straight_substeps(curve[:1], curve[-1:], np.array([0.25, 0.5, 0.75, 1.0]))
+    on_chord = contact_counts(chord, radii, tol, world.bounds_array, world.obstacle_array)
+    assert on_curve == (0, 0) and on_chord == (0, 1)

@@ -11,6 +11,11 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 
+#: Points of a control step at which a controller reports the motion it commands: the fractions
+#: 1/4, 2/4, 3/4 and 4/4 of the step (the simulator checks contacts there).
+STEP_FRACTIONS = np.array([0.25, 0.5, 0.75, 1.0])
+
+
 @dataclass(frozen=True)
 class ControlRequest:
     """What a robot's controller knows at one control step."""
@@ -50,6 +55,9 @@ class ControlResult:
     """The controller's planned positions at the request's ``sample_times`` ``(K, 2)`` (m)."""
     solve_time: float = 0.0
     """Wall time of the solve (s)."""
+    step_positions: np.ndarray | None = None
+    """Positions the robot passes at :data:`STEP_FRACTIONS` of the coming step ``(4, 2)`` (m), the
+    last being ``next_position``; ``None`` for motion in a straight line at constant velocity."""
     info: dict = field(default_factory=dict)
     """Controller-specific diagnostics (iterations, solver status)."""
 

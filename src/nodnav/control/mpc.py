@@ -89,7 +89,7 @@ from scipy.optimize import linprog
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.control import bspline
-from nodnav.control.base import ControlRequest, ControlResult
+from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.scenario.schema import ControllerParams, RobotSpec
 from nodnav.scenario.world import World
 
@@ -742,6 +742,8 @@ class BSplineMPC:
                              + params.w2 * bspline.gram_matrix(self.knots, DEGREE, 1, 0.0, self.horizon))
         self.obstacles = world.obstacle_array
         self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]
+        # Where the robot passes within a step: the spline is curved, the chord is not it.
+        self.b_substeps = bspline.basis_derivative(self.dt * STEP_FRACTIONS, self.knots, DEGREE, 0)
         self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]
         # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
         d1 = bspline.velocity_hull_operator(self.knots)[1:]
@@ -845,6 +847,7 @@ class BSplineMPC:
             planned_positions=out[2:],
             solve_time=time.perf_counter() - start,
             info=info,
+            step_positions=self.b_substeps @ c,
         )
 
     def _track(self, prob: _Problem, data: _StepData, lin: np.ndarray, cold: bool, effort: _Effort):
@@ -1135,4 +1138,5 @@ class BSplineMPC:
             planned_positions=pos[1:],
             solve_time=time.perf_counter() - start,
             info={"fallback": "braking", **effort.as_info()},
+            step_positions=braking_profile(p0, v0, self.robot.max_accel, self.dt * STEP_FRACTIONS)[0],
         )

@@ -44,10 +44,23 @@ def estimated_opinions(observed: np.ndarray, planned: np.ndarray, dt: float, K1:
     return -K1 * np.trapezoid(squared, dx=dt, axis=-1).T
 
 
-def estimate_social_term(z_prime: np.ndarray) -> np.ndarray:
+def estimate_social_term(z_prime: np.ndarray, planned: np.ndarray | None = None) -> np.ndarray:
     """Estimated social scores ``r_kl = R(zbar'_kl)``, with ``zbar'`` from eq. (4b) and ``R`` from (9).
 
     ``z_prime`` is ``(N_k, N_s)`` from :func:`estimated_opinions`; the result has the same shape,
     values in ``[0, 1]``, largest for the strategy whose prediction matched best.
+
+    ``planned`` ``(N_s,)`` (optional) says which strategies the planner found a joint path for.
+    A strategy without one predicts nothing, so observed motion is no evidence for it: its score
+    is 0 (``R(-inf)``), and eq. (4b) centres the others on their own mean. Without any planned
+    strategy there is no evidence at all and every score is ``R(0) = 1/2``.
     """
-    return saturation(relative_opinions(z_prime))
+    z_prime = np.asarray(z_prime, dtype=float)
+    if planned is None or np.all(planned):
+        return saturation(relative_opinions(z_prime))
+    planned = np.asarray(planned, dtype=bool)
+    if not planned.any():
+        return np.full(z_prime.shape, 0.5)
+    r = np.zeros(z_prime.shape)
+    r[..., planned] = saturation(relative_opinions(z_prime[..., planned]))
+    return r

@@ -58,6 +58,23 @@ def strategy_probabilities(z: np.ndarray, eta: float = 1.0) -> np.ndarray:
     return e / e.sum(axis=-1, keepdims=True)
 
 
+def selection_probabilities(x: np.ndarray, available: np.ndarray) -> np.ndarray:
+    """The probabilities of eq. (3) restricted to the ``available`` strategies ``(N_s,)`` and
+    renormalised: a robot cannot select a strategy it has no joint path for. ``x`` itself when
+    every strategy is available; proportional to ``available`` when ``x`` puts no mass on it;
+    ``x`` when none is.
+    """
+    x = np.asarray(x, dtype=float)
+    available = np.asarray(available, dtype=bool)
+    if available.all() or not available.any():
+        return x
+    kept = np.where(available, x, 0.0)
+    total = kept.sum()
+    if total <= 0.0:
+        return available / available.sum()
+    return kept / total
+
+
 def _per_robot(p) -> np.ndarray:
     """A per-robot parameter (scalar or ``(..., N_r)``) shaped to broadcast against opinions."""
     return np.asarray(p, dtype=float)[..., None]

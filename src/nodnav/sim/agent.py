@@ -16,7 +16,8 @@ import numpy as np
 
 from nodnav.decision.estimation import estimate_social_term, estimated_opinions
 from nodnav.decision.initial import distance_initial_opinions
-from nodnav.decision.opinion import opinion_update, social_sum, step_size, strategy_probabilities
+from nodnav.decision.opinion import (opinion_update, selection_probabilities, social_sum, step_size,
+                                     strategy_probabilities)
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import consistency_weights, passing_orders, project_order, projected_order_ids
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
@@ -190,7 +191,7 @@ class NODAgent:
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
-            r = estimate_social_term(z_prime)
+            r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             A = self._weights.get(players)
             if A is None:
                 A = self._weights[players] = consistency_weights(self.orders, self.index, players)
@@ -240,10 +241,12 @@ class NODAgent:
             self._update_opinion(view)
         players = self._select_players(view)
         x = strategy_probabilities(self.z, self.params.eta)
-        strategy = int(self.rng.choice(len(x), p=x))
         robots = (self.index, *players, *self.committed(view, players))
         canonical = tuple(sorted(robots))
         plans = self.plan_all(view, canonical)
+        # Algorithm 1 selects by x; a strategy the planner found no path for cannot be followed.
+        choice = selection_probabilities(x, np.array([p.success for p in plans]))
+        strategy = int(self.rng.choice(len(x), p=choice))
         self.previous = (canonical, players, plans)
         return Decision(strategy=strategy, robots=robots, plan=relabel(plans[strategy], [canonical.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players)

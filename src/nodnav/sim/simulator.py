@@ -17,6 +17,7 @@ from typing import Callable
 import numpy as np
 
 from nodnav.compiled import compiled
+from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.strategies import orders_agree, passing_orders, strategy_index
 from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
@@ -29,36 +30,38 @@ log = logging.getLogger(__name__)
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 
-#: Sub-steps at which contacts are checked between two control steps (motion is linear there).
-CONTACT_SUBSTEPS = 4
+#: Sub-steps at which contacts are checked between two control steps: where the controllers
+#: report their motion (:data:`~nodnav.control.base.STEP_FRACTIONS`), else on straight lines.
+CONTACT_SUBSTEPS = len(STEP_FRACTIONS)
+
+
+def straight_substeps(previous: np.ndarray, current: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Positions ``(S, N, 2)`` at the fractions ``weights`` ``(S,)`` of a step from ``previous``
+    to ``current`` ``(N, 2)`` along straight lines (motion at constant velocity)."""
+    w = np.asarray(weights, dtype=float)[:, None, None]
+    return (1.0 - w) * previous[None] + w * current[None]
 
 
 @compiled
-def contact_counts(previous: np.ndarray, current: np.ndarray, radii: np.ndarray, tol: float, weights: np.ndarray,
-                   bounds: np.ndarray, obstacles: np.ndarray) -> tuple[int, int]:
+def contact_counts(path: np.ndarray, radii: np.ndarray, tol: float, bounds: np.ndarray,
+                   obstacles: np.ndarray) -> tuple[int, int]:
     """Pairs of robots that overlap, and robots that enter a wall, at some sub-step of a control
-    step: the robots move linearly from ``previous`` to ``current`` ``(N, 2)`` and are checked at
-    the fractions ``weights`` of it; contact is a distance ``tol`` (m) under the radii's sum, or a
-    clearance (:func:`~nodnav.scenario.world.clearance_of`) ``tol`` under the radius."""
-    n = previous.shape[0]
-    path = np.empty((weights.shape[0] * n, 2))
-    for s in range(weights.shape[0]):
-        w = weights[s]
-        for i in range(n):
-            for d in range(2):
-                path[s * n + i, d] = (1 - w) * previous[i, d] + w * current[i, d]
-    clear = clearance_of(path, bounds, obstacles)
+    step: ``path`` ``(S, N, 2)`` holds where the robots are at the step's sub-steps; contact is a
+    distance ``tol`` (m) under the radii's sum, or a clearance
+    (:func:`~nodnav.scenario.world.clearance_of`) ``tol`` under the radius."""
+    n_sub, n = path.shape[0], path.shape[1]
+    clear = clearance_of(np.ascontiguousarray(path.reshape(n_sub * n, 2)), bounds, obstacles)
     pairs, walls = 0, 0
     for i in range(n):
         hit_wall = False
         for k in range(i + 1, n):
             hit = False
-            for s in range(weights.shape[0]):
-                dx = path[s * n + i, 0] - path[s * n + k, 0]
-                dy = path[s * n + i, 1] - path[s * n + k, 1]
+            for s in range(n_sub):
+                dx = path[s, i, 0] - path[s, k, 0]
+                dy = path[s, i, 1] - path[s, k, 1]
                 hit = hit or math.sqrt(dx * dx + dy * dy) < (radii[i] + radii[k]) - tol
             pairs += hit
-        for s in range(weights.shape[0]):
+        for s in range(n_sub):
             hit_wall = hit_wall or clear[s * n + i] < radii[i] - tol
         walls += hit_wall
     return pairs, walls
@@ -149,7 +152,6 @@ class Simulation:
         ctrl = scenario.controller
         self.dt = ctrl.dt
         self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
-        self._substeps = np.linspace(0.0, 1.0, CONTACT_SUBSTEPS + 1)[1:]
         self.sides = approach_sides(scenario)
         self.k = 0
         self.t = 0.0
@@ -220,11 +222,15 @@ class Simulation:
         if self.k % self.steps_per_decision == 0:
             self._decide(views)
         results = self.method.act(self.t, views)
-        previous = self.positions.copy()
+        path = np.repeat(self.positions[None], len(STEP_FRACTIONS), axis=0)  # where each robot passes
         for i, res in results.items():
             if not res.success:
                 self.mpc_infeasible += 1
                 self.history.events.append({"t": round(self.t, 6), "robot": i, "kind": "mpc", "reason": res.reason})
+            if res.step_positions is not None:
+                path[:, i] = res.step_positions
+            else:
+                path[:, i] = straight_substeps(self.positions[i:i + 1], res.next_position[None], STEP_FRACTIONS)[:, 0]
             self.positions[i] = res.next_position
             self.velocities[i] = res.next_velocity
         self.k += 1
@@ -234,7 +240,7 @@ class Simulation:
             del self.observed[i][: -(self.steps_per_decision + 2)]
         self._update_entries()
         self._record_state()
-        self._judge(previous)
+        self._judge(path)
         return bool(self.outcome)
 
     def _decide(self, views: dict[int, RobotView]) -> None:
@@ -263,10 +269,12 @@ class Simulation:
         self.history.positions.append(self.positions.copy())
         self.history.velocities.append(self.velocities.copy())
 
-    def _judge(self, previous: np.ndarray) -> None:
+    def _judge(self, path: np.ndarray) -> None:
+        """Outcome after a step in which the robots passed ``path`` ``(S, N, 2)`` (at the step's
+        :data:`STEP_FRACTIONS`, ending where they are now)."""
         s, world = self.scenario, self.scenario.world
-        pair_hits, wall_hits = contact_counts(previous, self.positions, s.radii, s.sim.collision_tolerance,
-                                              self._substeps, world.bounds_array, world.obstacle_array)
+        pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
+                                              world.obstacle_array)
         if pair_hits or wall_hits:
             self.collisions = pair_hits + wall_hits
             self._finish("collision")

@@ -48,7 +48,8 @@ def _first_seed(value: int | None) -> int:
 
 
 def _show_family(args: argparse.Namespace) -> int:
-    from nodnav.scenario.families import draw, load_family
+    from nodnav.scenario.draws import draw
+    from nodnav.scenario.families import load_family
     from nodnav.viz.family import save_family_gallery
 
     family = load_family(args.scenario)
@@ -71,7 +72,8 @@ def _cmd_families(args: argparse.Namespace) -> int:
 
 
 def _cmd_generate(args: argparse.Namespace) -> int:
-    from nodnav.scenario.families import load_family, write_draws
+    from nodnav.scenario.draws import write_draws
+    from nodnav.scenario.families import load_family
 
     if not 1 <= args.count <= 100_000:
         raise NodnavError(f"--count: expected a whole number in 1..100000, got {args.count}")

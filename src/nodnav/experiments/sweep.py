@@ -173,7 +173,8 @@ def _bases(spec: SweepSpec):
         base = load_scenario(name)
         yield base, base.name, range(1, spec.trials + 1)
     for family_spec in spec.families:
-        from nodnav.scenario.families import draw, load_family
+        from nodnav.scenario.draws import draw
+        from nodnav.scenario.families import load_family
 
         family = load_family(family_spec)
         for seed in range(1, spec.trials + 1):

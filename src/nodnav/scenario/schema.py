@@ -459,7 +459,7 @@ def builtin_names() -> list[str]:
 
 def load_scenario(spec: str | Path) -> Scenario:
     """Load a scenario by built-in name (``3r-case2``), from a YAML file path, or drawn from a
-    family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.families`)."""
+    family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.draws`)."""
     spec = str(spec)
     if spec in builtin_names():
         text = (resources.files("nodnav.scenario") / "builtin" / f"{spec}.yaml").read_text()
@@ -467,7 +467,7 @@ def load_scenario(spec: str | Path) -> Scenario:
     else:
         path = Path(spec)
         if not path.exists():
-            from nodnav.scenario.families import draw_spec  # FAMILY:SEED, a generated scenario
+            from nodnav.scenario.draws import draw_spec  # FAMILY:SEED, a generated scenario
 
             drawn = draw_spec(spec)
             if drawn is not None:

@@ -147,7 +147,8 @@ def check_layout(scenario: Scenario) -> Verdict:
     gap[owner[:, None] == owner[None]] = np.inf
     a, b = np.unravel_index(int(np.argmin(gap)), gap.shape)
     if gap[a, b] < CLEARANCE - 1e-9:
-        return Verdict(False, f"robots {owner[a] + 1} and {owner[b] + 1} stand {gap[a, b]:.3f} m apart, need {CLEARANCE} m")
+        first, second = sorted((int(owner[a]) + 1, int(owner[b]) + 1))
+        return Verdict(False, f"robots {first} and {second} stand {gap[a, b]:.3f} m apart, need {CLEARANCE} m")
     start, goal = _sides(world, scenario)
     for k in range(n):
         if goal[k] == INSIDE or goal[k] == start[k]:

@@ -20,7 +20,7 @@ def save_family_gallery(title: str, scenarios: list[Scenario], path: str | Path,
     """Write a PNG with every scenario in a grid under ``title``: origins as discs, destinations as crosses."""
     columns = max(1, min(columns, len(scenarios)))
     rows = int(np.ceil(len(scenarios) / columns))
-    fig = new_figure(5.2 * columns, 2.9 * rows + 0.5)
+    fig = new_figure(5.2 * columns, 3.2 * rows + 0.5)
     for k, scenario in enumerate(scenarios):
         ax = fig.add_subplot(rows, columns, k + 1)
         draw_scenario(ax, scenario)

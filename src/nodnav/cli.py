@@ -53,6 +53,8 @@ def _show_family(args: argparse.Namespace) -> int:
     from nodnav.viz.family import save_family_gallery
 
     family = load_family(args.scenario)
+    if Path(args.out).suffix.lower() != ".png":
+        raise NodnavError(f"--out: the gallery is a PNG image; give a file name ending in .png, got {args.out!r}")
     seed, count = _first_seed(args.seed), 6 if args.count is None else args.count
     if not 1 <= count <= 60:
         raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")

@@ -376,10 +376,14 @@ def write_draws(family: Family, seed: int, count: int, out: str | Path) -> list[
         raise FamilyError(f"--out: {out} is a file; give a directory for the scenario files")
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise FamilyError(f"--count: expected a whole number >= 1, got {count!r}")
-    out.mkdir(parents=True, exist_ok=True)
     written = []
     for s in range(seed, seed + count):
         path = out / f"{family.name}-{s}.yaml"
-        path.write_text(yaml.safe_dump(scenario_to_dict(draw(family, s)), sort_keys=False))
+        text = yaml.safe_dump(scenario_to_dict(draw(family, s)), sort_keys=False)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        except OSError as exc:
+            raise FamilyError(f"--out: cannot write {path} ({exc.strerror or exc})") from None
         written.append(path)
     return written

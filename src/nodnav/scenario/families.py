@@ -153,19 +153,28 @@ _TOP = ("family", "description", *_SECTIONS, "traffic", "scenario")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
 
 
+def _shown(value: Any) -> str:
+    """``repr(value)``, cut to 40 characters so that an error stays one readable line."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _real(value: Any, where: str, lo: float, hi: float, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FamilyError(f"{where}: expected a number{unit}, got {value!r}")
-    v = float(value)
+        raise FamilyError(f"{where}: expected a number{unit}, got {_shown(value)}")
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond any float
+        v = math.inf
     if not (math.isfinite(v) and lo <= v <= hi):
-        raise FamilyError(f"{where}: expected a number{unit} in [{lo:g}, {hi:g}], got {value!r}")
+        raise FamilyError(f"{where}: expected a number{unit} in [{lo:g}, {hi:g}], got {_shown(value)}")
     return v
 
 
 def _range(value: Any, where: str, lo: float, hi: float, unit: str = "") -> Range:
     if isinstance(value, (list, tuple)):
         if len(value) != 2:
-            raise FamilyError(f"{where}: expected [low, high]{unit}, got {value!r}")
+            raise FamilyError(f"{where}: expected [low, high]{unit}, got {_shown(value)}")
         a, b = (_real(v, where, lo, hi, unit) for v in value)
         if a > b:
             raise FamilyError(f"{where}: low {a:g} is above high {b:g}; write [low, high]")
@@ -178,7 +187,7 @@ def _count(value: Any, where: str) -> tuple[int, int]:
     values = list(value) if isinstance(value, (list, tuple)) else [value, value]
     if len(values) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) and 2 <= v <= MAX_ROBOTS
                                    for v in values):
-        raise FamilyError(f"{where}: expected a whole number or [low, high] in 2..{MAX_ROBOTS}, got {value!r}")
+        raise FamilyError(f"{where}: expected a whole number or [low, high] in 2..{MAX_ROBOTS}, got {_shown(value)}")
     if values[0] > values[1]:
         raise FamilyError(f"{where}: low {values[0]} is above high {values[1]}; write [low, high]")
     return values[0], values[1]
@@ -186,7 +195,7 @@ def _count(value: Any, where: str) -> tuple[int, int]:
 
 def _weights(value: Any, where: str, names: tuple[str, ...]) -> tuple[tuple[str, float], ...]:
     if not isinstance(value, dict) or not value:
-        raise FamilyError(f"{where}: expected weights like {{{names[0]}: 1, {names[1]}: 2}}, got {value!r}")
+        raise FamilyError(f"{where}: expected weights like {{{names[0]}: 1, {names[1]}: 2}}, got {_shown(value)}")
     out = []
     for key, w in value.items():
         if key not in names:
@@ -201,7 +210,7 @@ def _mapping(value: Any, where: str) -> dict:
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise FamilyError(f"{where}: expected a mapping of keys to values, got {value!r}")
+        raise FamilyError(f"{where}: expected a mapping of keys to values, got {_shown(value)}")
     return value
 
 
@@ -218,7 +227,7 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     _check_keys(data, _TOP, source)
     name = data.get("family")
     if not isinstance(name, str) or not _NAME.fullmatch(name):
-        raise FamilyError(f"{source}: family: expected a name of letters, digits, '-' and '_', got {name!r}")
+        raise FamilyError(f"{source}: family: expected a name of letters, digits, '-' and '_', got {_shown(name)}")
     description = data.get("description", "")
     if not isinstance(description, str):
         raise FamilyError(f"{source}: description: expected one line of text")
@@ -245,7 +254,7 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     put("offset", rooms, "offset", lambda v: _range(v, w + "rooms.offset", -1.0, 1.0))
     if "grow" in rooms:
         if not isinstance(rooms["grow"], bool):
-            raise FamilyError(f"{w}rooms.grow: expected true or false, got {rooms['grow']!r}")
+            raise FamilyError(f"{w}rooms.grow: expected true or false, got {_shown(rooms['grow'])}")
         kw["grow"] = rooms["grow"]
     put("count", robots, "count", lambda v: _count(v, w + "robots.count"))
     put("radius", robots, "radius", lambda v: _range(v, w + "robots.radius", 0.08, 2.0, " (m)"))
@@ -259,7 +268,7 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     if "max" in inside:
         m = inside["max"]
         if isinstance(m, bool) or not isinstance(m, int) or not 0 <= m < MAX_ROBOTS:
-            raise FamilyError(f"{w}inside.max: expected a whole number in 0..{MAX_ROBOTS - 1}, got {m!r}")
+            raise FamilyError(f"{w}inside.max: expected a whole number in 0..{MAX_ROBOTS - 1}, got {_shown(m)}")
         kw["inside_max"] = m
     put("formations", starts, "formation", lambda v: _weights(v, w + "starts.formation", FORMATIONS))
     put("gap", starts, "gap", lambda v: _range(v, w + "starts.gap", CLEARANCE, 30.0, " (m)"))
@@ -288,6 +297,8 @@ def _check_consistent(f: Family, w: str) -> None:
         scenario_from_dict({**f.settings, "name": "check", "robots": robots}, "check")
     except ScenarioError as exc:
         raise FamilyError(f"{w}scenario.{exc}") from None
+    except (ValueError, OverflowError, RecursionError, TypeError) as exc:  # what the scenario loader let through
+        raise FamilyError(f"{w}scenario: settings the scenario loader cannot use ({type(exc).__name__})") from None
 
 
 def builtin_families() -> list[str]:
@@ -301,6 +312,8 @@ def _read_yaml(text: str, source: str) -> Any:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise FamilyError(f"{source}: {yaml_error_message(exc)}") from None
+    except RecursionError:
+        raise FamilyError(f"{source}: the YAML is nested too deeply to be a family file") from None
 
 
 def load_family(spec: str | Path) -> Family:

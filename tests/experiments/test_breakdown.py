@@ -125,3 +125,16 @@ def test_redo_spec_of_a_family_file(tmp_path):
     assert redo_spec("mixed:5", load_scenario("mixed:5").description) == "mixed:5"
     assert redo_spec("3r-case1", "anything") is None
     assert math.isfinite(s.time_limit)
+
+
+def test_sweep_command_names_the_study_after_the_family(tmp_path, monkeypatch, capsys):
+    import nodnav.experiments.sweep as sweep
+    from nodnav.cli import main
+
+    monkeypatch.setattr(sweep, "_default_trial_fn", lambda: stub_trial)
+    db = tmp_path / "c.sqlite"
+    assert main(["sweep", "--family", "paper-like", "--trials", "2", "--db", str(db), "--quiet"]) == 0
+    assert "paper-like: 2 trials, 2 run" in capsys.readouterr().out
+    with ResultStore(db) as store:
+        assert [(r.study, r.scenario, r.seed) for r in store.records()] == [
+            ("paper-like", "paper-like:1", 1), ("paper-like", "paper-like:2", 2)]

@@ -231,3 +231,14 @@ def test_draws_do_not_depend_on_the_process():
                          env={"PYTHONHASHSEED": "12345", "PATH": ""}).stdout
     here = [scenario_to_dict(draw(load_family("mixed"), s)) for s in (5, 6)]
     assert json.loads(out) == json.loads(json.dumps(here))
+
+
+def test_plan_and_show_take_a_drawn_scenario(tmp_path, capsys):
+    import json
+
+    s = load_scenario("paper-like:3")
+    order = ",".join(str(k) for k in range(1, s.n_robots + 1))
+    main(["plan", "paper-like:3", "--order", order, "--json"])
+    assert json.loads(capsys.readouterr().out)["planner"] == "fast"
+    assert main(["show", "paper-like:3", "--out", str(tmp_path / "one.png")]) == 0
+    assert (tmp_path / "one.png").stat().st_size > 0

@@ -1,7 +1,7 @@
 """Generated scenario families: a YAML file of ranges, and deterministic draws from it.
 
 A family describes many scenarios at once, so that nobody tunes a method to a few fixed ones.
-``draw(family, seed)`` turns it into one :class:`~nodnav.scenario.schema.Scenario`; the same
+``draw(family, seed)`` (:mod:`nodnav.scenario.draws`) turns it into one :class:`~nodnav.scenario.schema.Scenario`; the same
 family and seed give the same scenario on any machine, and every draw is valid and solvable in
 principle by construction (:mod:`nodnav.scenario.validity` states and checks the rules).
 

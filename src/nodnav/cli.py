@@ -23,14 +23,64 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
+    from nodnav.scenario.families import is_family
     from nodnav.scenario.schema import builtin_names, load_scenario
     from nodnav.viz.scenario import save_gallery, save_scenario_figure
 
+    if is_family(args.scenario):
+        return _show_family(args)
+    if args.seed is not None or args.count is not None:
+        raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
+                          "(list the families with 'nodnav families')")
     if args.scenario == "all":
         path = save_gallery([load_scenario(n) for n in builtin_names()], args.out)
     else:
         path = save_scenario_figure(load_scenario(args.scenario), args.out)
     print(f"wrote {path}")
+    return 0
+
+
+def _first_seed(value: int | None) -> int:
+    seed = 1 if value is None else value
+    if seed < 0:
+        raise NodnavError(f"--seed: expected a whole number >= 0, got {seed}")
+    return seed
+
+
+def _show_family(args: argparse.Namespace) -> int:
+    from nodnav.scenario.draws import draw
+    from nodnav.scenario.families import load_family
+    from nodnav.viz.family import save_family_gallery
+
+    family = load_family(args.scenario)
+    if Path(args.out).suffix.lower() != ".png":
+        raise NodnavError(f"--out: the gallery is a PNG image; give a file name ending in .png, got {args.out!r}")
+    seed, count = _first_seed(args.seed), 6 if args.count is None else args.count
+    if not 1 <= count <= 60:
+        raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")
+    scenarios = [draw(family, s) for s in range(seed, seed + count)]
+    title = f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations (crosses)"
+    print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
+    return 0
+
+
+def _cmd_families(args: argparse.Namespace) -> int:
+    from nodnav.scenario.families import builtin_families, load_family
+
+    for name in builtin_families():
+        f = load_family(name)
+        print(f"{name:11s} {f.count[0]}-{f.count[1]} robots  {f.description}")
+    return 0
+
+
+def _cmd_generate(args: argparse.Namespace) -> int:
+    from nodnav.scenario.draws import write_draws
+    from nodnav.scenario.families import load_family
+
+    if not 1 <= args.count <= 100_000:
+        raise NodnavError(f"--count: expected a whole number in 1..100000, got {args.count}")
+    written = write_draws(load_family(args.family), _first_seed(args.seed), args.count, args.out)
+    print(f"wrote {len(written)} scenario files to {args.out} ({written[0].name} .. {written[-1].name})")
     return 0
 
 
@@ -221,9 +271,13 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from nodnav.experiments.study import load_study, study_from_dict
     from nodnav.experiments.sweep import run_sweep
 
-    options = {k: v for k, v in {"name": args.name, "scenarios": args.scenarios, "players": args.players,
+    name = args.name
+    if name is None and args.families and not args.scenarios and not args.study:  # group results by family
+        name = "+".join(Path(f).stem for f in args.families)
+    options = {k: v for k, v in {"name": name, "scenarios": args.scenarios, "players": args.players,
                                  "init": args.init, "bias": args.bias, "planners": args.planners,
-                                 "methods": args.methods, "trials": args.trials}.items() if v is not None}
+                                 "methods": args.methods, "trials": args.trials,
+                                 "families": args.families}.items() if v is not None}
     spec = load_study(args.study, overrides=options) if args.study else study_from_dict(options, "command line")
     summary = run_sweep(spec, args.db, jobs=args.jobs, scheduler=args.scheduler, quiet=args.quiet,
                         retry_errors=args.retry_errors)
@@ -375,10 +429,22 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("scenarios", help="list the built-in scenarios")
     p.set_defaults(func=_cmd_scenarios)
 
-    p = sub.add_parser("show", help="draw a scenario (or 'all' for the gallery)")
-    p.add_argument("scenario", help="built-in name, YAML path, or 'all'")
+    p = sub.add_parser("show", help="draw a scenario (or 'all' for the gallery, or a family's draws)")
+    p.add_argument("scenario", help="built-in name, YAML path, FAMILY:SEED, 'all', or a family (a gallery of draws)")
     p.add_argument("--out", required=True, help="PNG file to write")
+    p.add_argument("--seed", type=int, help="family only: first draw (default 1)")
+    p.add_argument("--count", type=int, help="family only: number of draws (default 6)")
     p.set_defaults(func=_cmd_show)
+
+    p = sub.add_parser("families", help="list the built-in scenario families")
+    p.set_defaults(func=_cmd_families)
+
+    p = sub.add_parser("generate", help="write scenario files drawn from a family")
+    p.add_argument("family", help="built-in family name or family YAML path")
+    p.add_argument("--seed", type=int, default=1, help="first draw (default 1)")
+    p.add_argument("--count", type=int, default=1, help="number of draws: seeds N..N+K-1 (default 1)")
+    p.add_argument("--out", required=True, help="directory for the scenario files (FAMILY-SEED.yaml)")
+    p.set_defaults(func=_cmd_generate)
 
     p = sub.add_parser("heatmap", help="steady-state strategy selection of the pure NOD (Fig. 2a/2b)")
     p.add_argument("--u", type=float, required=True, help="attention parameter u")
@@ -388,7 +454,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_heatmap)
 
     p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
-    p.add_argument("scenario", help="built-in name or YAML path")
+    p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
     p.add_argument("--planner", help="planner name (default: the scenario's)")
     p.add_argument("--out", help="PNG file to write")
@@ -396,7 +462,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_plan)
 
     p = sub.add_parser("run", help="simulate one trial of a scenario")
-    p.add_argument("scenario", help="built-in name or YAML path")
+    p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--seed", type=int, default=1, help="trial seed (default 1)")
     p.add_argument("--players", help="game players per robot: a number or 'all'")
     p.add_argument("--init", choices=("zero", "distance"), help="initial opinions")
@@ -414,7 +480,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--study", help="YAML study file (the options below override its keys)")
     p.add_argument("--name", help="study name (default: the study file's stem, else 'sweep')")
     p.add_argument("--scenario", action="append", dest="scenarios",
-                   help="built-in name, YAML path, or 'all' for every built-in scenario (repeatable)")
+                   help="built-in name, YAML path, FAMILY:SEED, or 'all' for every built-in scenario (repeatable)")
+    p.add_argument("--family", action="append", dest="families",
+                   help="generated family (built-in name or YAML path): trial seed s runs draw s (repeatable)")
     p.add_argument("--players", action="append", help="game players K or 'all' (repeatable)")
     p.add_argument("--init", action="append", choices=("zero", "distance"), help="initial opinions (repeatable)")
     p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable)")

@@ -57,3 +57,25 @@ def test_mirror_symmetry(world):
     assert np.allclose(world.clearance(pts), world.clearance(mirrored))
     assert np.allclose(world.corridor_distance(pts, np.full(200, LEFT)),
                        world.corridor_distance(mirrored, np.full(200, RIGHT)))
+
+
+def test_paper_world_is_the_two_room_layout_unchanged():
+    # The construction paper_world had before corridor_world existed, written out: identical floats.
+    rng = np.random.default_rng(3)
+    for h, width, depth, height in [(3.0, 0.7, 4.0, 5.0), *rng.uniform(0.1, 9.0, size=(20, 4))]:
+        w, ymax, xmax = width / 2.0, height / 2.0, h + depth
+        world = paper_world(h, width, depth, height)
+        assert world.bounds == (-xmax, -ymax, xmax, ymax)
+        assert world.obstacles == ((-h, -ymax, h, -w), (-h, w, h, ymax))
+        assert (world.corridor.x_min, world.corridor.x_max, world.corridor.y_min, world.corridor.y_max) == (-h, h, -w, w)
+        assert world.entrances == ((-h, 0.0), (h, 0.0))
+
+
+def test_corridor_world_rooms_of_their_own_depth():
+    from nodnav.scenario.world import corridor_world
+
+    world = corridor_world(-0.5, 0.5, 0.3, 2.0, 4.0, -1.0, 3.0)  # a 1 m doorway, axis 1 m below mid-height
+    assert world.bounds == (-2.5, -1.0, 4.5, 3.0)
+    assert world.obstacles == ((-0.5, -1.0, 0.5, -0.3), (-0.5, 0.3, 0.5, 3.0))
+    assert world.clearance(np.array([0.0, 0.0])) == pytest.approx(0.3)
+    assert world.clearance(np.array([-1.0, 2.0])) == pytest.approx(0.5)  # 0.5 m from the wall's face

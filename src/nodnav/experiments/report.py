@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from nodnav.decision.strategies import order_label, passing_orders
+from nodnav.experiments.breakdown import breakdown_lines
 from nodnav.experiments.store import OUTCOMES, ResultStore, TrialRecord
 
 log = logging.getLogger(__name__)
@@ -915,6 +916,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
     with ResultStore(db_path) as store:
         rep = _Report(store, out, command)
         _section_overview(rep, db_path)
+        rep.add(*breakdown_lines(store))
         _section_success(rep)
         _strategy_section(
             rep, "Table I: initial opinions (3-Robot Case-2)", STUDY_TABLE1, "3r-case2", "init", PAPER_TABLE1,

@@ -10,6 +10,7 @@ A study file::
     planners: [fast]              # optional; default: each scenario's own planner
     methods: [nod]                # optional; default: [nod]
     trials: 40                    # seeds 1..40 for every combination
+    families: [mixed]             # optional: generated families; seed s runs draw s (FAMILY:s)
 
 Any single value may stand for a one-element list. The command line builds the same
 :class:`SweepSpec` through :func:`study_from_dict`, so both are checked by the same code and
@@ -28,7 +29,7 @@ import yaml
 from nodnav.errors import NodnavError
 from nodnav.scenario.schema import builtin_names, nearest_hint, yaml_error_message
 
-STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials")
+STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
 
 INIT_MODES = ("zero", "distance")
 
@@ -63,6 +64,8 @@ class SweepSpec:
     """Navigation methods."""
     trials: int = 1
     """Number of seeds: every combination runs with seeds 1..trials."""
+    families: tuple[str, ...] = ()
+    """Generated families (built-in names or family files): seed s runs the family's draw s."""
 
     def to_dict(self) -> dict:
         """The spec as a study-file mapping that :func:`study_from_dict` reads back unchanged."""
@@ -74,6 +77,8 @@ class SweepSpec:
             out["bias"] = [dict(b) if b else "none" for b in self.bias]
         out["methods"] = list(self.methods)
         out["trials"] = self.trials
+        if self.families:
+            out["families"] = list(self.families)
         return out
 
 
@@ -133,6 +138,18 @@ def _scenario_names(value: Any, where: str) -> tuple[str, ...]:
     return tuple(builtin_names()) if names == ("all",) else names
 
 
+def _family_names(value: Any, where: str) -> tuple[str, ...]:
+    from nodnav.scenario.families import FamilyError, load_family
+
+    names = _names(value, where)
+    for n in names:
+        try:
+            load_family(n)
+        except FamilyError as exc:
+            raise StudyError(f"{where}: {exc}") from None
+    return names
+
+
 def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
     names = _names(value, where)
     for n in names:
@@ -157,8 +174,8 @@ def study_from_dict(data: Any, source: str = "study") -> SweepSpec:
     for key in data:
         if key not in STUDY_KEYS:
             raise StudyError(f"{source}: unknown key '{key}'{nearest_hint(str(key), STUDY_KEYS, 'valid keys')}")
-    if "scenarios" not in data:
-        raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths)")
+    if "scenarios" not in data and not data.get("families"):
+        raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths) or 'families'")
     name = data.get("name", "sweep")
     if not isinstance(name, str) or not name.strip():
         raise StudyError(f"{source}: 'name' must be non-empty text")
@@ -169,7 +186,7 @@ def study_from_dict(data: Any, source: str = "study") -> SweepSpec:
         raise StudyError(f"{source}: trials: expected a whole number >= 1, got {trials!r}")
     spec = SweepSpec(
         name=name.strip(),
-        scenarios=_scenario_names(data["scenarios"], f"{source}: scenarios"),
+        scenarios=_scenario_names(data["scenarios"], f"{source}: scenarios") if "scenarios" in data else (),
         trials=trials,
         methods=_choices(data.get("methods", "nod"), known_methods(), f"{source}: methods", "method"),
     )
@@ -182,6 +199,8 @@ def study_from_dict(data: Any, source: str = "study") -> SweepSpec:
         changes["bias"] = tuple(parse_bias(v, f"{source}: bias") for v in _listed(data["bias"]))
     if "planners" in data:
         changes["planners"] = _choices(data["planners"], PLANNERS, f"{source}: planners", "planner")
+    if "families" in data:
+        changes["families"] = _family_names(data["families"], f"{source}: families")
     for key, values in changes.items():
         if not values:
             raise StudyError(f"{source}: {key}: expected at least one value")

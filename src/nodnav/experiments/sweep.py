@@ -119,26 +119,28 @@ class SweepSummary:
 def expand(spec: SweepSpec) -> Expansion:
     """Every trial of ``spec``: scenarios x players x init x bias x planners x methods x seeds 1..trials.
 
+    A family (``spec.families``) contributes its draws 1..trials, draw s with seed s only, so that
+    ``nodnav run FAMILY:s --seed s`` redoes any of its trials.
+
     A game-player count outside 0..N_r - 1, or a bias naming a strategy beyond N_r!, does not
     apply to a scenario: that combination is left out with a note (and logged). ``all`` is
     N_r - 1 players; combinations that give the same trial are kept once.
     """
     trials: dict[str, TrialSpec] = {}
-    notes: list[str] = []
-    for name in spec.scenarios:
-        base = load_scenario(name)
+    notes: Counter[str] = Counter()
+    for base, label, seeds in _bases(spec):
         n, n_s = base.n_robots, math.factorial(base.n_robots)
         players_axis = []
         for players in spec.players:
             if isinstance(players, int) and players > n - 1:
-                notes.append(f"{base.name}: players {players} skipped ({n} robots allow 0..{n - 1})")
+                notes[f"{label}: players {players} skipped ({n} robots allow 0..{n - 1})"] += 1
             else:
                 players_axis.append(players)
         bias_axis = []
         for bias in spec.bias:
             if bias and max(int(s[1:]) for s, _ in bias) > n_s:
-                label = ",".join(f"{s}={v:g}" for s, v in bias)
-                notes.append(f"{base.name}: bias {label} skipped ({n} robots have strategies S1..S{n_s})")
+                text = ",".join(f"{s}={v:g}" for s, v in bias)
+                notes[f"{label}: bias {text} skipped ({n} robots have strategies S1..S{n_s})"] += 1
             else:
                 bias_axis.append(bias)
         for players, init, bias, planner in itertools.product(players_axis, spec.init, bias_axis, spec.planners):
@@ -156,12 +158,27 @@ def expand(spec: SweepSpec) -> Expansion:
             mapping = scenario_to_dict(scenario)
             for method in spec.methods:
                 config = trial_config(mapping, method)
-                for seed in range(1, spec.trials + 1):
+                for seed in seeds:
                     key = trial_key(config, seed)
                     trials.setdefault(key, TrialSpec(key, scenario, method, seed, config))
-    for note in notes:
+    lines = tuple(text if count == 1 else f"{text} in {count} draws" for text, count in notes.items())
+    for note in lines:
         log.info("%s", note)
-    return Expansion(trials=tuple(trials.values()), notes=tuple(notes))
+    return Expansion(trials=tuple(trials.values()), notes=lines)
+
+
+def _bases(spec: SweepSpec):
+    """(scenario, label for notes, seeds) of every scenario of ``spec``; a family's draw s runs only seed s."""
+    for name in spec.scenarios:
+        base = load_scenario(name)
+        yield base, base.name, range(1, spec.trials + 1)
+    for family_spec in spec.families:
+        from nodnav.scenario.draws import draw
+        from nodnav.scenario.families import load_family
+
+        family = load_family(family_spec)
+        for seed in range(1, spec.trials + 1):
+            yield draw(family, seed), family.name, (seed,)
 
 
 def _one_line(exc: BaseException) -> str:

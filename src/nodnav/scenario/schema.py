@@ -484,7 +484,8 @@ def builtin_names() -> list[str]:
 
 
 def load_scenario(spec: str | Path) -> Scenario:
-    """Load a scenario by built-in name (``3r-case2``) or from a YAML file path."""
+    """Load a scenario by built-in name (``3r-case2``), from a YAML file path, or drawn from a
+    family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.draws`)."""
     spec = str(spec)
     if spec in builtin_names():
         text = (resources.files("nodnav.scenario") / "builtin" / f"{spec}.yaml").read_text()
@@ -492,6 +493,11 @@ def load_scenario(spec: str | Path) -> Scenario:
     else:
         path = Path(spec)
         if not path.exists():
+            from nodnav.scenario.draws import draw_spec  # FAMILY:SEED, a generated scenario
+
+            drawn = draw_spec(spec)
+            if drawn is not None:
+                return drawn
             hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
             raise ScenarioError(f"{spec}: no such built-in scenario or file{hint}")
         text, source = path.read_text(), str(path)

@@ -137,6 +137,32 @@ class World:
         return self.side_of(points) == INSIDE
 
 
+def corridor_world(
+    x_min: float,
+    x_max: float,
+    half_width: float,
+    left_depth: float,
+    right_depth: float,
+    y_min: float,
+    y_max: float,
+) -> World:
+    """Two rooms joined by a corridor through a thick wall: the layout of every generated scenario.
+
+    The corridor runs along the x axis from ``x_min`` to ``x_max`` with clear width
+    ``2 half_width`` about ``y = 0``; the wall it pierces is two blocks spanning the corridor's
+    length, from the corridor to ``y_min`` and ``y_max``. The rooms are ``left_depth`` and
+    ``right_depth`` deep and share the box's height ``y_max - y_min`` (the corridor need not be at
+    mid-height). Entrances are the mouths' centres, ``(x_min, 0)`` and ``(x_max, 0)``.
+    """
+    w = half_width
+    return World(
+        bounds=(x_min - left_depth, y_min, x_max + right_depth, y_max),
+        obstacles=((x_min, y_min, x_max, -w), (x_min, w, x_max, y_max)),
+        corridor=Corridor(x_min=x_min, x_max=x_max, y_min=-w, y_max=w),
+        entrances=((x_min, 0.0), (x_max, 0.0)),
+    )
+
+
 def paper_world(
     corridor_half_length: float = 3.0,
     corridor_width: float = 0.7,
@@ -150,15 +176,8 @@ def paper_world(
     rooms, 4 m deep and 5 m high, leave room for four robots to wait and manoeuvre.
     """
     h = corridor_half_length
-    w = corridor_width / 2.0
     ymax = room_height / 2.0
-    xmax = h + room_depth
-    return World(
-        bounds=(-xmax, -ymax, xmax, ymax),
-        obstacles=((-h, -ymax, h, -w), (-h, w, h, ymax)),
-        corridor=Corridor(x_min=-h, x_max=h, y_min=-w, y_max=w),
-        entrances=((-h, 0.0), (h, 0.0)),
-    )
+    return corridor_world(-h, h, corridor_width / 2.0, room_depth, room_depth, -ymax, ymax)
 
 
 def distance_to_go(world: World, points: np.ndarray, destinations: np.ndarray, approach_side: np.ndarray) -> np.ndarray:

@@ -23,6 +23,7 @@ from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
+from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import make_method
 
@@ -100,6 +101,8 @@ class TrialResult:
     """The full record."""
     metrics: dict = field(default_factory=dict)
     """Further per-trial metrics (see :mod:`nodnav.experiments.metrics`)."""
+    collision_kind: str = ""
+    """What the collision that ended the trial was between: ``robot-robot``, ``wall``, or empty."""
 
     @property
     def success(self) -> bool:
@@ -128,6 +131,8 @@ class TrialResult:
             "time_to_goal_s": [num(x) for x in self.time_to_goal],
             "mpc_infeasible": self.mpc_infeasible,
             "plan_failures": self.plan_failures,
+            "collision_kind": self.collision_kind or None,
+            "failure_class": failure_class(self),
             **{k: v for k, v in json_ready(self.metrics).items() if k not in ("makespan_s", "time_to_goal_s",
                                                                            "min_separation_m")},
         }
@@ -167,6 +172,7 @@ class Simulation:
         self.last_progress = 0.0
         self.outcome = ""
         self.collisions = 0
+        self.collision_kind = ""
         self.mpc_infeasible = 0
         self.plan_failures = 0
         self.history = History(scenario=scenario, method=self.method.name, seed=self.seed)
@@ -277,6 +283,7 @@ class Simulation:
                                               world.obstacle_array)
         if pair_hits or wall_hits:
             self.collisions = pair_hits + wall_hits
+            self.collision_kind = collision_kind(pair_hits, wall_hits)
             self._finish("collision")
             return
         to_go = distance_to_go(world, self.positions, s.destinations, self.sides)
@@ -322,7 +329,7 @@ class Simulation:
                            min_separation=metrics["min_separation_m"], collisions=self.collisions, entry_order=order,
                            strategy=strategy, consensus=consensus, time_to_goal=tuple(float(a) for a in self.arrival),
                            mpc_infeasible=self.mpc_infeasible, plan_failures=self.plan_failures, history=self.history,
-                           metrics=metrics)
+                           metrics=metrics, collision_kind=self.collision_kind)
 
 
 def run_trial(scenario: Scenario, method: str = "nod", seed: int = 0, planner=None,

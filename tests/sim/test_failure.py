@@ -41,7 +41,7 @@ def test_plans_failing_only_counts_the_last_decision():
 def _ended(positions):
     sim = Simulation(load_scenario("2r-case2"), seed=1)
     sim.positions[:] = positions
-    sim._judge(sim.positions.copy())
+    sim._judge(np.repeat(sim.positions[None], 4, axis=0))
     return json.loads(json.dumps(sim.result(0.0).to_dict()))
 
 

@@ -7,6 +7,7 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 
 from nodnav.planning.geometry import (
+    octagon_exits,
     VisibilityGraph,
     shortest_chain,
     arc_length_grid,
@@ -341,3 +342,28 @@ def test_batched_paths_survive_a_full_memo(monkeypatch):
     fresh = VisibilityGraph(world, 0.2, 0.025)
     for s, e, path in zip(starts, goals, got):
         assert np.array_equal(path.points, fresh.shortest_path(s, e).points)
+
+
+def test_octagon_exit_moves_a_point_radially_to_the_octagon_boundary():
+    # Disc of radius 1 about the origin; its octagon's sides have normals every 45 degrees.
+    inside = np.array([np.cos(np.radians(10.0)), np.sin(np.radians(10.0))]) * 1.001
+    exit_ = octagon_exits(inside, np.zeros((1, 2)), np.array([1.0]))[0]
+    assert np.hypot(*exit_) == pytest.approx(1.0 / np.cos(np.radians(10.0)), abs=1e-8)
+    assert exit_[0] * inside[1] - exit_[1] * inside[0] == pytest.approx(0.0, abs=1e-12)  # same ray
+    far = np.array([0.0, 1.2])  # beyond the octagon (its side at 90 degrees is 1 m away)
+    np.testing.assert_array_equal(octagon_exits(far, np.zeros((1, 2)), np.array([1.0]))[0], far)
+
+
+def test_a_path_from_the_edge_of_a_disc_goes_round_it_without_turning_back():
+    """A robot standing just outside the required distance of another (between the disc and its
+    octagon) goes round it the short way: the angle about the disc's centre never goes back."""
+    world = paper_world(room_height=10.0)
+    graph = VisibilityGraph(world, 0.2)
+    centre = np.array([-5.0, 0.0])
+    start = centre + 1.0002 * np.array([np.cos(np.radians(-141.6)), np.sin(np.radians(-141.6))])
+    goal = centre + np.array([1.5, -0.5])
+    path = graph.shortest_path(start, goal, centre[None], np.array([1.0]))
+    assert path.success
+    angles = np.unwrap(np.arctan2(*(path.points - centre).T[::-1]))
+    assert np.all(np.diff(angles) >= -1e-9)
+    assert np.all(np.hypot(*(path.points[1:] - centre).T) >= 1.0 - 1e-9)

@@ -16,6 +16,7 @@ HERE = Path(__file__).parent / "regression"
 CASES = [
     ("pair-at-one-mouth.yaml", (4, 5, 9)),
     ("head-on-one-player.yaml", (1, 2, 3, 4)),
+    ("exit-past-parked-robots.yaml", (493,)),
 ]
 
 

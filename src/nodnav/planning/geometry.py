@@ -221,6 +221,29 @@ def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.n
     return np.stack([xs, ys], axis=-1).reshape(-1, 2)
 
 
+def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """Where ``point`` leaves, moving straight away from each centre, the regular octagon that
+    circumscribes the disc of radius ``radii[j]`` about ``centres[j]`` (:func:`chamfered_vertices`
+    of a zero-size box), ``(m, 2)``; ``point`` itself for a disc whose octagon it is not in.
+
+    The octagon's sides have their normals every 45 degrees at the distance ``radii[j]``, so
+    along a ray at ``delta`` from the nearest normal its boundary is ``radii[j] / cos(delta)``
+    away. A start or goal between a disc and its octagon sees no corner of the octagon without
+    cutting the disc; from its exit point the neighbouring corners lie along a side.
+    """
+    p = np.asarray(point, dtype=float).reshape(2)
+    c = np.asarray(centres, dtype=float).reshape(-1, 2)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    away = p - c
+    d = np.hypot(away[:, 0], away[:, 1])
+    angle = np.arctan2(away[:, 1], away[:, 0])
+    delta = angle - np.round(angle / (np.pi / 4.0)) * (np.pi / 4.0)
+    boundary = r / np.cos(delta) + 2 * TOL
+    inside = (d > 0) & (d < boundary)
+    scale = np.where(inside, boundary / np.where(d > 0, d, 1.0), 1.0)
+    return c + away * scale[:, None]
+
+
 def polyline_point_distance(polyline: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Distance from each point to a polyline ``(V, 2)``, shape ``(P,)``."""
     poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
@@ -445,6 +468,8 @@ class VisibilityGraph:
         outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
         base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
         ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        # A start or goal inside an octagon but not its disc first steps out of it radially.
+        ring = np.vstack([ring, octagon_exits(start, centres, radii), octagon_exits(goal, centres, radii)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])

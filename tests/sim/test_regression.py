@@ -17,6 +17,7 @@ CASES = [
     ("pair-at-one-mouth.yaml", (4, 5, 9)),
     ("head-on-one-player.yaml", (1, 2, 3, 4)),
     ("exit-past-parked-robots.yaml", (493,)),
+    ("start-inside-behind-another.yaml", (308,)),
 ]
 
 

@@ -137,3 +137,16 @@ def test_contacts_are_checked_on_the_curve_the_robot_drives_not_its_chord():
     chord = straight_substeps(curve[:1], curve[-1:], np.array([0.25, 0.5, 0.75, 1.0]))
     on_chord = contact_counts(chord, radii, tol, world.bounds_array, world.obstacle_array)
     assert on_curve == (0, 0) and on_chord == (0, 1)
+
+
+def test_robots_that_start_inside_enter_in_the_order_they_stand_in_the_corridor():
+    """Robot 1 starts behind robot 2 inside the corridor, both heading right: robot 2 is ahead, so
+    it counts as having entered first; robot 3, heading left, is nearest its exit (the left end)."""
+    s = scenario_from_dict({"name": "inside", "robots": [
+        {"origin": [-1.0, 0.0], "destination": [5.0, 1.0]},
+        {"origin": [1.0, 0.0], "destination": [5.0, -1.0]},
+        {"origin": [-2.5, 0.0], "destination": [-5.0, 0.0]}]})
+    sim = Simulation(s, seed=1)
+    # Corridor left ahead: robot 1 4 m, robot 2 2 m, robot 3 0.5 m.
+    assert sim.entered_true == [2, 1, 0]
+    assert all(seen == [2, 1, 0] for seen in sim.entered_seen)

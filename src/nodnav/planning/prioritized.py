@@ -1158,12 +1158,16 @@ class PrioritizedPlanner:
         door = dirs[j] != 0 and any(dirs[i] == -dirs[j] for i in [*layout.plans, k])
 
         def keep(lay: _Layout) -> list:
-            # The ways on of the robots that stay where they are, and of k from where it starts.
-            ways = [(state.natural[m], state.required[j, m]) for m in others if m not in lay.heads]
-            if k in lay.heads:
-                start = lay.heads[k].samples[-1]
-                way = self.graph(world, state.radii[k]).shortest_paths(start[None], state.destinations[k][None])[0]
-                ways.append((way.points, state.required[j, k]))
+            # The ways on of the others: from where they stand, or from the spot they got out of
+            # the way to (a spot must not block the way on of a robot that moved before).
+            ways = []
+            for m in others:
+                if m in lay.heads:
+                    spot = lay.heads[m].samples[-1]
+                    way = self.graph(world, state.radii[m]).shortest_paths(spot[None], state.destinations[m][None])[0]
+                    ways.append((way.points, state.required[j, m]))
+                else:
+                    ways.append((state.natural[m], state.required[j, m]))
             return ways + list(clear)
 
         return self._make_way(world, state, j, k, layout, others, keep, door, (k,), depth)

@@ -21,7 +21,7 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.strategies import orders_agree, passing_orders, strategy_index
 from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import INSIDE, clearance_of, distance_to_go
+from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
@@ -194,15 +194,20 @@ class Simulation:
         """Corridor entries, from the truth and from each robot's own observations.
 
         A robot counts as entered from the first step it is seen inside the corridor; one seen
-        back on the side it came from has backed out and no longer counts.
+        back on the side it came from has backed out and no longer counts. Robots first seen
+        inside at the same step (robots that start inside) are taken in the order of how little
+        corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
+        corridor = self.scenario.world.corridor
         seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
-        for log_, side in zip([self.entered_true] + self.entered_seen, self.scenario.world.side_of(seen).tolist()):
+        left_ahead = np.where(self.sides == RIGHT, seen[..., 0] - corridor.x_min, corridor.x_max - seen[..., 0])
+        sides = self.scenario.world.side_of(seen)
+        for log_, side, ahead in zip([self.entered_true] + self.entered_seen, sides.tolist(), left_ahead):
+            new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
+            log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
             for k in range(n):
-                if side[k] == INSIDE and k not in log_:
-                    log_.append(k)
-                elif side[k] == self.sides[k] and k in log_ and self.sides[k] != INSIDE:
+                if side[k] == self.sides[k] and k in log_ and self.sides[k] != INSIDE:
                     log_.remove(k)
 
     def views(self) -> dict[int, RobotView]:

@@ -635,3 +635,20 @@ def test_relaxed_pair_keeps_full_separation_once_apart(world, planner):
     after = tr.times - tr.times[0] >= t_sep + DT
     assert gap.min() >= 0.41 - 1e-5 and after.any()
     assert gap[after].min() >= 0.45 - 1e-9
+
+
+def test_a_robot_that_would_park_in_the_way_waits_aside_until_the_robots_after_it_have_passed(world, planner):
+    """Robot 0 goes first and parks right outside the right mouth, on the axis; robot 1 follows it
+    through to the far side. Parked at once, robot 0 would shut the mouth for good; instead it
+    waits aside in the right room and parks once robot 1 is through."""
+    dest0 = np.array([3.25, 0.0])
+    res = planner.plan(request(world, [[-4.0, 0.0], [-5.5, 0.0]], [dest0, [6.0, 0.0]], (0, 1)))
+    assert res.success and res.info["deferred"] == (0,)
+    assert corridor_entry_order(world, res.trajectory) == (0, 1)
+    p = res.trajectory.positions
+    np.testing.assert_allclose(p[-1], [dest0, [6.0, 0.0]], atol=1e-9)
+    # Robot 1 leaves the corridor before robot 0 reaches its destination: at robot 1's exit robot 0
+    # stands aside, at least the required distance from the mouth's axis point.
+    exit_1 = np.flatnonzero(p[:, 1, 0] > 3.0)[0]
+    assert np.linalg.norm(p[exit_1, 0] - dest0) > 0.45
+    assert min_gap(res, [0.2, 0.2]) >= 0.05 - 1e-6  # the planner's margin

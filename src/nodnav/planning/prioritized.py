@@ -763,6 +763,8 @@ class _Joint:
     """Each robot's polyline."""
     retreats: tuple = ()
     """The robots that back out of the way of robots before them."""
+    deferred: tuple = ()
+    """The robots that wait aside before they park, so as not to block the robots after them."""
 
 
 @dataclass(frozen=True)
@@ -849,31 +851,57 @@ class PrioritizedPlanner:
             notes.append(f"order {order} repaired to {planned}: robots {entered} have already entered the corridor")
         if joint.retreats:
             notes.append(f"robots {joint.retreats} back out of the way of robots before them")
+        if joint.deferred:
+            notes.append(f"robots {joint.deferred} wait aside before they park, clear of the robots after them")
         info = {"arrival_times": joint.arrival, "path_lengths": joint.lengths, "paths": joint.paths,
-                "retreats": joint.retreats, "entered": entered}
+                "retreats": joint.retreats, "deferred": joint.deferred, "entered": entered}
         return PlanResult(True, "; ".join(notes), joint.cost, joint.trajectory, order, planned,
                           time.perf_counter() - began, info)
 
     # -----------------------------------------------------------------------------------------
 
-    def _joint(self, world: World, state: _State, planned: tuple, t0: float) -> _Joint:
-        """Every robot planned in the order ``planned``, one after the other."""
+    def _joint(self, world: World, state: _State, planned: tuple, t0: float,
+               deferred: frozenset = frozenset()) -> _Joint:
+        """Every robot planned in the order ``planned``, one after the other.
+
+        A robot whose way is blocked for good by where a robot before it parks has that robot
+        wait aside instead (``deferred``): it is planned to a holding spot clear of the ways of
+        the robots after it, and goes on to its destination once they have passed
+        (:meth:`_park`).
+        """
+        work = state
+        if deferred:
+            work = self._deferring(world, state, planned, deferred)
+            if work is None:
+                return _Joint(False, f"robots {tuple(sorted(deferred))} would block the way where they park, "
+                                     "and have no spot nearby to wait aside")
         plans: dict[int, _RobotPlan] = {}
         heads: dict[int, Motion] = {}
         for rank, k in enumerate(planned):
             # A robot's plan depends only on the state, on who goes before it and on the set of
             # robots after it, so orders that share a beginning share those plans.
-            key = (state.key, planned[:rank + 1])
+            key = (work.key, planned[:rank + 1])
             attempt = self._attempts.get(key)
             if attempt is None:
                 layout = _Layout(dict(plans), dict(heads), tuple(sorted(planned[rank + 1:])))
-                attempt = self._plan_robot(world, state, k, layout)
+                attempt = self._plan_robot(world, work, k, layout)
                 _remember(self._attempts, key, attempt)
             if not attempt.success:
+                blockers = self._blockers(state, planned[:rank], k) - deferred
+                if blockers:
+                    retry = self._joint(world, state, planned, t0, deferred | blockers)
+                    if retry.success:
+                        return retry
                 return _Joint(False, f"robot {k}: {attempt.reason}")
             plans[k] = attempt.plan
             heads.pop(k, None)
             heads.update(attempt.evasions)
+        for k in planned:
+            if k in deferred:
+                parked = self._park(world, state, k, plans)
+                if parked is None:
+                    return _Joint(False, f"robot {k} waits aside for the robots after it, and cannot park afterwards")
+                plans[k] = parked
         dt = float(self.params.dt)
         n = len(plans)
         steps = max(p.arrival for p in plans.values()) + 1
@@ -888,7 +916,65 @@ class PrioritizedPlanner:
         for a in (trajectory.times, trajectory.positions, trajectory.velocities, arrival, lengths):
             a.setflags(write=False)
         return _Joint(True, "", float(arrival.sum()), trajectory, arrival, lengths,
-                      tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat))
+                      tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat),
+                      tuple(k for k in planned if k in deferred))
+
+    def _blockers(self, state: _State, earlier: tuple, k: int) -> frozenset:
+        """The robots of ``earlier`` whose destination lies on robot ``k``'s way among the walls
+        (closer to it than their required distance): parked there, they block it for good."""
+        if not earlier:
+            return frozenset()
+        dest = state.destinations[list(earlier)]
+        near = polyline_point_distance(state.natural[k], dest) < state.required[k, list(earlier)] - TOL
+        return frozenset(int(i) for i in np.asarray(earlier)[near])
+
+    def _deferring(self, world: World, state: _State, planned: tuple, deferred: frozenset) -> _State | None:
+        """The state with each robot of ``deferred`` going to a holding spot instead of its
+        destination: the spot nearest its destination that keeps the required distance from the
+        ways (among the walls) of the robots after it in ``planned``, from where every other robot
+        stands and parks, and from the other holding spots, out of the corridor and of both door
+        zones, and in the room of its destination (so that it has passed the corridor where the
+        order says); ``None`` if a robot has no such spot (one that parks in the corridor has none).
+        """
+        goals = state.destinations.copy()
+        for i in sorted(deferred, key=planned.index):
+            later = list(planned[planned.index(i) + 1:])
+            others = [m for m in range(len(goals)) if m != i]
+            graph = self.graph(world, state.radii[i])
+            spots = retreat_spots(state.destinations[i])
+            ok = (world.clearance(spots) >= graph.clearance - TOL) & (world.side_of(spots) == world.side_of(goals[i]))
+            ok &= ~world.in_corridor(spots)
+            ok &= ~self._in_door(world, spots, 0) & ~self._in_door(world, spots, 1)
+            req = state.required[i]
+            for m in others:
+                ok &= np.hypot(*(spots - goals[m]).T) >= req[m] - TOL
+                ok &= np.hypot(*(spots - state.positions[m]).T) >= req[m] - TOL
+            for m in later:
+                ok &= polyline_point_distance(state.natural[m], spots) >= req[m] - TOL
+            spots = spots[ok][np.argsort(np.hypot(*(spots[ok] - state.destinations[i]).T), kind="stable")]
+            ways = graph.shortest_paths(np.repeat(state.positions[i][None], len(spots), 0), spots)
+            reachable = [q for q, way in enumerate(ways) if way.success]
+            if not reachable:
+                return None
+            goals[i] = spots[reachable[0]]
+        return self._state(world, state.positions, goals, state.radii, state.max_speeds, planned)
+
+    def _park(self, world: World, state: _State, k: int, plans: dict) -> _RobotPlan | None:
+        """Robot ``k``'s plan to its holding spot, then on to its destination once every other
+        robot's planned motion leaves the way free (None if it never does)."""
+        head = plans[k].motion
+        others = [j for j in plans if j != k]
+        centres = np.array([plans[j].motion.samples[-1] for j in others]).reshape(-1, 2)
+        track = self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, head.samples[-1],
+                            state.destinations[k], centres, state.required[k, others], 0)
+        if not track.route.path.success:
+            return None
+        timing = self._timing(state, k, track, [(j, plans[j].motion) for j in others], (), head.last_step)
+        if not timing.success:
+            return None
+        steps = timing.cells
+        tail = Motion(track.route.path.points, track.cells[steps], track.arc[steps], track.segments)
+        return replace(plans[k], motion=join_motions(head, tail))
 
     def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
                order: tuple) -> _State:

@@ -18,6 +18,7 @@ CASES = [
     ("head-on-one-player.yaml", (1, 2, 3, 4)),
     ("exit-past-parked-robots.yaml", (493,)),
     ("start-inside-behind-another.yaml", (308,)),
+    ("standoff-abreast-at-the-mouth.yaml", (473, 1, 3)),
 ]
 
 

@@ -97,3 +97,9 @@ def orders_agree(orders: np.ndarray, selected: np.ndarray, robots) -> bool:
         return True
     ids = projected_order_ids(orders, robots)
     return bool(np.all(ids[selected] == ids[selected[0]]))
+
+
+def precedence_mask(orders: np.ndarray, first: int, second: int) -> np.ndarray:
+    """Which of ``orders`` ``(N_s, N_r)`` let robot ``first`` pass before robot ``second``, ``(N_s,)``."""
+    orders = np.asarray(orders)
+    return np.argmax(orders == first, axis=1) < np.argmax(orders == second, axis=1)

@@ -53,6 +53,9 @@ class OpinionParams:
     """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
     bias: dict[str, float] = field(default_factory=dict)
     """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
+    standoff_patience: float = 2.0
+    """After how long a standoff with a game player (both standing still, this one although its
+    plan moves it) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
     nonplayers: str = "entered"
     """How robots outside N_i(t) enter the robot's planning: ``static`` (the paper: not planned,
     held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the

@@ -19,10 +19,12 @@ from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import (opinion_update, selection_probabilities, social_sum, step_size,
                                      strategy_probabilities)
 from nodnav.decision.players import conflict_likelihood, select_game_players
-from nodnav.decision.strategies import consistency_weights, passing_orders, project_order, projected_order_ids
+from nodnav.decision.standoff import standoff_partner
+from nodnav.decision.strategies import (consistency_weights, passing_orders, precedence_mask, project_order,
+                                       projected_order_ids)
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import LEFT, RIGHT
+from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
 
 
 @dataclass(frozen=True)
@@ -169,6 +171,10 @@ class NODAgent:
         self.sides = approach_sides(scenario)
         self.z = self._initial_opinions()
         self.previous: tuple[tuple[int, ...], tuple[int, ...], list[PlanResult]] | None = None
+        self.selected = -1
+        """The strategy selected at the last decision."""
+        self.standoff_periods = 0
+        """For how many periods in a row the robot has been in a standoff (:mod:`nodnav.decision.standoff`)."""
         # Pure functions of the (fixed) orders and a set of robots, asked again every period.
         self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, list]] = {}
         self._weights: dict[tuple[int, ...], np.ndarray] = {}
@@ -235,6 +241,32 @@ class NODAgent:
         inside = self.scenario.world.in_corridor(view.positions)
         return tuple(k for k in view.entered if inside[k] and k != self.index and k not in players)
 
+    def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
+        """The game player this robot has been in a standoff with for ``standoff_patience``
+        seconds (:mod:`nodnav.decision.standoff`), or -1."""
+        patience = self.params.standoff_patience
+        partner = -1
+        if patience > 0 and self.previous is not None and self.selected >= 0 and players:
+            robots, _, plans = self.previous
+            planned = self.plans.states_at(plans[self.selected], view.window_times)[robots.index(self.index), :, :2]
+            ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
+            progress = -np.diff(self._to_go(ends), axis=1)[:, 0]
+            own_plan = -np.diff(self._to_go(planned[[0, -1]][None], [self.index]), axis=1)[0, 0]
+            gap = np.linalg.norm(ends[list(players), 1] - ends[self.index, 1], axis=1)
+            radii = self.scenario.radii
+            found = standoff_partner(progress[self.index], own_plan, progress[list(players)],
+                                     gap - radii[self.index] - radii[list(players)])
+            partner = players[found] if found >= 0 else -1
+        self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
+        return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
+
+    def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
+        """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``
+        ``(n, M, 2)``."""
+        robots = list(range(self.scenario.n_robots)) if robots is None else list(robots)
+        dest = self.scenario.destinations[robots][:, None]
+        return distance_to_go(self.scenario.world, positions, dest, self.sides[robots][:, None])
+
     def decide(self, view: RobotView) -> Decision:
         """Algorithm 1, procedure RobotNavigation(t)."""
         if self.previous is not None:
@@ -245,8 +277,15 @@ class NODAgent:
         canonical = tuple(sorted(robots))
         plans = self.plan_all(view, canonical)
         # Algorithm 1 selects by x; a strategy the planner found no path for cannot be followed.
-        choice = selection_probabilities(x, np.array([p.success for p in plans]))
+        available = np.array([p.success for p in plans])
+        partner = self.standoff(view, players)
+        if partner >= 0:  # the lower number of a standoff goes first
+            first, second = min(self.index, partner), max(self.index, partner)
+            by_convention = available & precedence_mask(self.orders, first, second)
+            available = by_convention if by_convention.any() else available
+        choice = selection_probabilities(x, available)
         strategy = int(self.rng.choice(len(x), p=choice))
+        self.selected = strategy
         self.previous = (canonical, players, plans)
         return Decision(strategy=strategy, robots=robots, plan=relabel(plans[strategy], [canonical.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players)

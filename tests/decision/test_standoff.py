@@ -6,18 +6,22 @@ from nodnav.decision.standoff import STALL_DISTANCE, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask
 
 
-def test_a_robot_that_wanted_to_move_and_did_not_is_in_a_standoff_with_the_nearest_stalled_player():
-    # Players: 0 moved on, 1 stalled but 2 m away, 2 and 3 stalled close by (3 the nearer).
-    partner = standoff_partner(0.02, 0.8, np.array([0.9, 0.0, 0.05, 0.01]), np.array([0.1, 2.0, 0.4, 0.2]))
-    assert partner == 3
+def test_a_robot_that_wanted_to_go_and_did_not_is_in_a_standoff_with_a_player_that_did_not_either():
+    # Players: 0 moved on; 1 and 2 stood still, the plan had 2 go further than 1 (or the robot).
+    partner = standoff_partner(0.02, np.array([0.9, 0.0, 0.05]), 0.3, np.array([0.9, 0.1, 0.8]))
+    assert partner == 2
 
 
-def test_no_standoff_when_the_robot_moved_or_only_waited_as_planned():
-    stalled = np.array([0.0]), np.array([0.1])
-    assert standoff_partner(0.5, 0.8, *stalled) == -1  # it got somewhere
-    assert standoff_partner(0.0, 2 * STALL_DISTANCE, *stalled) == -1  # its plan had it wait
-    assert standoff_partner(0.0, 0.8, np.array([0.3]), np.array([0.1])) == -1  # the player moved on
-    assert standoff_partner(0.0, 0.8, np.zeros(0), np.zeros(0)) == -1  # nobody to be held up by
+def test_two_robots_each_waiting_for_the_other_are_in_a_standoff():
+    # "You first": the robot's plan has it wait (no progress) and the player go; it did not.
+    assert standoff_partner(0.0, np.array([0.0]), 0.0, np.array([0.9])) == 0
+
+
+def test_no_standoff_when_the_robot_moved_or_the_plan_had_both_wait():
+    assert standoff_partner(0.5, np.array([0.0]), 0.8, np.array([0.0])) == -1  # it got somewhere
+    assert standoff_partner(0.0, np.array([0.0]), 2 * STALL_DISTANCE, np.array([0.1])) == -1  # both wait
+    assert standoff_partner(0.0, np.array([0.3]), 0.8, np.array([0.8])) == -1  # the player moved on
+    assert standoff_partner(0.0, np.zeros(0), 0.8, np.zeros(0)) == -1  # nobody to be held up by
 
 
 def test_precedence_mask_picks_the_orders_where_one_robot_passes_before_another():

@@ -19,6 +19,7 @@ CASES = [
     ("exit-past-parked-robots.yaml", (493,)),
     ("start-inside-behind-another.yaml", (308,)),
     ("standoff-abreast-at-the-mouth.yaml", (473, 1, 3)),
+    ("destination-in-the-mouth.yaml", (22,)),
 ]
 
 

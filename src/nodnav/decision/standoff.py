@@ -6,10 +6,12 @@ the way, each read the other as yielding and stay as they are: the symmetric tra
 Fig. 2c shows as alternation. Nothing either of them observes breaks the symmetry, except what the
 paper already has every robot share: the robot numbering in which strategies are written.
 
-The convention: a robot that wanted to move over the last period, did not, and stands close to a
-game player that did not move either, is in a standoff with it; once that has lasted ``patience``
-periods, the lower-numbered robot of the pair goes first. Both robots of a standoff see it alike,
-so both apply the convention; a robot that only waits as its plan says never counts as stalled.
+The convention: when a robot and one of its game players both made no progress over the last
+period, although the robot's selected plan had one of them progress, the two are in a standoff
+(:func:`standoff_partner`): each waits for the other ("you first", "no, you first"), or each
+wants to go and neither gives way. Once that has lasted ``patience``, the lower-numbered robot of
+the pair goes first. Both robots of a standoff see it alike, so both apply the convention; a
+robot whose plan has both of them wait (for a third robot) is never in a standoff.
 """
 
 from __future__ import annotations
@@ -19,25 +21,26 @@ import numpy as np
 #: A robot that came less than this closer to its destination over a period (m) made no progress;
 #: one whose plan took it more than twice as far wanted to.
 STALL_DISTANCE = 0.1
-#: A player farther than this from the robot, surface to surface (m), is not what holds it up.
-REACH = 1.0
 
 
-def standoff_partner(own_progress: float, planned_progress: float, players_progress: np.ndarray,
-                     players_clearance: np.ndarray, reach: float = REACH, stall: float = STALL_DISTANCE) -> int:
+def standoff_partner(own_progress: float, players_progress: np.ndarray, own_planned: float,
+                     players_planned: np.ndarray, stall: float = STALL_DISTANCE) -> int:
     """The game player (an index into the players' arrays) a robot is in a standoff with, or -1.
 
     Progress is how much closer to its destination (along its way through the corridor) a robot
-    came over the last period (m): the robot's own, what its selected plan gave it, and each game
-    player's; ``players_clearance`` is each player's distance from the robot, surface to surface
-    (m). A standoff: the robot wanted to progress (planned more than ``2 stall``) but did not
-    (less than ``stall``: a robot that jostles in a jam gets nowhere), and a player that made no
-    progress either stands within ``reach`` of it; the nearest such player.
+    came over the last period (m): the robot's own and each game player's as observed, and as
+    the robot's selected joint plan had them (``own_planned``, ``players_planned``). A standoff
+    with a player: neither progressed (less than ``stall``: a robot that jostles in a jam gets
+    nowhere), although the plan had one of the two progress (more than ``2 stall``): the robot
+    wanted to go and did not, or expected the player to go and it did not. Among several, the
+    player the plan had progress most.
     """
-    if own_progress >= stall or planned_progress <= 2.0 * stall or not len(players_progress):
+    players_progress = np.asarray(players_progress, dtype=float)
+    players_planned = np.asarray(players_planned, dtype=float)
+    if own_progress >= stall or not len(players_progress):
         return -1
-    clearance = np.asarray(players_clearance, dtype=float)
-    candidates = np.flatnonzero((np.asarray(players_progress) < stall) & (clearance < reach))
+    expected = np.maximum(players_planned, own_planned)
+    candidates = np.flatnonzero((players_progress < stall) & (expected > 2.0 * stall))
     if not len(candidates):
         return -1
-    return int(candidates[np.argmin(clearance[candidates])])
+    return int(candidates[np.argmax(expected[candidates])])

@@ -887,7 +887,8 @@ class PrioritizedPlanner:
                 attempt = self._plan_robot(world, work, k, layout)
                 _remember(self._attempts, key, attempt)
             if not attempt.success:
-                blockers = self._blockers(state, planned[:rank], k) - deferred
+                start = heads[k].samples[-1] if k in heads else state.positions[k]
+                blockers = self._blockers(world, state, planned[:rank], k, start) - deferred
                 if blockers:
                     retry = self._joint(world, state, planned, t0, deferred | blockers)
                     if retry.success:
@@ -919,13 +920,15 @@ class PrioritizedPlanner:
                       tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat),
                       tuple(k for k in planned if k in deferred))
 
-    def _blockers(self, state: _State, earlier: tuple, k: int) -> frozenset:
+    def _blockers(self, world: World, state: _State, earlier: tuple, k: int, start: np.ndarray) -> frozenset:
         """The robots of ``earlier`` whose destination lies on robot ``k``'s way among the walls
-        (closer to it than their required distance): parked there, they block it for good."""
+        from ``start`` (where it stands, or where it got out of the way to), closer to it than
+        their required distance: parked there, they block it for good."""
         if not earlier:
             return frozenset()
+        way = self.graph(world, state.radii[k]).shortest_paths(start[None], state.destinations[k][None])[0]
         dest = state.destinations[list(earlier)]
-        near = polyline_point_distance(state.natural[k], dest) < state.required[k, list(earlier)] - TOL
+        near = polyline_point_distance(way.points, dest) < state.required[k, list(earlier)] - TOL
         return frozenset(int(i) for i in np.asarray(earlier)[near])
 
     def _deferring(self, world: World, state: _State, planned: tuple, deferred: frozenset) -> _State | None:
@@ -933,8 +936,9 @@ class PrioritizedPlanner:
         destination: the spot nearest its destination that keeps the required distance from the
         ways (among the walls) of the robots after it in ``planned``, from where every other robot
         stands and parks, and from the other holding spots, out of the corridor and of both door
-        zones, and in the room of its destination (so that it has passed the corridor where the
-        order says); ``None`` if a robot has no such spot (one that parks in the corridor has none).
+        zones, in the room of its destination (so that it has passed the corridor where the order
+        says), and from which its destination stays in reach once the others have parked; ``None``
+        if a robot has no such spot (one that parks in the corridor has none).
         """
         goals = state.destinations.copy()
         for i in sorted(deferred, key=planned.index):
@@ -953,10 +957,14 @@ class PrioritizedPlanner:
                 ok &= polyline_point_distance(state.natural[m], spots) >= req[m] - TOL
             spots = spots[ok][np.argsort(np.hypot(*(spots[ok] - state.destinations[i]).T), kind="stable")]
             ways = graph.shortest_paths(np.repeat(state.positions[i][None], len(spots), 0), spots)
-            reachable = [q for q, way in enumerate(ways) if way.success]
-            if not reachable:
+            # From the spot, its destination must stay in reach once everybody else has parked.
+            parked, rads = goals[others], req[others]
+            for spot in (spots[q] for q, way in enumerate(ways) if way.success):
+                if graph.shortest_path(spot, state.destinations[i], parked, rads).success:
+                    goals[i] = spot
+                    break
+            else:
                 return None
-            goals[i] = spots[reachable[0]]
         return self._state(world, state.positions, goals, state.radii, state.max_speeds, planned)
 
     def _park(self, world: World, state: _State, k: int, plans: dict) -> _RobotPlan | None:

@@ -248,14 +248,14 @@ class NODAgent:
         partner = -1
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             robots, _, plans = self.previous
-            planned = self.plans.states_at(plans[self.selected], view.window_times)[robots.index(self.index), :, :2]
+            plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             progress = -np.diff(self._to_go(ends), axis=1)[:, 0]
-            own_plan = -np.diff(self._to_go(planned[[0, -1]][None], [self.index]), axis=1)[0, 0]
-            gap = np.linalg.norm(ends[list(players), 1] - ends[self.index, 1], axis=1)
-            radii = self.scenario.radii
-            found = standoff_partner(progress[self.index], own_plan, progress[list(players)],
-                                     gap - radii[self.index] - radii[list(players)])
+            planned = -np.diff(self._to_go(plan, robots), axis=1)[:, 0]
+            columns = [robots.index(k) if k in robots else -1 for k in players]
+            players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+            found = standoff_partner(progress[self.index], progress[list(players)],
+                                     planned[robots.index(self.index)], players_planned)
             partner = players[found] if found >= 0 else -1
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1

@@ -141,6 +141,10 @@ class ExecutionParams:
     tolerance: float = 0.05
     """Distance within which an observed robot counts as still at the earliest of its nearest
     planned samples (m): how far it must move before it counts as having moved on."""
+    reaction_margin: bool = False
+    """Whether the MPC keeps clear of every other robot's braking trajectory by how far that can
+    move in one control step (``nodnav.sim.methods.reaction_margin``), so that two robots that
+    both cannot follow their plans never squeeze each other."""
 
 
 @dataclass(frozen=True)
@@ -298,6 +302,10 @@ def _params(cls, data: Any, where: str, overrides: dict | None = None):
         elif hint is str:
             if not isinstance(value, str):
                 raise ScenarioError(f"{name}: expected text, got {value!r}")
+            kwargs[key] = value
+        elif hint is bool:
+            if not isinstance(value, bool):
+                raise ScenarioError(f"{name}: expected true or false, got {value!r}")
             kwargs[key] = value
         elif hint == dict[str, float]:
             kwargs[key] = {str(k): _number(v, f"{name}.{k}") for k, v in _mapping(value, name).items()}

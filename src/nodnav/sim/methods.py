@@ -43,6 +43,22 @@ def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: 
     return out
 
 
+def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
+    """How far (m) a robot's braking trajectory can move within one control step: the others
+    predict it braking from where it is now, but it chooses its next step at the same time.
+
+    Over a step of ``dt`` at acceleration up to ``a`` it ends at most ``a dt^2`` from where
+    braking would leave it, with a velocity up to ``a dt`` off; braking from speed ``v`` covers
+    ``v^2 / (2 a)``, which such a change moves by at most ``(|v| + a dt / 2) dt``. Keeping a
+    robot's own plan this much farther from every other robot's braking trajectory than contact
+    keeps both able to stop apart at the next step whatever the other chose: when neither can
+    follow its plan, neither squeezes the other.
+    """
+    v = np.asarray(speeds, dtype=float)
+    a = np.asarray(max_accel, dtype=float)
+    return a * dt * dt + (v + 0.5 * a * dt) * dt
+
+
 @compiled
 def horizon_predictions(planned: np.ndarray, columns: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
                         decel: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -103,7 +119,10 @@ class PlannedMethod:
         # evasive plan may intrude into the other predictions, never into that one.
         self._firm = np.repeat([False, False, True], n - 1)
         accel = np.array([r.max_accel for r in scenario.robots])
+        self._accel = accel
         self._decel = [np.delete(accel, i) for i in range(n)]
+        self.dt = scenario.controller.dt
+        self._braking_margin = scenario.execution.reaction_margin
         ex = scenario.execution
         self._execution_settings = ExecutionSettings(
             gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
@@ -168,9 +187,15 @@ class PlannedMethod:
             execution.observe(view.positions[list(self.decisions[i].robots)])
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
+            radii = self._other_radii[i]
+            if self._braking_margin:
+                others = self._others[i]
+                radii = radii.copy()
+                radii[2 * len(others):] += reaction_margin(np.linalg.norm(view.velocities[others], axis=1),
+                                                           self._accel[others], self.dt)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=self._other_radii[i], firm=self._firm)
+                                     other_radii=radii, firm=self._firm)
             out[i] = self.controllers[i].control(request)
         return out
 

@@ -360,9 +360,16 @@ class ResultStore:
         for row in rows:
             d = dict(zip(names, row))
             for k in ("config", "summary", "metrics"):
-                d[k] = json.loads(d[k])
+                d[k] = self._json(d[k])
             out.append(TrialRecord(**d))
         return out
+
+    def _json(self, text: str):
+        try:
+            return json.loads(text)
+        except (TypeError, ValueError):
+            raise StoreError(f"{self.path}: not a usable results database (a stored row does not parse); "
+                             "if it is damaged, use another --db file") from None
 
     def outcome_counts(self, by=("scenario", "players"), study: str | None = None, **filters) -> dict[tuple, dict[str, int]]:
         """Number of trials of each outcome per group of the columns ``by``.
@@ -385,7 +392,7 @@ class ResultStore:
 
     def studies(self) -> dict[str, dict]:
         """Every stored study's specification, by name."""
-        return {name: json.loads(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
+        return {name: self._json(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
 
     def count(self, study: str | None = None, **filters) -> int:
         """Number of stored trials of ``study`` matching ``filters``."""
@@ -403,7 +410,7 @@ class _Guarded:
     def _call(self, target, name: str, *args):
         try:
             out = getattr(target, name)(*args)
-        except sqlite3.Error as exc:
+        except (sqlite3.Error, UnicodeDecodeError) as exc:  # damaged text decodes badly
             raise StoreError(f"{self._path}: not a usable results database ({exc}); if it is damaged, "
                              "use another --db file") from None
         return _GuardedCursor(self, out) if isinstance(out, sqlite3.Cursor) else out

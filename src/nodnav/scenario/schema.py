@@ -255,17 +255,15 @@ def _check_keys(data: dict, valid, where: str) -> None:
             raise _fail(where, f"unknown key {shown(key)}{nearest_hint(key, valid)}")
 
 
+_EXPONENT = re.compile(r"[+-]?([0-9]{1,20}\.?[0-9]{0,20}|\.[0-9]{1,20})[eE][+-]?[0-9]{1,3}")
+
+
 def _number(value: Any, where: str, bound: str | None = None) -> float:
     """A finite real number; with ``bound`` (a key of :data:`~nodnav.scenario.limits.RANGES`) in its range."""
+    if isinstance(value, str) and _EXPONENT.fullmatch(value.strip()):
+        value = float(value)  # YAML 1.1 reads 1e-6 (no dot) as text; it is a number all the same
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        hint = ""
-        if isinstance(value, str):
-            try:
-                float(value)
-                hint = " (YAML reads a number such as 1e3 as text; write 1.0e3)"
-            except ValueError:
-                pass
-        raise _fail(where, f"expected a number, got {shown(value)}{hint}")
+        raise _fail(where, f"expected a number, got {shown(value)}")
     try:
         v = float(value)
     except (OverflowError, ValueError, TypeError):
@@ -611,16 +609,19 @@ def read_yaml(path: Path, what: str = "scenario") -> Any:
     """
     label = shown_path(path)
     try:
-        if path.is_dir():
-            raise ScenarioError(f"{label}: is a directory; give a {what} YAML file", key=str(path))
-        size = path.stat().st_size
-        if size > limits.MAX_FILE_BYTES:
-            raise ScenarioError(f"{label}: {size} bytes; a {what} file may have at most {limits.MAX_FILE_BYTES}",
-                                key=str(path))
-        raw = path.read_bytes()
+        is_dir, size = path.is_dir(), path.stat().st_size
     except (OSError, ValueError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else type(exc).__name__
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else "not a usable file name"
         raise ScenarioError(f"{label}: cannot read the {what} file ({reason})", key=str(path)) from None
+    if is_dir:
+        raise ScenarioError(f"{label}: is a directory; give a {what} YAML file", key=str(path))
+    if size > limits.MAX_FILE_BYTES:
+        raise ScenarioError(f"{label}: {size} bytes; a {what} file may have at most {limits.MAX_FILE_BYTES}",
+                            key=str(path))
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{label}: cannot read the {what} file ({exc.strerror or exc})", key=str(path)) from None
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -318,6 +318,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     db = Path(args.db)
     try:
         found = "file" if db.is_file() else "directory" if db.is_dir() else None
+        if found == "file" and db.stat().st_size == 0:
+            raise NodnavError(f"{shown_path(args.db)}: an empty file, not a results database")
     except (OSError, ValueError):
         found = None
     if found != "file":
@@ -408,14 +410,14 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     with tqdm(total=1, unit="vertex", file=sys.stderr, dynamic_ncols=True, desc="roadmaps",
-              bar_format="{desc}: {percentage:3.0f}% of the vertices |{bar}| {postfix} [{elapsed}<{remaining}]") as bar:
+              bar_format="{desc}: {percentage:3.0f}% of the vertices |{bar}| [{elapsed}<{remaining}]{postfix}") as bar:
         ready = 0
 
         def progress(report, vertices: int, total: int) -> None:
             nonlocal ready
             ready += 1
             bar.total = total
-            bar.set_postfix_str(f"{ready} ready, last {report.n_robots} robots {report.pattern} "
+            bar.set_postfix_str(f"{ready} ready, last {plural(report.n_robots, 'robot')} {report.pattern} "
                                 f"{'(cached)' if report.from_cache else f'built in {report.build_seconds:.0f} s'}",
                                 refresh=False)
             bar.update(vertices)

@@ -128,14 +128,16 @@ def trial_summary_lines(result, scenario, method: str, seed: int) -> list[str]:
     entry = summary["corridor_entry_order"]
     chooses = bool(result.history.strategies) and bool((np.asarray(result.history.strategies) >= 0).any())
     order_text = f"corridor entry order ({','.join(map(str, entry))})" if entry else "no robot entered the corridor"
-    if chooses and summary["strategy"]:
+    if chooses and summary["strategy"] and scenario.n_robots > 1:
         j = summary["strategy"] - 1
         order_text += (f", which is strategy {strategy_label(j)} {order_label(passing_orders(scenario.n_robots)[j])}; "
                        f"the robots {'agreed' if summary['consensus'] else 'did not agree'} on the order beforehand")
     lines.append("  " + order_text)
     braking = (f"emergency braking at {plural(result.mpc_infeasible, 'robot step')} (no safe plan for the controller)"
                if result.mpc_infeasible else "no emergency braking")
-    lines.append(f"  closest approach {result.min_separation:.3f} m between robot centres, {braking}")
+    closest = (f"closest approach {result.min_separation:.3f} m between robot centres, "
+               if np.isfinite(result.min_separation) else "")
+    lines.append(f"  {closest}{braking}")
     goals = ", ".join(f"robot {k + 1} {t:.1f} s" if t is not None else f"robot {k + 1} not reached"
                       for k, t in enumerate(summary["time_to_goal_s"]))
     lines.append(f"  time to goal: {goals}")

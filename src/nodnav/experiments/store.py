@@ -411,7 +411,8 @@ class _Guarded:
         try:
             out = getattr(target, name)(*args)
         except (sqlite3.Error, UnicodeDecodeError) as exc:  # damaged text decodes badly
-            raise StoreError(f"{self._path}: not a usable results database ({exc}); if it is damaged, "
+            what = "stored text that does not decode" if isinstance(exc, UnicodeDecodeError) else exc
+            raise StoreError(f"{self._path}: not a usable results database ({what}); if it is damaged, "
                              "use another --db file") from None
         return _GuardedCursor(self, out) if isinstance(out, sqlite3.Cursor) else out
 

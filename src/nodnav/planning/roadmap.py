@@ -951,7 +951,7 @@ def load_roadmap(path: str | os.PathLike, key: RoadmapKey) -> LoadResult:
     if (vertices.ndim != 2 or vertices.shape[1] != dim or edges.ndim != 2 or edges.shape[1] != 2
             or proximity.shape != (len(vertices),) or (len(edges) and (edges.min() < 0 or edges.max() >= len(vertices)))
             or not (np.isfinite(vertices).all() and np.isfinite(proximity).all())):
-        return LoadResult(False, "inconsistent arrays", empty)
+        return LoadResult(False, "inconsistent or non-finite arrays", empty)
     return LoadResult(True, "", Roadmap(key, vertices, edges, proximity, dropped, build_seconds))
 
 

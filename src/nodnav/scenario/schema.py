@@ -639,7 +639,8 @@ def parse_yaml(text: str, label: str) -> Any:
     except RecursionError:
         raise ScenarioError(f"{label}: invalid YAML: nested too deeply", key=label) from None
     except (ValueError, OverflowError, TypeError) as exc:  # e.g. an integer of more than 4300 digits
-        raise ScenarioError(f"{label}: invalid YAML: {one_line(str(exc), 120)}", key=label) from None
+        problem = "a number with more than 4300 digits" if "digits" in str(exc) else one_line(str(exc), 120)
+        raise ScenarioError(f"{label}: invalid YAML: {problem}", key=label) from None
 
 
 def load_scenario(spec: str | Path) -> Scenario:

@@ -522,10 +522,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--name", help="study name (default: the study file's stem, else 'sweep')")
     p.add_argument("--scenario", action="append", dest="scenarios",
                    help="built-in name, YAML path, or 'all' for every built-in scenario (repeatable)")
-    p.add_argument("--players", action="append", help="game players K or 'all' (repeatable)")
-    p.add_argument("--init", action="append", choices=("zero", "distance"), help="initial opinions (repeatable)")
-    p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable)")
-    p.add_argument("--planner", action="append", dest="planners", help="planner (repeatable)")
+    p.add_argument("--players", action="append", help="game players K or 'all' (repeatable; default: each scenario's own)")
+    p.add_argument("--init", action="append", choices=("zero", "distance"),
+                   help="initial opinions (repeatable; default: each scenario's own)")
+    p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
+    p.add_argument("--planner", action="append", dest="planners", help="planner: fast or prm (repeatable; default: each scenario's own)")
     p.add_argument("--method", action="append", dest="methods", help="navigation method (repeatable; default nod)")
     p.add_argument("--trials", help=f"seeds 1..N for every combination (default 1, at most {MAX_TRIALS})")
     p.add_argument("--db", default="nodnav-results.sqlite", help="results database (default nodnav-results.sqlite)")

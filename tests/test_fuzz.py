@@ -84,10 +84,8 @@ def mutated_scenarios(draw):
         elif action == "deep":
             target[key] = _nested(draw(st.sampled_from([50, 1000, 3000])))
         else:
-            try:
-                target[key] = draw(values)
-            except TypeError:  # an unhashable key drawn for a mapping
-                pass
+            # A copy: later mutations may walk into it, and hypothesis may hand out the same object again.
+            target[key] = copy.deepcopy(draw(values))
     return raw
 
 

@@ -132,6 +132,14 @@ def test_a_directory_given_as_scenario(tmp_path, capsys):
     assert "is a directory" in err
 
 
+def test_a_pipe_is_refused_instead_of_read_forever(tmp_path, capsys):
+    fifo = tmp_path / "pipe.yaml"
+    os.mkfifo(fifo)
+    assert "not a regular file" in _cli(capsys, "show", str(fifo), "--out", str(tmp_path / "x.png"))
+    assert "not a regular file" in _cli(capsys, "sweep", "--scenario", "2r-case1", "--db", str(fifo))
+    assert "not a nodnav history file" in _cli(capsys, "replay", str(fifo), "--out", str(tmp_path / "o"))
+
+
 def test_a_file_over_the_size_limit(tmp_path):
     path = _write(tmp_path, "big.yaml", b"# " + b"x" * (2 << 20) + b"\n")
     with pytest.raises(ScenarioError, match="may have at most"):

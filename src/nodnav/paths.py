@@ -70,6 +70,8 @@ def output_file(path: str | os.PathLike, option: str = "--out", formats: tuple[s
             elif suffix not in formats:
                 raise NodnavError(f"{option}: cannot write .{suffix} pictures; end the file name in one of "
                                   f"{', '.join('.' + f for f in formats)}")
+        if path.exists() and not path.is_file():  # a pipe or a device: never a result file
+            raise NodnavError(f"{option}: {shown_path(path)} exists and is not a regular file")
         if path.exists() and not os.access(path, os.W_OK):
             raise NodnavError(f"{option}: {shown_path(path)} exists and cannot be overwritten")
         parent = path.parent

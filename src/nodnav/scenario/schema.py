@@ -609,12 +609,14 @@ def read_yaml(path: Path, what: str = "scenario") -> Any:
     """
     label = shown_path(path)
     try:
-        is_dir, size = path.is_dir(), path.stat().st_size
+        is_dir, is_file, size = path.is_dir(), path.is_file(), path.stat().st_size
     except (OSError, ValueError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else "not a usable file name"
         raise ScenarioError(f"{label}: cannot read the {what} file ({reason})", key=str(path)) from None
     if is_dir:
         raise ScenarioError(f"{label}: is a directory; give a {what} YAML file", key=str(path))
+    if not is_file:  # a pipe or a device would be read forever
+        raise ScenarioError(f"{label}: not a regular file; give a {what} YAML file", key=str(path))
     if size > limits.MAX_FILE_BYTES:
         raise ScenarioError(f"{label}: {size} bytes; a {what} file may have at most {limits.MAX_FILE_BYTES}",
                             key=str(path))

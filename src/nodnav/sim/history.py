@@ -89,6 +89,13 @@ class History:
         name = shown_path(path)
         not_history = f"{name}: not a nodnav history file (one is written by nodnav run SCENARIO --out DIR)"
         try:
+            p = Path(path)
+            blocking = p.exists() and not p.is_file() and not p.is_dir()  # a pipe or a device: read forever
+        except (OSError, ValueError):
+            blocking = False  # np.load refuses the name below
+        if blocking:
+            raise NodnavError(not_history)
+        try:
             with np.load(path, allow_pickle=False) as data:
                 meta = json.loads(str(data["meta"]))
                 arrays = {k: data[k] for k in data.files if k != "meta"}

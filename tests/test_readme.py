@@ -19,3 +19,17 @@ def test_readme_opens_with_main_job_and_tests():
 def test_ci_runs_the_readme_test_command():
     ci = (ROOT / ".ci" / "run").read_text().splitlines()
     assert _commands()[1] in ci
+
+
+def test_readme_states_every_bound_of_a_scenario():
+    from nodnav.scenario.limits import MAX_STRATEGIES, RANGES
+
+    text = (ROOT / "README.md").read_text()
+    for key in RANGES:
+        assert f"`{key}`" in text, key
+    assert f"`MAX_STRATEGIES` = {MAX_STRATEGIES}" in text
+
+
+def test_main_job_installs_only_what_a_trial_needs():
+    main_job = _commands()[0]
+    assert "pip install -e ." in main_job and "[all]" not in main_job and "[dev]" not in main_job

@@ -73,10 +73,10 @@ def test_per_robot_opinion_parameters():
     assert s.robot_opinion(1).K1 == s.opinion.K1  # the rest comes from the scenario's opinion
     assert scenario_from_dict(scenario_to_dict(s)) == s
     raw["robots"][1]["opinion"] = {"T": 2.0}
-    with pytest.raises(ScenarioError, match="robot 2.opinion.T: the opinion period is shared"):
+    with pytest.raises(ScenarioError, match=r"robots\[1\].opinion.T: the opinion period is shared"):
         scenario_from_dict(raw)
     raw["robots"][1]["opinion"] = {"bias": {"S9": 1.0}}
-    with pytest.raises(ScenarioError, match="robot 2.opinion.bias: unknown strategy 'S9'"):
+    with pytest.raises(ScenarioError, match=r"robots\[1\].opinion.bias: unknown strategy 'S9'"):
         scenario_from_dict(raw)
 
 
@@ -118,13 +118,13 @@ def test_minimal_file(tmp_path):
     (GOOD + "game_players: 2\n", "game_players: expected 'all' or a whole number 0..1"),
     (GOOD + "planner: {name: prn}\n", "did you mean 'prm'?"),
     (GOOD + "world: {bounds: [1, 2, 3]}\n", "world.bounds: expected a list of 4 numbers"),
-    ("robots:\n  - {origin: [-5, 0]}\n", "robot 1: missing 'destination'"),
-    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], colour: red}\n", "robot 1: unknown key 'colour'"),
-    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n", "robot 1: origin [0.0, 0.3] puts the robot"),
-    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n", "robot 1: destination [9.0, 0.0] is outside"),
+    ("robots:\n  - {origin: [-5, 0]}\n", "robots[0]: missing 'destination' for robot 1"),
+    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], colour: red}\n", "robots[0]: unknown key 'colour'"),
+    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n", "robots[0].origin: [0.0, 0.3] puts robot 1 (radius 0.2 m) inside a wall"),
+    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n", "robots[0].destination: [9.0, 0.0] puts robot 1 outside the world bounds"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0]}\n  - {origin: [-5, 0.3], destination: [5, 1]}\n",
-     "robot 1 and robot 2: origins overlap"),
-    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n", "robot 1.radius: must be positive"),
+     "robots[1].origin: robot 1 and robot 2: origins overlap"),
+    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n", "robots[0].radius: must be from 0.01 to 5, got -1"),
 ])
 def test_malformed_is_one_clear_line(tmp_path, text, message):
     with pytest.raises(ScenarioError) as exc:

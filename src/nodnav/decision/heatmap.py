@@ -88,6 +88,8 @@ def steady_state_selection(
     (default ``1000 / d``) is reached; near the pitchfork ``u = 2`` the approach is algebraic
     and may not converge, which ``converged`` and ``reason`` report.
     """
+    if not (np.isfinite(u) and np.isfinite(d) and np.isfinite(eta)):  # NaN would never converge: a hang
+        raise ValueError(f"u, d and eta must be finite, got u={u}, d={d}, eta={eta}")
     if d <= 0 or eta <= 0:
         raise ValueError(f"d and eta must be positive, got d={d}, eta={eta}")
     z_values = np.asarray(z_values, dtype=float)

@@ -27,7 +27,7 @@ import json
 import logging
 import math
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -35,12 +35,13 @@ from typing import Callable
 import yaml
 
 import nodnav
-from nodnav.errors import NodnavError
+from nodnav.errors import NodnavError, shown
 from nodnav.experiments.report import (META_STUDY, SNAPSHOTS, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS,
                                        STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, ReportResult, build_report)
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
-from nodnav.experiments.sweep import TrialSpec, expand, run_sweep
+from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
+from nodnav.provenance import code_version
 from nodnav.scenario.schema import builtin_names, load_scenario, scenario_to_dict
 
 log = logging.getLogger(__name__)
@@ -103,6 +104,9 @@ class ReproduceOptions:
     """The command line, quoted in the report."""
     quiet: bool = False
     """No progress bars."""
+    allow_mixed: bool = False
+    """Count trials stored by another code version as done instead of running them again
+    (see :mod:`nodnav.experiments.sweep`)."""
 
     @property
     def db_path(self) -> Path:
@@ -180,23 +184,23 @@ def check_options(options: ReproduceOptions) -> None:
     for name in ("trials", "jobs", "fig2c_grid", "fig2c_trials", "heatmap_grid"):
         value = getattr(options, name)
         if isinstance(value, bool) or not isinstance(value, int) or value < (2 if "grid" in name else 1):
-            raise NodnavError(f"{name.replace('_', '-')}: expected a whole number >= {2 if 'grid' in name else 1}, "
-                              f"got {value!r}")
+            raise NodnavError(f"--{name.replace('_', '-')}: expected a whole number >= {2 if 'grid' in name else 1}, "
+                              f"got {shown(value)}")
     if not isinstance(options.method_trials, int) or options.method_trials < 1:
-        raise NodnavError(f"method-trials: expected a whole number >= 1, got {options.method_trials!r}")
+        raise NodnavError(f"--method-trials: expected a whole number >= 1, got {shown(options.method_trials)}")
     if not (options.budget_minutes >= 0 and math.isfinite(options.budget_minutes)):
-        raise NodnavError(f"budget: expected minutes >= 0 (0 for no limit), got {options.budget_minutes!r}")
+        raise NodnavError(f"--budget: expected minutes >= 0 (0 for no limit), got {shown(options.budget_minutes)}")
     for p in options.parts:
         if p not in PARTS:
-            raise NodnavError(f"parts: unknown part '{p}'; choose from {', '.join(PARTS)}")
+            raise NodnavError(f"--parts: unknown part {shown(p)}; choose from {', '.join(PARTS)}")
     for m in options.methods:
         if m not in known_methods():
-            raise NodnavError(f"methods: unknown method '{m}'; choose from {', '.join(known_methods())}")
+            raise NodnavError(f"--methods: unknown method {shown(m)}; choose from {', '.join(known_methods())}")
     from nodnav.planning import PLANNERS
 
     for p in options.planners:
         if p not in PLANNERS:
-            raise NodnavError(f"planners: unknown planner '{p}'; choose from {', '.join(PLANNERS)}")
+            raise NodnavError(f"--planners: unknown planner {shown(p)}; choose from {', '.join(PLANNERS)}")
     for s in options.scenarios:
         load_scenario(s)
 
@@ -339,11 +343,13 @@ def next_round(parts: tuple[Part, ...], done: dict[str, int], trials: dict[str, 
     return best
 
 
-def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None) -> ReproduceResult:
+def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
+              notify: Callable[[str], None] | None = None) -> ReproduceResult:
     """Run the evaluation of ``options`` into its results database within its budget, then write the report.
 
     ``trial_fn`` replaces :func:`~nodnav.sim.simulator.run_trial` in the sweeps (see
-    :func:`~nodnav.experiments.sweep.run_sweep`).
+    :func:`~nodnav.experiments.sweep.run_sweep`). Trials stored by another code version are run
+    again unless ``options.allow_mixed``; ``notify`` receives that one-line note first.
     """
     start = time.perf_counter()
     check_options(options)
@@ -352,6 +358,12 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None) ->
     db = options.db_path
     parts = plan_parts(options)
     trials = {p.name: expand(p.spec).trials for p in parts}
+    current = None if options.allow_mixed else code_version()
+    with ResultStore(db) as store:
+        versions = store.stored_versions(t.key for specs in trials.values() for t in specs)
+    stale = Counter(v for _, v in versions.values() if v != code_version())
+    if stale and notify is not None:
+        notify(stale_note(dict(stale), code_version(), options.allow_mixed))
     budget = 60.0 * options.budget_minutes
     done = {p.name: 0 for p in parts}
     levels: list[dict[str, int]] = []
@@ -368,7 +380,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None) ->
                 log.warning("budget spent: %s stays at %d of %d trials per cell", p.title, done[p.name], p.target)
                 continue
             summary = run_sweep(dataclasses.replace(p.spec, trials=seeds[p.name]), db, jobs=options.jobs,
-                                quiet=options.quiet, trial_fn=trial_fn)
+                                quiet=options.quiet, trial_fn=trial_fn, allow_mixed=options.allow_mixed)
             errors += summary.errors
             sweep_wall += summary.wall_time
             log.info("%s", summary.reason)
@@ -382,7 +394,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None) ->
         while any(done[p.name] < p.target for p in parts):
             with ResultStore(db) as store:
                 cost = CostModel(store)
-                stored = set(store.stored(t.key for specs in trials.values() for t in specs))
+                stored = set(store.stored((t.key for specs in trials.values() for t in specs), current))
                 reserve = REPORT_RESERVE + sum(_snapshot_cost(store, s) for s in SNAPSHOTS)
             left = budget - (time.perf_counter() - start) - reserve
             tier = round_parts(parts, done)
@@ -393,7 +405,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None) ->
             run_round(best)
     with ResultStore(db) as store:
         cost = CostModel(store)
-        stored = set(store.stored(t.key for specs in trials.values() for t in specs))
+        stored = set(store.stored((t.key for specs in trials.values() for t in specs), current))
         remaining = pending(trials, {p.name: p.target for p in parts}, stored)
         progress = tuple(PartProgress(p.name, p.spec.name, p.title, p.target, done[p.name]) for p in parts)
         cuts = []

@@ -7,12 +7,21 @@ Tables
     seed). It holds the configuration as JSON, the factors of the sweep as plain columns
     (scenario, robots, method, planner, players, init, bias, seed), the outcome, the headline
     numbers as columns (success, makespan, min_separation, strategy, consensus, sim_time,
-    wall_time), the whole summary and the metrics as JSON, the nodnav version and a timestamp.
+    wall_time), the whole summary and the metrics as JSON, the nodnav version, the code version
+    that ran it (:func:`nodnav.provenance.code_version`; ``unknown`` for rows stored before code
+    versions were recorded) and a timestamp.
+``stale_trials``
+    Rows of ``trials`` that a later sweep replaced by re-running the same trial under another
+    code version (same columns; keyed by trial and code version). Kept for the record; no
+    report reads them as results.
 ``study_trials``
     Which trials belong to which study. A trial is run once and shared by every study whose
     cross product contains it, so a study's results are the rows linked to it here.
 ``studies``
     Each study's specification as JSON, as it was last run.
+
+Schema 1 (before code versions) is migrated when opened: the column is added and its old rows
+are marked ``unknown``.
 
 Durability: the file is in WAL mode with ``synchronous=FULL``, and each trial (its row and its
 link to the study) is written in one transaction, so a process killed at any instant leaves every
@@ -31,12 +40,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from nodnav.errors import NodnavError
+from nodnav.provenance import UNKNOWN, code_version as current_code_version
 
 DEFAULT_DB = "nodnav-results.sqlite"
 
 OUTCOMES = ("success", "collision", "deadlock", "timeout", "error")
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS trials (
@@ -63,7 +73,8 @@ CREATE TABLE IF NOT EXISTS trials (
     summary        TEXT NOT NULL,
     metrics        TEXT NOT NULL,
     version        TEXT NOT NULL,
-    created        TEXT NOT NULL
+    created        TEXT NOT NULL,
+    code_version   TEXT NOT NULL DEFAULT 'unknown'
 );
 CREATE INDEX IF NOT EXISTS trials_factors ON trials (scenario, players, init, bias, planner, method);
 CREATE TABLE IF NOT EXISTS study_trials (
@@ -78,9 +89,19 @@ CREATE TABLE IF NOT EXISTS studies (
 );
 """
 
+#: Columns of ``trials`` (and of ``stale_trials``), in table order.
+TRIAL_COLUMNS = ("key", "study", "scenario", "n_robots", "method", "planner", "players", "init", "bias", "seed",
+                 "config", "outcome", "error", "success", "makespan", "min_separation", "strategy", "consensus",
+                 "sim_time", "wall_time", "summary", "metrics", "version", "created", "code_version")
+
+_STALE = """
+CREATE TABLE IF NOT EXISTS stale_trials AS SELECT * FROM trials WHERE 0;
+CREATE UNIQUE INDEX IF NOT EXISTS stale_trials_key ON stale_trials (key, code_version);
+"""
+
 #: Columns that :meth:`ResultStore.records` and :meth:`ResultStore.outcome_counts` filter and group on.
 FACTOR_COLUMNS = ("scenario", "n_robots", "method", "planner", "players", "init", "bias", "seed", "outcome",
-                  "version", "success", "strategy", "consensus")
+                  "version", "success", "strategy", "consensus", "code_version")
 
 
 class StoreError(NodnavError):
@@ -157,6 +178,9 @@ class TrialRecord:
     """nodnav version that ran the trial."""
     created: str
     """When the trial was stored (ISO 8601, UTC)."""
+    code_version: str = UNKNOWN
+    """:func:`nodnav.provenance.code_version` of the code that ran the trial (``unknown`` for
+    trials stored before code versions were recorded)."""
 
     @property
     def success(self) -> bool:
@@ -191,17 +215,32 @@ class ResultStore:
     def __init__(self, path: str | Path = DEFAULT_DB):
         self.path = Path(path)
         try:
-            self._db = sqlite3.connect(self.path, isolation_level=None, timeout=30.0)
+            self._db = _Guarded(sqlite3.connect(self.path, isolation_level=None, timeout=30.0), self.path)
+        except sqlite3.Error as exc:
+            raise StoreError(f"{self.path}: cannot open the results database ({exc})") from None
+        try:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=FULL")
+            problems = [row[0] for row in self._db.execute("PRAGMA quick_check").fetchall()]
+            if problems != ["ok"]:
+                raise StoreError(f"{self.path}: the results database is damaged ({problems[0]}); "
+                                 "use another --db file")
             version = self._db.execute("PRAGMA user_version").fetchone()[0]
-            if version not in (0, SCHEMA_VERSION):
+            if version not in (0, 1, SCHEMA_VERSION):
                 raise StoreError(f"{self.path}: results database of schema {version}, this nodnav reads "
                                  f"{SCHEMA_VERSION}; use another --db file")
             self._db.executescript(_SCHEMA)
+            columns = {row[1] for row in self._db.execute("PRAGMA table_info(trials)").fetchall()}
+            if version == 1 and "code_version" not in columns:  # schema 1: no code versions yet
+                self._db.execute(f"ALTER TABLE trials ADD COLUMN code_version TEXT NOT NULL DEFAULT '{UNKNOWN}'")
+                columns.add("code_version")
+            if set(TRIAL_COLUMNS) - columns:
+                raise StoreError(f"{self.path}: has a 'trials' table that nodnav did not write; use another --db file")
+            self._db.executescript(_STALE)
             self._db.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
-        except sqlite3.DatabaseError as exc:
-            raise StoreError(f"{self.path}: not a usable results database ({exc})") from None
+        except BaseException:
+            self._db.close()
+            raise
 
     def __enter__(self) -> "ResultStore":
         return self
@@ -216,12 +255,14 @@ class ResultStore:
     # -- writing -----------------------------------------------------------------------------
 
     def add_trial(self, *, key: str, study: str, config: dict, seed: int, outcome: str, summary: dict,
-                  metrics: dict, version: str, error: str | None = None) -> None:
+                  metrics: dict, version: str, error: str | None = None, code_version: str | None = None) -> None:
         """Store one finished trial and link it to ``study``, in one transaction.
 
         ``summary`` is ``TrialResult.to_dict()`` (JSON-ready), from which the headline columns
-        are taken; ``config`` is :func:`trial_config`. A trial already stored under ``key`` is
-        replaced (the study that first ran it is kept).
+        are taken; ``config`` is :func:`trial_config`; ``code_version`` is the code that ran it
+        (default: this process's :func:`~nodnav.provenance.code_version`). A trial already
+        stored under ``key`` is replaced (the study that first ran it is kept); if it was run
+        by another code version, the old row is first moved to ``stale_trials``.
         """
         if outcome not in OUTCOMES:
             raise StoreError(f"unknown outcome '{outcome}'; expected one of {', '.join(OUTCOMES)}")
@@ -242,13 +283,16 @@ class ResultStore:
             "strategy": None if strategy is None else int(strategy), "consensus": flag(summary.get("consensus")),
             "sim_time": summary.get("sim_time_s"), "wall_time": summary.get("wall_time_s"),
             "summary": canonical_json(summary), "metrics": canonical_json(metrics), "version": version,
-            "created": _now(),
+            "created": _now(), "code_version": code_version or current_code_version(),
         }
         columns = ", ".join(row)
         with self._transaction():
             first = self._db.execute("SELECT study FROM trials WHERE key = ?", (key,)).fetchone()
             if first is not None:
                 row["study"] = first[0]
+                cols = ", ".join(TRIAL_COLUMNS)
+                self._db.execute(f"INSERT OR REPLACE INTO stale_trials ({cols}) SELECT {cols} FROM trials "
+                                 "WHERE key = ? AND code_version != ?", (key, row["code_version"]))
             self._db.execute(f"INSERT OR REPLACE INTO trials ({columns}) VALUES ({', '.join('?' * len(row))})",
                              list(row.values()))
             self._db.execute("INSERT OR IGNORE INTO study_trials (study, key) VALUES (?, ?)", (study, key))
@@ -277,15 +321,30 @@ class ResultStore:
 
     # -- reading -----------------------------------------------------------------------------
 
-    def stored(self, keys) -> dict[str, str]:
-        """The outcome of each of ``keys`` that is stored."""
+    def stored(self, keys, code_version: str | None = None) -> dict[str, str]:
+        """The outcome of each of ``keys`` that is stored (run by ``code_version`` only, if given)."""
+        return {k: outcome for k, (outcome, v) in self.stored_versions(keys).items()
+                if code_version is None or v == code_version}
+
+    def stored_versions(self, keys) -> dict[str, tuple[str, str]]:
+        """``(outcome, code_version)`` of each of ``keys`` that is stored."""
         keys = list(keys)
         out = {}
         for start in range(0, len(keys), 500):  # keep below SQLite's limit on parameters
             chunk = keys[start:start + 500]
-            out.update(self._db.execute(f"SELECT key, outcome FROM trials WHERE key IN ({', '.join('?' * len(chunk))})",
-                                        chunk).fetchall())
+            rows = self._db.execute(f"SELECT key, outcome, code_version FROM trials WHERE key IN "
+                                    f"({', '.join('?' * len(chunk))})", chunk).fetchall()
+            out.update((k, (o, v)) for k, o, v in rows)
         return out
+
+    def code_versions(self) -> dict[str, int]:
+        """Number of stored trials per code version."""
+        return dict(self._db.execute("SELECT code_version, COUNT(*) FROM trials GROUP BY code_version "
+                                     "ORDER BY code_version").fetchall())
+
+    def stale_count(self) -> int:
+        """Number of rows kept in ``stale_trials`` (trials re-run under another code version)."""
+        return self._db.execute("SELECT COUNT(*) FROM stale_trials").fetchone()[0]
 
     def records(self, study: str | None = None, **filters) -> list[TrialRecord]:
         """Stored trials of ``study`` (all studies if ``None``) matching ``filters``, in factor then seed order.
@@ -301,9 +360,16 @@ class ResultStore:
         for row in rows:
             d = dict(zip(names, row))
             for k in ("config", "summary", "metrics"):
-                d[k] = json.loads(d[k])
+                d[k] = self._json(d[k])
             out.append(TrialRecord(**d))
         return out
+
+    def _json(self, text: str):
+        try:
+            return json.loads(text)
+        except (TypeError, ValueError):
+            raise StoreError(f"{self.path}: not a usable results database (a stored row does not parse); "
+                             "if it is damaged, use another --db file") from None
 
     def outcome_counts(self, by=("scenario", "players"), study: str | None = None, **filters) -> dict[tuple, dict[str, int]]:
         """Number of trials of each outcome per group of the columns ``by``.
@@ -326,9 +392,54 @@ class ResultStore:
 
     def studies(self) -> dict[str, dict]:
         """Every stored study's specification, by name."""
-        return {name: json.loads(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
+        return {name: self._json(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
 
     def count(self, study: str | None = None, **filters) -> int:
         """Number of stored trials of ``study`` matching ``filters``."""
         where, params = _where(study, filters)
         return self._db.execute(f"SELECT COUNT(*) FROM trials{where}", params).fetchone()[0]
+
+
+class _Guarded:
+    """An sqlite3 connection whose every database error becomes one :class:`StoreError` line
+    naming the file (a damaged file can fail on any page, at any query)."""
+
+    def __init__(self, connection: sqlite3.Connection, path: Path):
+        self._c, self._path = connection, path
+
+    def _call(self, target, name: str, *args):
+        try:
+            out = getattr(target, name)(*args)
+        except (sqlite3.Error, UnicodeDecodeError) as exc:  # damaged text decodes badly
+            what = "stored text that does not decode" if isinstance(exc, UnicodeDecodeError) else exc
+            raise StoreError(f"{self._path}: not a usable results database ({what}); if it is damaged, "
+                             "use another --db file") from None
+        return _GuardedCursor(self, out) if isinstance(out, sqlite3.Cursor) else out
+
+    def execute(self, *args):
+        return self._call(self._c, "execute", *args)
+
+    def executemany(self, *args):
+        return self._call(self._c, "executemany", *args)
+
+    def executescript(self, *args):
+        return self._call(self._c, "executescript", *args)
+
+    def close(self) -> None:
+        self._c.close()
+
+
+class _GuardedCursor:
+    """A cursor of :class:`_Guarded`: rows are read lazily, so reading can fail too."""
+
+    def __init__(self, guard: _Guarded, cursor: sqlite3.Cursor):
+        self._g, self._cursor = guard, cursor
+
+    def fetchone(self):
+        return self._g._call(self._cursor, "fetchone")
+
+    def fetchall(self):
+        return self._g._call(self._cursor, "fetchall")
+
+    def __iter__(self):
+        return iter(self.fetchall())

@@ -20,14 +20,15 @@ every problem is one :class:`StudyError` line naming the key.
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from nodnav.errors import NodnavError
-from nodnav.scenario.schema import builtin_names, nearest_hint, yaml_error_message
+from nodnav.errors import NodnavError, shown, shown_path
+from nodnav.scenario.limits import MAX_STRATEGIES, RANGES
+from nodnav.scenario.schema import ScenarioError, builtin_names, nearest_hint, read_yaml, strategy_number
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
 
@@ -82,6 +83,19 @@ class SweepSpec:
         return out
 
 
+#: Most seeds per combination (``trials``).
+MAX_TRIALS = 10_000
+#: Most trials one sweep may expand to (every combination times its seeds): each is held in
+#: memory with its key while the sweep runs.
+MAX_SWEEP_TRIALS = 100_000
+
+#: The command-line option that sets each study key, named in errors about what was typed.
+OPTION_NAMES = {"name": "--name", "scenarios": "--scenario", "players": "--players", "init": "--init",
+                "bias": "--bias", "planners": "--planner", "methods": "--method", "trials": "--trials"}
+
+_WHOLE = re.compile(r"[0-9]{1,6}")
+
+
 def _listed(value: Any) -> list:
     return list(value) if isinstance(value, (list, tuple)) else [value]
 
@@ -90,11 +104,11 @@ def parse_players(value: Any, where: str = "players") -> int | str:
     """One game-player setting: ``all`` or a whole number >= 0 (also given as text)."""
     if value == "all":
         return "all"
-    if isinstance(value, str) and value.strip().isdigit():
+    if isinstance(value, str) and _WHOLE.fullmatch(value.strip()):
         return int(value)
-    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 10**6:
         return value
-    raise StudyError(f"{where}: expected 'all' or a whole number >= 0, got {value!r}")
+    raise StudyError(f"{where}: expected 'all' or a whole number >= 0, got {shown(value)}")
 
 
 def parse_bias(value: Any, where: str = "bias") -> Bias:
@@ -106,30 +120,36 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
         for item in filter(None, (s.strip() for s in value.split(","))):
             name, sep, number = item.partition("=")
             if not sep:
-                raise StudyError(f"{where}: expected entries like S3=150, got {item!r}")
+                raise StudyError(f"{where}: expected entries like S3=150, got {shown(item)}")
             entries[name.strip()] = number.strip()
         value = entries
     if not isinstance(value, dict):
-        raise StudyError(f"{where}: expected 'none', a mapping like {{S3: 150}} or text like S3=150,S5=150, got {value!r}")
+        raise StudyError(f"{where}: expected 'none', a mapping like {{S3: 150}} or text like S3=150,S5=150, "
+                         f"got {shown(value)}")
     out = []
     for name, number in value.items():
-        name = str(name)
-        if not (name.startswith("S") and name[1:].isdigit() and int(name[1:]) >= 1):
-            raise StudyError(f"{where}: unknown strategy '{name}'; name strategies S1, S2, ...")
+        j = strategy_number(name)
+        if j is None or j > MAX_STRATEGIES:
+            raise StudyError(f"{where}: unknown strategy {shown(name)}; name strategies S1, S2, ... "
+                             f"(at most S{MAX_STRATEGIES})")
         try:
-            v = float(number)
-        except (TypeError, ValueError):
-            raise StudyError(f"{where}.{name}: expected a number, got {number!r}") from None
-        if v != v or v in (float("inf"), float("-inf")):
-            raise StudyError(f"{where}.{name}: expected a finite number, got {number!r}")
+            v = float(number) if isinstance(number, (str, int, float)) and not isinstance(number, bool) else None
+        except (ValueError, OverflowError):
+            v = None
+        entry = f"{where}: {name}" if where.startswith("--") else f"{where}.{name}"
+        if v is None:
+            raise StudyError(f"{entry}: expected a number, got {shown(number)}")
+        low, high, _ = RANGES["opinion.bias"]
+        if not low <= v <= high:  # also refuses nan and inf
+            raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((name, v))
-    return tuple(sorted(out, key=lambda e: int(e[0][1:])))
+    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
     names = _listed(value)
     if not names or not all(isinstance(n, str) and n for n in names):
-        raise StudyError(f"{where}: expected a name or a non-empty list of names, got {value!r}")
+        raise StudyError(f"{where}: expected a name or a non-empty list of names, got {shown(value)}")
     return tuple(names)
 
 
@@ -154,7 +174,7 @@ def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
     names = _names(value, where)
     for n in names:
         if n not in valid:
-            raise StudyError(f"{where}: unknown {what} '{n}'{nearest_hint(n, valid, what + 's')}")
+            raise StudyError(f"{where}: unknown {what} {shown(n)}{nearest_hint(n, valid, what + 's')}")
     return names
 
 
@@ -165,59 +185,73 @@ def known_methods() -> tuple[str, ...]:
     return tuple(METHODS)
 
 
-def study_from_dict(data: Any, source: str = "study") -> SweepSpec:
-    """Validate a study mapping (parsed YAML, or the command line's options) and build a :class:`SweepSpec`."""
+def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | None = None) -> SweepSpec:
+    """Validate a study mapping (parsed YAML, or the command line's options) and build a :class:`SweepSpec`.
+
+    Errors name ``labels[key]`` for a key the user typed as an option (``--players``), else
+    ``source: key``.
+    """
     from nodnav.planning import PLANNERS
+
+    def at(key: str) -> str:
+        return (labels or {}).get(key) or f"{source}: {key}"
 
     if not isinstance(data, dict):
         raise StudyError(f"{source}: expected a mapping with keys such as 'scenarios' and 'trials', got {type(data).__name__}")
     for key in data:
         if key not in STUDY_KEYS:
-            raise StudyError(f"{source}: unknown key '{key}'{nearest_hint(str(key), STUDY_KEYS, 'valid keys')}")
+            raise StudyError(f"{source}: unknown key {shown(key)}{nearest_hint(key, STUDY_KEYS, 'valid keys')}")
     if "scenarios" not in data and not data.get("families"):
-        raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths) or 'families'")
+        if labels and "scenarios" in labels:
+            raise StudyError(f"{labels['scenarios']}: give at least one scenario (a built-in name, a YAML path, or all)")
+        raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths, or all) "
+                         "or 'families'")
     name = data.get("name", "sweep")
-    if not isinstance(name, str) or not name.strip():
-        raise StudyError(f"{source}: 'name' must be non-empty text")
+    if not isinstance(name, str) or not name.strip() or len(name) > 100 or not name.isprintable():
+        raise StudyError(f"{at('name')}: expected one line of text (at most 100 characters), got {shown(name)}")
     trials = data.get("trials", 1)
-    if isinstance(trials, str) and trials.strip().isdigit():
+    if isinstance(trials, str) and _WHOLE.fullmatch(trials.strip()):
         trials = int(trials)
-    if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
-        raise StudyError(f"{source}: trials: expected a whole number >= 1, got {trials!r}")
+    if isinstance(trials, bool) or not isinstance(trials, int) or not 1 <= trials <= MAX_TRIALS:
+        raise StudyError(f"{at('trials')}: expected a whole number >= 1 (at most {MAX_TRIALS}), got {shown(trials)}")
     spec = SweepSpec(
         name=name.strip(),
-        scenarios=_scenario_names(data["scenarios"], f"{source}: scenarios") if "scenarios" in data else (),
+        scenarios=_scenario_names(data["scenarios"], at("scenarios")) if "scenarios" in data else (),
         trials=trials,
-        methods=_choices(data.get("methods", "nod"), known_methods(), f"{source}: methods", "method"),
+        methods=_choices(data.get("methods", "nod"), known_methods(), at("methods"), "method"),
     )
     changes: dict[str, tuple] = {}
     if "players" in data:
-        changes["players"] = tuple(parse_players(v, f"{source}: players") for v in _listed(data["players"]))
+        changes["players"] = tuple(parse_players(v, at("players")) for v in _listed(data["players"]))
     if "init" in data:
-        changes["init"] = _choices(data["init"], INIT_MODES, f"{source}: init", "initial-opinion mode")
+        changes["init"] = _choices(data["init"], INIT_MODES, at("init"), "initial-opinion mode")
     if "bias" in data:
-        changes["bias"] = tuple(parse_bias(v, f"{source}: bias") for v in _listed(data["bias"]))
+        changes["bias"] = tuple(parse_bias(v, at("bias")) for v in _listed(data["bias"]))
     if "planners" in data:
-        changes["planners"] = _choices(data["planners"], PLANNERS, f"{source}: planners", "planner")
+        changes["planners"] = _choices(data["planners"], PLANNERS, at("planners"), "planner")
     if "families" in data:
-        changes["families"] = _family_names(data["families"], f"{source}: families")
+        changes["families"] = _family_names(data["families"], at("families"))
     for key, values in changes.items():
         if not values:
-            raise StudyError(f"{source}: {key}: expected at least one value")
-    return dataclasses.replace(spec, **changes)
+            raise StudyError(f"{at(key)}: expected at least one value")
+    spec = dataclasses.replace(spec, **changes)
+    size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
+                                            spec.methods)) * spec.trials
+    if size > MAX_SWEEP_TRIALS:
+        raise StudyError(f"{at('trials')}: the study expands to {size} trials, more than one sweep may run "
+                         f"({MAX_SWEEP_TRIALS}); split it into several studies")
+    return spec
 
 
 def load_study(path: str | Path, overrides: dict | None = None) -> SweepSpec:
-    """Read a study file; ``overrides`` (study keys, e.g. from the command line) replace its values."""
+    """Read a study file; ``overrides`` (study keys, e.g. from the command line) replace its values
+    and are named by their option in errors."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except OSError as exc:
-        raise StudyError(f"{path}: cannot read the study file ({exc.strerror})") from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise StudyError(f"{path}: {yaml_error_message(exc)}") from None
+        data = read_yaml(path, "study")
+    except ScenarioError as exc:
+        raise StudyError(str(exc)) from None
     if isinstance(data, dict):
         data = {"name": path.stem, **data, **(overrides or {})}
-    return study_from_dict(data, str(path))
+    labels = {k: OPTION_NAMES[k] for k in (overrides or {}) if k in OPTION_NAMES}
+    return study_from_dict(data, shown_path(path), labels)

@@ -8,6 +8,16 @@ most the trials that were still running, and running it again does only those.
 
 Every trial is seeded by its own seed and nothing else, so the stored results do not depend on
 the number of workers or the order in which trials finish.
+
+Code versions
+-------------
+Every stored trial records the code version that ran it
+(:func:`nodnav.provenance.code_version`, computed in the worker). A trial stored by another
+code version (or before versions were recorded, ``unknown``) is *stale*: by default it counts as
+not stored and is run again under this version, the old row moving to the ``stale_trials``
+table, so a study's results never mix versions. With ``allow_mixed`` stale trials count as
+stored and are kept as they are. Either way the sweep says so in one line
+(:attr:`SweepSummary.notes`, and ``notify`` before any trial runs).
 """
 
 from __future__ import annotations
@@ -32,6 +42,7 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.metrics import json_ready
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
+from nodnav.provenance import code_version
 from nodnav.scenario.schema import Scenario, load_scenario, scenario_to_dict
 
 log = logging.getLogger(__name__)
@@ -79,6 +90,8 @@ class TrialOutput:
     """``TrialResult.metrics`` (empty for an error)."""
     error: str | None
     """One-line message when the trial raised."""
+    code_version: str = ""
+    """:func:`~nodnav.provenance.code_version` of the worker that ran the trial."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +115,9 @@ class SweepSummary:
     wall_time: float
     """Wall-clock time of the sweep (s)."""
     notes: tuple[str, ...] = ()
-    """Combinations that did not apply to a scenario and were left out."""
+    """Combinations that did not apply to a scenario and were left out, and stale trials found."""
+    stale: int = 0
+    """Trials of the study stored by another code version (re-run unless mixing was allowed)."""
 
     @property
     def success(self) -> bool:
@@ -196,12 +211,13 @@ def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int
     try:
         result = trial_fn(scenario, method, seed)
         return TrialOutput(key=key, outcome=result.outcome, summary=json_ready(result.to_dict()),
-                           metrics=json_ready(result.metrics), error=None)
+                           metrics=json_ready(result.metrics), error=None, code_version=code_version())
     except Exception as exc:  # a failing trial is a result to store, not the end of the sweep
         message = _one_line(exc)
         summary = {"outcome": "error", "error": message, "traceback": traceback.format_exc(),
                    "wall_time_s": time.perf_counter() - start}
-        return TrialOutput(key=key, outcome="error", summary=summary, metrics={}, error=message)
+        return TrialOutput(key=key, outcome="error", summary=summary, metrics={}, error=message,
+                           code_version=code_version())
 
 
 def _default_trial_fn() -> Callable:
@@ -210,17 +226,32 @@ def _default_trial_fn() -> Callable:
     return run_trial
 
 
+def stale_note(stale: dict[str, int], current: str, allow_mixed: bool) -> str:
+    """The one line that says what a sweep does with ``stale`` trials (count per code version)."""
+    found = ", ".join(f"{n} from {v}" for v, n in sorted(stale.items()))
+    total = sum(stale.values())
+    if allow_mixed:
+        return (f"{total} stored trial{'s' if total != 1 else ''} of this study came from another code version "
+                f"({found}); --allow-mixed keeps them as results alongside trials of {current}")
+    return (f"{total} stored trial{'s' if total != 1 else ''} of this study came from another code version "
+            f"({found}); they are run again under {current} (old rows kept in table stale_trials; "
+            "--allow-mixed keeps them instead)")
+
+
 def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, scheduler: str | None = None,
               quiet: bool = False, *, trial_fn: Callable | None = None, retry_errors: bool = False,
-              connect_timeout: float = 30.0) -> SweepSummary:
+              connect_timeout: float = 30.0, allow_mixed: bool = False,
+              notify: Callable[[str], None] | None = None) -> SweepSummary:
     """Run every trial of ``spec`` that ``db_path`` does not hold yet and store each result as it arrives.
 
     ``jobs`` worker processes run trials locally; with ``scheduler`` (a Dask scheduler address
     such as ``tcp://10.0.0.5:8786``, reached within ``connect_timeout`` seconds) they run on that
     cluster instead, whose workers must have nodnav installed. ``trial_fn`` replaces
     :func:`~nodnav.sim.simulator.run_trial` (the workers must be able to unpickle it). Trials
-    stored with outcome ``error`` are run again only with ``retry_errors``. A progress bar on
-    stderr shows trials done, rate and time left unless ``quiet``.
+    stored with outcome ``error`` are run again only with ``retry_errors``. Trials stored by
+    another code version are run again unless ``allow_mixed`` (module docstring); ``notify``
+    receives that one-line note before any trial runs. A progress bar on stderr shows trials
+    done, rate and time left unless ``quiet``.
     """
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise NodnavError(f"jobs: expected a whole number >= 1, got {jobs!r}")
@@ -233,8 +264,17 @@ def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, 
             stack.enter_context(parallel_config(backend="dask"))
         store = stack.enter_context(ResultStore(db_path))
         store.save_study(spec.name, spec.to_dict())
-        stored = store.stored(t.key for t in expansion.trials)
-        keep = {k for k, outcome in stored.items() if not (retry_errors and outcome == "error")}
+        current = code_version()
+        stored = store.stored_versions(t.key for t in expansion.trials)
+        stale = Counter(v for _, v in stored.values() if v != current)
+        notes = list(expansion.notes)
+        if stale:
+            notes.append(stale_note(dict(stale), current, allow_mixed))
+            log.info("%s", notes[-1])
+            if notify is not None:
+                notify(notes[-1])
+        keep = {k for k, (outcome, v) in stored.items()
+                if not (retry_errors and outcome == "error") and (allow_mixed or v == current)}
         store.link(spec.name, keep)
         todo = [t for t in expansion.trials if t.key not in keep]
         by_key = {t.key: t for t in todo}
@@ -251,7 +291,8 @@ def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, 
                 trial = by_key[out.key]
                 store.add_trial(key=out.key, study=spec.name, config=trial.config, seed=trial.seed,
                                 outcome=out.outcome, summary=out.summary, metrics=out.metrics,
-                                version=nodnav.__version__, error=out.error)
+                                version=nodnav.__version__, error=out.error,
+                                code_version=out.code_version or current)
                 outcomes[out.outcome] += 1
                 bar.update(1)
                 if out.error:
@@ -259,7 +300,7 @@ def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, 
                     bar.set_postfix(errors=outcomes["error"])
     return SweepSummary(study=spec.name, db_path=str(db_path), total=len(expansion.trials), done=sum(outcomes.values()),
                         skipped=len(keep), errors=outcomes["error"], outcomes=dict(outcomes),
-                        wall_time=time.perf_counter() - start, notes=expansion.notes)
+                        wall_time=time.perf_counter() - start, notes=tuple(notes), stale=sum(stale.values()))
 
 
 def _dask_client(scheduler: str, timeout: float):

@@ -66,8 +66,9 @@ hooks make that exact, fast and reproducible:
 After export every edge is checked again with the vectorised :func:`edges_valid`; an edge that
 fails is dropped and counted (none should). Roadmaps are stored as ``.npz`` under a name derived
 from the key's hash, with the key and a SHA-256 checksum inside; a file that does not parse, has
-another key, or fails its checksum is logged and rebuilt. Writes go to a temporary file that is
-renamed into place, so concurrent processes never see a partial file.
+another key, fails its checksum or holds non-finite numbers is logged and rebuilt. Writes go to a
+temporary file that is renamed into place, so concurrent processes never see a partial file;
+temporary files that killed writers left behind are deleted once they are 15 minutes old.
 """
 
 from __future__ import annotations
@@ -876,10 +877,33 @@ def _checksum(key_text: str, vertices: np.ndarray, edges: np.ndarray, proximity:
     return h.hexdigest()
 
 
+#: A ``.tmp-*.npz`` file in the cache older than this was left by a writer that was killed (s).
+STALE_TEMPORARY_AGE = 900.0
+
+
+def clean_stale_temporaries(directory: str | os.PathLike, max_age: float = STALE_TEMPORARY_AGE) -> list[Path]:
+    """Delete the temporary files of :func:`save_roadmap` in ``directory`` older than ``max_age``
+    seconds (a write takes a second; older ones belong to killed writers); the paths deleted."""
+    removed = []
+    now = time.time()
+    for tmp in Path(directory).glob(".tmp-*.npz"):
+        try:
+            if now - tmp.stat().st_mtime > max_age:
+                tmp.unlink()
+                removed.append(tmp)
+        except OSError:  # gone already, or not ours to delete
+            continue
+    if removed:
+        log.info("removed %d stale temporary roadmap file(s) from %s", len(removed), directory)
+    return removed
+
+
 def save_roadmap(roadmap: Roadmap, directory: str | os.PathLike) -> Path:
-    """Write ``roadmap`` atomically into ``directory`` (temp file + ``os.replace``); its path."""
+    """Write ``roadmap`` atomically into ``directory`` (temp file + ``os.replace``); its path.
+    Temporary files that killed writers left behind are removed first."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    clean_stale_temporaries(directory)
     path = directory / roadmap.key.filename()
     key_text = roadmap.key.canonical()
     vertices = np.ascontiguousarray(roadmap.vertices, dtype=np.float64)
@@ -925,8 +949,9 @@ def load_roadmap(path: str | os.PathLike, key: RoadmapKey) -> LoadResult:
         return LoadResult(False, "checksum mismatch (corrupt file)", empty)
     dim = 2 * key.n_robots
     if (vertices.ndim != 2 or vertices.shape[1] != dim or edges.ndim != 2 or edges.shape[1] != 2
-            or proximity.shape != (len(vertices),) or (len(edges) and (edges.min() < 0 or edges.max() >= len(vertices)))):
-        return LoadResult(False, "inconsistent arrays", empty)
+            or proximity.shape != (len(vertices),) or (len(edges) and (edges.min() < 0 or edges.max() >= len(vertices)))
+            or not (np.isfinite(vertices).all() and np.isfinite(proximity).all())):
+        return LoadResult(False, "inconsistent or non-finite arrays", empty)
     return LoadResult(True, "", Roadmap(key, vertices, edges, proximity, dropped, build_seconds))
 
 
@@ -974,15 +999,20 @@ def _get_report(key: RoadmapKey, cache_dir: str, max_seconds: float) -> BuildRep
     return get_roadmap(key, cache_dir, max_seconds).report
 
 
+def _indexed_report(i: int, key: RoadmapKey, cache_dir: str, max_seconds: float) -> tuple[int, BuildReport]:
+    return i, _get_report(key, cache_dir, max_seconds)
+
+
 def build_all_roadmaps(world: World, radius: float = 0.2, robot_counts=(1, 2, 3, 4), exited: bool = True,
                        vertices_per_robot: int | None = None, margin: float | None = None,
                        varsigma: float | None = None, cache_dir: str = "", n_jobs: int = 2,
-                       max_seconds: float = 3600.0) -> list[BuildReport]:
+                       max_seconds: float = 3600.0, progress=None) -> list[BuildReport]:
     """Build (or load) every roadmap that robots of equal ``radius`` can need in ``world``: all
     :func:`direction_patterns` for every robot count, in parallel processes (joblib).
 
     Defaults come from :class:`~nodnav.scenario.schema.PlannerParams`. Reports are returned in
-    the order robot count, then pattern.
+    the order robot count, then pattern. ``progress(report, done, total_vertices)``, if given,
+    is called as each roadmap is ready, with the vertices of all roadmaps as the total.
     """
     from joblib import Parallel, delayed
 
@@ -995,8 +1025,14 @@ def build_all_roadmaps(world: World, radius: float = 0.2, robot_counts=(1, 2, 3,
     keys = [make_key(world, [radius] * n, p, mg, vs, vpr) for n in robot_counts for p in direction_patterns(n, exited)]
     # Largest first, so that the long builds do not end up last on one worker.
     order = sorted(range(len(keys)), key=lambda i: -keys[i].n_vertices)
-    reports = Parallel(n_jobs=n_jobs)(delayed(_get_report)(keys[i], cache_dir, max_seconds) for i in order)
-    by_index = dict(zip(order, reports))
+    clean_stale_temporaries(resolve_cache_dir(cache_dir))
+    total = sum(k.n_vertices for k in keys)
+    by_index = {}
+    tasks = (delayed(_indexed_report)(i, keys[i], cache_dir, max_seconds) for i in order)
+    for i, report in Parallel(n_jobs=n_jobs, return_as="generator_unordered")(tasks):
+        by_index[i] = report
+        if progress is not None:
+            progress(report, keys[i].n_vertices, total)
     return [by_index[i] for i in range(len(keys))]
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import numbers
+import re
 import typing
 from dataclasses import dataclass, field
 from importlib import resources
@@ -19,12 +21,21 @@ from typing import Any
 import numpy as np
 import yaml
 
-from nodnav.errors import NodnavError
+from nodnav.errors import NodnavError, one_line, shown, shown_path
+from nodnav.scenario import limits
 from nodnav.scenario.world import Corridor, World, paper_world
 
 
 class ScenarioError(NodnavError, ValueError):
-    """A scenario file or option is malformed; the message is one line saying what and how to fix."""
+    """A scenario file or option is malformed; the message is one line saying what and how to fix.
+
+    ``key`` is the key path the message starts with (``opinion.u``) and ``detail`` the rest.
+    """
+
+    def __init__(self, message: str, key: str = ""):
+        super().__init__(message)
+        self.key = key
+        self.detail = message[len(key) + 2:] if key and message.startswith(key + ": ") else message
 
 
 @dataclass(frozen=True)
@@ -65,7 +76,7 @@ class OpinionParams:
         """The bias b_i as an array over strategies S1..S_{N_s}."""
         b = np.zeros(n_strategies)
         for name, value in self.bias.items():
-            b[int(name[1:]) - 1] = value
+            b[strategy_number(name) - 1] = value
         return b
 
 
@@ -230,6 +241,11 @@ class Scenario:
 
         ``with_overrides(game_players=1, **{"opinion.init": "distance"})``.
         """
+        return self.with_options(changes)
+
+    def with_options(self, changes: dict[str, Any], labels: dict[str, str] | None = None) -> "Scenario":
+        """:meth:`with_overrides` for values the user typed as options: an error about key ``k``
+        (or below it) names ``labels[k]`` instead, e.g. ``{"game_players": "--players"}``."""
         raw = _to_raw(self)
         for key, value in changes.items():
             target = raw
@@ -237,55 +253,98 @@ class Scenario:
             for p in parents:
                 target = target.setdefault(p, {})
             target[leaf] = value
-        return scenario_from_dict(raw)
+        try:
+            return scenario_from_dict(raw, self.name)
+        except ScenarioError as exc:
+            for key, label in (labels or {}).items():
+                if exc.key == key or exc.key.startswith(key + "."):
+                    raise ScenarioError(f"{label}: {exc.detail}", key=label) from None
+            raise
 
 
 # ---------------------------------------------------------------------------------------------
-# Loading
+# Loading. Every check names the key path the user wrote (``robot_defaults.radius``,
+# ``robots[2].origin``) and, where a number is out of range, the range (nodnav.scenario.limits).
+
+
+def _fail(where: str, detail: str) -> ScenarioError:
+    return ScenarioError(f"{where}: {detail}", key=where)
 
 
 def nearest_hint(key: str, valid, what: str = "valid keys") -> str:
     """'; did you mean X?' for the closest valid name, else the list of valid names."""
-    match = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.5)
+    match = difflib.get_close_matches(str(key)[:100], list(valid), n=1, cutoff=0.5) if isinstance(key, str) else []
     return f"; did you mean '{match[0]}'?" if match else f"; {what}: {', '.join(sorted(valid))}"
 
 
 def _check_keys(data: dict, valid, where: str) -> None:
     for key in data:
         if key not in valid:
-            raise ScenarioError(f"{where}: unknown key '{key}'{nearest_hint(str(key), valid)}")
+            raise _fail(where, f"unknown key {shown(key)}{nearest_hint(key, valid)}")
 
 
-def _number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{where}: expected a number, got {value!r}")
-    v = float(value)
+_EXPONENT = re.compile(r"[+-]?([0-9]{1,20}\.?[0-9]{0,20}|\.[0-9]{1,20})[eE][+-]?[0-9]{1,3}")
+
+
+def _number(value: Any, where: str, bound: str | None = None) -> float:
+    """A finite real number; with ``bound`` (a key of :data:`~nodnav.scenario.limits.RANGES`) in its range."""
+    if isinstance(value, str) and _EXPONENT.fullmatch(value.strip()):
+        value = float(value)  # YAML 1.1 reads 1e-6 (no dot) as text; it is a number all the same
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise _fail(where, f"expected a number, got {shown(value)}")
+    try:
+        v = float(value)
+    except (OverflowError, ValueError, TypeError):
+        raise _fail(where, f"expected a number of ordinary size, got {shown(value)}") from None
     if not math.isfinite(v):
-        raise ScenarioError(f"{where}: expected a finite number, got {value!r}")
-    if positive and v <= 0:
-        raise ScenarioError(f"{where}: must be positive, got {value!r}")
-    if nonneg and v < 0:
-        raise ScenarioError(f"{where}: must not be negative, got {value!r}")
+        raise _fail(where, f"expected a finite number, got {shown(value)}")
+    if bound is not None and not limits.in_range(bound, v):
+        raise _fail(where, f"must be {limits.range_text(bound)}, got {shown(value)}")
+    return v
+
+
+def _coordinate(value: Any, where: str) -> float:
+    v = _number(value, where)
+    if abs(v) > limits.MAX_COORDINATE:
+        raise _fail(where, f"coordinates must lie within +-{limits.MAX_COORDINATE:g} m, got {shown(value)}")
     return v
 
 
 def _vector(value: Any, n: int, where: str) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise ScenarioError(f"{where}: expected a list of {n} numbers, got {value!r}")
-    return tuple(_number(v, f"{where}[{k}]") for k, v in enumerate(value))
+        raise _fail(where, f"expected a list of {n} numbers, got {shown(value)}")
+    return tuple(_coordinate(v, f"{where}[{k}]") for k, v in enumerate(value))
 
 
 def _mapping(value: Any, where: str) -> dict:
     if value is None:
         return {}
     if not isinstance(value, dict):
-        raise ScenarioError(f"{where}: expected a mapping of keys to values, got {value!r}")
+        raise _fail(where, f"expected a mapping of keys to values, got {shown(value)}")
     return value
 
 
-def _params(cls, data: Any, where: str, overrides: dict | None = None):
-    """Build a flat parameter dataclass from a mapping, checking keys and types."""
-    data = {**_mapping(data, where), **(overrides or {})}
+def _text(value: Any, where: str, limit: int) -> str:
+    if not isinstance(value, str):
+        raise _fail(where, f"expected text, got {shown(value)}")
+    if len(value) > limit:
+        raise _fail(where, f"at most {limit} characters, got {len(value)}")
+    return value
+
+
+_BIAS_KEY = re.compile(r"S([1-9][0-9]{0,5})")
+
+
+def strategy_number(name: Any) -> int | None:
+    """The number ``j`` of a strategy named ``Sj`` (ASCII digits, no leading zero), else ``None``."""
+    m = _BIAS_KEY.fullmatch(name) if isinstance(name, str) else None
+    return int(m.group(1)) if m else None
+
+
+def _params(cls, data: Any, where: str, bounds: str):
+    """Build a flat parameter dataclass from a mapping, checking keys, types and ranges
+    (``bounds`` is the section of :data:`~nodnav.scenario.limits.RANGES`, e.g. ``planner``)."""
+    data = _mapping(data, where)
     fields = {f.name: f for f in dataclasses.fields(cls)}
     _check_keys(data, fields, where)
     hints = typing.get_type_hints(cls)
@@ -293,44 +352,64 @@ def _params(cls, data: Any, where: str, overrides: dict | None = None):
     for key, value in data.items():
         hint = hints[key]
         name = f"{where}.{key}"
+        bound = f"{bounds}.{key}"
         if hint is float:
-            kwargs[key] = _number(value, name, nonneg=True)
+            kwargs[key] = _number(value, name, bound if bound in limits.RANGES else None)
         elif hint is int:
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ScenarioError(f"{name}: expected a whole number >= 0, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise _fail(name, f"expected a whole number, got {shown(value)}")
+            _number(value, name, bound)
             kwargs[key] = value
         elif hint is str:
-            if not isinstance(value, str):
-                raise ScenarioError(f"{name}: expected text, got {value!r}")
-            kwargs[key] = value
+            kwargs[key] = _text(value, name, 4096)
         elif hint is bool:
             if not isinstance(value, bool):
-                raise ScenarioError(f"{name}: expected true or false, got {value!r}")
+                raise _fail(name, f"expected true or false, got {shown(value)}")
             kwargs[key] = value
         elif hint == dict[str, float]:
-            kwargs[key] = {str(k): _number(v, f"{name}.{k}") for k, v in _mapping(value, name).items()}
-        else:  # a matrix of numbers, one row per robot
-            if not isinstance(value, (list, tuple)) or not all(isinstance(row, (list, tuple)) for row in value):
-                raise ScenarioError(f"{name}: expected a list of rows of numbers, got {value!r}")
-            kwargs[key] = tuple(_vector(row, len(row), f"{name}[{k}]") for k, row in enumerate(value))
+            mapping = _mapping(value, name)
+            if len(mapping) > limits.MAX_STRATEGIES:
+                raise _fail(name, f"more entries ({len(mapping)}) than there can be strategies")
+            kwargs[key] = {}
+            for k, v in mapping.items():
+                if strategy_number(k) is None:
+                    raise _fail(name, f"unknown strategy {shown(k)}; name strategies S1, S2, ...")
+                kwargs[key][k] = _number(v, f"{name}.{k}", bound)
+        else:  # a matrix of numbers, one row per robot; its shape is checked before its entries
+            if (not isinstance(value, (list, tuple)) or len(value) > limits.MAX_ROBOTS
+                    or not all(isinstance(row, (list, tuple)) and len(row) <= limits.MAX_STRATEGIES for row in value)):
+                raise _fail(name, f"expected a list of rows of numbers (one per robot), got {shown(value)}")
+            kwargs[key] = tuple(tuple(_number(v, f"{name}[{k}][{c}]", bound) for c, v in enumerate(row))
+                                for k, row in enumerate(value))
     return cls(**kwargs)
+
+
+def _box(value: Any, where: str) -> tuple[float, float, float, float]:
+    box = _vector(value, 4, where)
+    if box[0] >= box[2] or box[1] >= box[3]:
+        raise _fail(where, f"need x_min < x_max and y_min < y_max, got {list(box)}")
+    return box
 
 
 def _world(data: Any) -> World:
     data = _mapping(data, "world")
     valid = ("bounds", "obstacles", "corridor", "entrances", "corridor_width")
     _check_keys(data, valid, "world")
-    default = paper_world(corridor_width=_number(data.get("corridor_width", 0.7), "world.corridor_width", positive=True))
-    bounds = _vector(data["bounds"], 4, "world.bounds") if "bounds" in data else default.bounds
-    if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
-        raise ScenarioError(f"world.bounds: need x_min < x_max and y_min < y_max, got {list(bounds)}")
+    if "corridor_width" in data and "corridor" in data:
+        raise _fail("world.corridor_width", "give either corridor_width (the paper's layout) or corridor, not both")
+    width = _number(data.get("corridor_width", 0.7), "world.corridor_width")
+    if not 0.0 < width < 5.0:
+        raise _fail("world.corridor_width", f"must be above 0 and below the rooms' height (5 m), got {shown(width)}")
+    default = paper_world(corridor_width=width)
+    bounds = _box(data["bounds"], "world.bounds") if "bounds" in data else default.bounds
+    if max(bounds[2] - bounds[0], bounds[3] - bounds[1]) > limits.MAX_WORLD_SIZE:
+        raise _fail("world.bounds", f"sides of at most {limits.MAX_WORLD_SIZE:g} m, got {list(bounds)}")
     if "obstacles" in data:
-        if not isinstance(data["obstacles"], list):
-            raise ScenarioError("world.obstacles: expected a list of [x_min, y_min, x_max, y_max] rectangles")
-        obstacles = tuple(_vector(o, 4, f"world.obstacles[{k}]") for k, o in enumerate(data["obstacles"]))
-        for k, o in enumerate(obstacles):
-            if o[0] >= o[2] or o[1] >= o[3]:
-                raise ScenarioError(f"world.obstacles[{k}]: need x_min < x_max and y_min < y_max, got {list(o)}")
+        raw = data["obstacles"]
+        if not isinstance(raw, list) or len(raw) > limits.MAX_OBSTACLES:
+            raise _fail("world.obstacles", f"expected a list of at most {limits.MAX_OBSTACLES} "
+                        f"[x_min, y_min, x_max, y_max] rectangles, got {shown(raw)}")
+        obstacles = tuple(_box(o, f"world.obstacles[{k}]") for k, o in enumerate(raw))
     else:
         obstacles = default.obstacles
     if "corridor" in data:
@@ -339,150 +418,215 @@ def _world(data: Any) -> World:
         _check_keys(c, keys, "world.corridor")
         missing = [k for k in keys if k not in c]
         if missing:
-            raise ScenarioError(f"world.corridor: missing key '{missing[0]}' (give x_min, x_max, y_min, y_max)")
-        corridor = Corridor(**{k: _number(c[k], f"world.corridor.{k}") for k in keys})
+            raise _fail("world.corridor", f"missing key '{missing[0]}' (give x_min, x_max, y_min, y_max)")
+        corridor = Corridor(**{k: _coordinate(c[k], f"world.corridor.{k}") for k in keys})
         if corridor.x_min >= corridor.x_max or corridor.y_min >= corridor.y_max:
-            raise ScenarioError("world.corridor: need x_min < x_max and y_min < y_max")
+            raise _fail("world.corridor", "need x_min < x_max and y_min < y_max")
     else:
         corridor = default.corridor
+    inside = (bounds[0] <= corridor.x_min and corridor.x_max <= bounds[2]
+              and bounds[1] <= corridor.y_min and corridor.y_max <= bounds[3])
+    if not inside:
+        raise _fail("world.corridor", f"the corridor x {corridor.x_min:g}..{corridor.x_max:g}, y {corridor.y_min:g}.."
+                    f"{corridor.y_max:g} is not inside world.bounds {list(bounds)}")
     if "entrances" in data:
         ent = data["entrances"]
         if not isinstance(ent, list) or len(ent) != 2:
-            raise ScenarioError("world.entrances: expected two points [[x, y], [x, y]] (left, right)")
+            raise _fail("world.entrances", f"expected two points [[x, y], [x, y]] (left, right), got {shown(ent)}")
         entrances = (_vector(ent[0], 2, "world.entrances[0]"), _vector(ent[1], 2, "world.entrances[1]"))
+        if entrances[0] == entrances[1]:
+            raise _fail("world.entrances", f"the two entrances are the same point {list(entrances[0])}")
+        for k, (point, end, side) in enumerate(zip(entrances, (corridor.x_min, corridor.x_max), ("left", "right"))):
+            if abs(point[0] - end) > 1e-9 or not corridor.y_min <= point[1] <= corridor.y_max:
+                raise _fail(f"world.entrances[{k}]", f"{list(point)} is not on the corridor's {side} end "
+                            f"(x = {end:g}, y from {corridor.y_min:g} to {corridor.y_max:g})")
     else:
-        entrances = ((corridor.x_min, 0.5 * (corridor.y_min + corridor.y_max)), (corridor.x_max, 0.5 * (corridor.y_min + corridor.y_max)))
+        mid = 0.5 * (corridor.y_min + corridor.y_max)
+        entrances = ((corridor.x_min, mid), (corridor.x_max, mid))
     return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)
 
 
 def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     """Opinion parameters from a mapping, with their cross-field checks."""
-    opinion = _params(OpinionParams, data, where)
+    opinion = _params(OpinionParams, data, where, "opinion")
     if opinion.nonplayers not in ("static", "entered"):
-        raise ScenarioError(f"{where}.nonplayers: expected 'static' or 'entered', got {opinion.nonplayers!r}")
+        raise _fail(f"{where}.nonplayers", f"expected 'static' or 'entered', got {shown(opinion.nonplayers)}")
     if opinion.init not in ("zero", "distance", "given"):
-        raise ScenarioError(f"{where}.init: expected 'zero', 'distance' or 'given', got {opinion.init!r}")
+        raise _fail(f"{where}.init", f"expected 'zero', 'distance' or 'given', got {shown(opinion.init)}")
     n_s = math.factorial(n_robots)
     if opinion.init == "given" and (len(opinion.z0) != n_robots or any(len(row) != n_s for row in opinion.z0)):
-        raise ScenarioError(f"{where}.z0: with init 'given', give {n_robots} rows of {n_s} numbers (one row per robot)")
+        raise _fail(f"{where}.z0", f"with init 'given', give {n_robots} rows of {n_s} numbers (one row per robot)")
     if opinion.init != "given" and opinion.z0:
-        raise ScenarioError(f"{where}.z0: only used with init 'given'; set init: given or remove z0")
-    for p in ("d", "eta", "T"):
-        if getattr(opinion, p) <= 0:
-            raise ScenarioError(f"{where}.{p}: must be positive, got {getattr(opinion, p)}")
+        raise _fail(f"{where}.z0", "only used with init 'given'; set init: given or remove z0")
     for name in opinion.bias:
-        if not (name.startswith("S") and name[1:].isdigit() and 1 <= int(name[1:]) <= n_s):
-            raise ScenarioError(f"{where}.bias: unknown strategy '{name}'; use S1..S{n_s} for {n_robots} robots")
+        if not 1 <= strategy_number(name) <= n_s:
+            raise _fail(f"{where}.bias", f"unknown strategy {shown(name)}; use S1..S{n_s} for {n_robots} robots")
     return opinion
 
 
 _TOP_KEYS = ("name", "description", "world", "robot_defaults", "robots", "opinion", "game_players",
              "time_limit", "planner", "controller", "sim", "execution")
 _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
+_BODY_KEYS = ("radius", "max_speed", "max_accel")
 
 
-def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[RobotSpec, ...]:
+def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, ...], list[dict[str, str | None]]]:
+    """The robots, and for each the key path each of its body values came from (``None``: the default)."""
     defaults = _mapping(defaults, "robot_defaults")
-    _check_keys(defaults, [k for k in _ROBOT_KEYS if k not in ("origin", "destination", "opinion")], "robot_defaults")
-    if not isinstance(data, list) or not data:
-        raise ScenarioError("robots: expected a non-empty list of {origin: [x, y], destination: [x, y]}")
-    robots = []
-    for k, r in enumerate(data, start=1):
-        where = f"robot {k}"
-        r = {**defaults, **_mapping(r, where)}
-        _check_keys(r, _ROBOT_KEYS, where)
+    _check_keys(defaults, _BODY_KEYS, "robot_defaults")
+    robots, sources = [], []
+    for k, entry in enumerate(data):
+        where = f"robots[{k}]"
+        entry = _mapping(entry, where)
+        _check_keys(entry, _ROBOT_KEYS, where)
         for key in ("origin", "destination"):
-            if key not in r:
-                raise ScenarioError(f"{where}: missing '{key}' (give it as [x, y] in metres)")
+            if key not in entry:
+                raise _fail(where, f"missing '{key}' for robot {k + 1} (give it as [x, y] in metres)")
+        source, body = {}, {}
+        for key in _BODY_KEYS:
+            if key in entry:
+                source[key], value = f"{where}.{key}", entry[key]
+            elif key in defaults:
+                source[key], value = f"robot_defaults.{key}", defaults[key]
+            else:  # the default, which the user did not write
+                source[key], value = None, getattr(RobotSpec, key)
+            body[key] = _number(value, source[key] or f"{where}.{key}", f"robots.{key}")
+        own = entry.get("opinion")
         robots.append(RobotSpec(
-            origin=_vector(r["origin"], 2, f"{where}.origin"),
-            destination=_vector(r["destination"], 2, f"{where}.destination"),
-            radius=_number(r.get("radius", RobotSpec.radius), f"{where}.radius", positive=True),
-            max_speed=_number(r.get("max_speed", RobotSpec.max_speed), f"{where}.max_speed", positive=True),
-            max_accel=_number(r.get("max_accel", RobotSpec.max_accel), f"{where}.max_accel", positive=True),
-            opinion=_opinion({**opinion, **_mapping(r["opinion"], f"{where}.opinion")}, len(data), f"{where}.opinion")
-            if r.get("opinion") else None,
-        ))
-    return tuple(robots)
+            origin=_vector(entry["origin"], 2, f"{where}.origin"),
+            destination=_vector(entry["destination"], 2, f"{where}.destination"),
+            opinion=_opinion({**opinion, **_mapping(own, f"{where}.opinion")}, len(data), f"{where}.opinion")
+            if own else None, **body))
+        sources.append(source)
+    return tuple(robots), sources
 
 
-def _check_geometry(world: World, robots: tuple[RobotSpec, ...]) -> None:
-    for k, r in enumerate(robots, start=1):
+def _check_geometry(world: World, robots: tuple[RobotSpec, ...], sources: list[dict[str, str | None]],
+                    corridor_key: str) -> None:
+    x0, y0, x1, y1 = world.bounds
+    for k, r in enumerate(robots):
         for key in ("origin", "destination"):
             p = np.array(getattr(r, key))
-            shown = list(getattr(r, key))
-            x0, y0, x1, y1 = world.bounds
+            shown_p = list(getattr(r, key))
             if not (x0 <= p[0] <= x1 and y0 <= p[1] <= y1):
-                raise ScenarioError(f"robot {k}: {key} {shown} is outside the world bounds {list(world.bounds)}")
+                raise _fail(f"robots[{k}].{key}", f"{shown_p} puts robot {k + 1} outside the world bounds "
+                            f"{list(world.bounds)}")
             clearance = float(world.clearance(p))
             if clearance < r.radius:
-                raise ScenarioError(
-                    f"robot {k}: {key} {shown} puts the robot (radius {r.radius} m) inside a wall "
-                    f"(clearance {clearance:.3f} m); move it at least {r.radius} m from every wall")
+                raise _fail(f"robots[{k}].{key}",
+                            f"{shown_p} puts robot {k + 1} (radius {r.radius:g} m) inside a wall "
+                            f"(clearance {clearance:.3f} m); move it at least {r.radius:g} m from every wall")
+    # Every robot must fit through the corridor: its clearance along the line joining the entrances.
+    a, b = np.asarray(world.entrances, dtype=float)
+    samples = max(2, int(np.linalg.norm(b - a) / 0.01) + 1)
+    gap = float(world.clearance(a + np.linspace(0.0, 1.0, samples)[:, None] * (b - a)).min())
+    for k, r in enumerate(robots):
+        if r.radius >= gap:
+            raise _fail(sources[k]["radius"] or corridor_key,
+                        f"robot {k + 1} (radius {r.radius:g} m) does not fit through the corridor: its walls leave "
+                        f"{gap:.3f} m on either side of the line joining the entrances; make the radius smaller "
+                        f"than {gap:.3f} m or the corridor wider")
     for key in ("origin", "destination"):
         pts = np.array([getattr(r, key) for r in robots])
         radii = np.array([r.radius for r in robots])
-        for a in range(len(robots)):
-            for b in range(a + 1, len(robots)):
-                gap = float(np.linalg.norm(pts[a] - pts[b]))
-                if gap < radii[a] + radii[b]:
-                    raise ScenarioError(
-                        f"robot {a + 1} and robot {b + 1}: {key}s overlap ({gap:.3f} m apart, "
-                        f"need at least {radii[a] + radii[b]:.3f} m)")
+        for a_ in range(len(robots)):
+            for b_ in range(a_ + 1, len(robots)):
+                distance = float(np.linalg.norm(pts[a_] - pts[b_]))
+                if distance < radii[a_] + radii[b_]:
+                    raise _fail(f"robots[{b_}].{key}",
+                                f"robot {a_ + 1} and robot {b_ + 1}: {key}s overlap ({distance:.3f} m apart, "
+                                f"need at least {radii[a_] + radii[b_]:.3f} m)")
+
+
+def _check_sizes(scenario_time: float, controller: ControllerParams, planner: PlannerParams,
+                 robots: tuple[RobotSpec, ...], world: World) -> None:
+    """The clock, the controller and the planner's tables stay within memory (nodnav.scenario.limits)."""
+    if controller.dt > controller.horizon:
+        raise _fail("controller.dt", f"{controller.dt:g} s is longer than the MPC horizon controller.horizon "
+                    f"({controller.horizon:g} s); use dt <= horizon")
+    steps = scenario_time / controller.dt
+    if steps > limits.MAX_CONTROL_STEPS:
+        raise _fail("time_limit", f"{scenario_time:g} s at controller.dt {controller.dt:g} s is {steps:.0f} control "
+                    f"steps, more than {limits.MAX_CONTROL_STEPS}; shorten time_limit or lengthen controller.dt")
+    x0, y0, x1, y1 = world.bounds
+    slowest = min(r.max_speed for r in robots)
+    plan_steps = math.hypot(x1 - x0, y1 - y0) / (slowest * planner.dt)
+    if plan_steps > limits.MAX_PLAN_STEPS:
+        raise _fail("planner.dt", f"{planner.dt:g} s with the slowest robot at {slowest:g} m/s needs {plan_steps:.0f} "
+                    f"plan steps to cross world.bounds, more than {limits.MAX_PLAN_STEPS}; lengthen planner.dt "
+                    "or raise max_speed")
+
+
+def _robot_list(data: Any) -> list:
+    robots = data.get("robots")
+    if not isinstance(robots, list) or not robots:
+        raise _fail("robots", f"expected a non-empty list of {{origin: [x, y], destination: [x, y]}}, got {shown(robots)}")
+    if len(robots) > limits.MAX_ROBOTS:
+        raise _fail("robots", f"{len(robots)} robots have {len(robots)}! passing orders; at most "
+                    f"{limits.MAX_ROBOTS} robots ({limits.MAX_STRATEGIES} orders) are supported")
+    return robots
 
 
 def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
-    """Validate a parsed YAML mapping and build a :class:`Scenario`."""
+    """Validate a parsed YAML mapping and build a :class:`Scenario`.
+
+    Every problem raises one :class:`ScenarioError` line naming the key path (``opinion.u``,
+    ``robot_defaults.radius``, ``robots[1].origin``) and what to do; ``source`` names the file
+    in errors that concern the whole mapping.
+    """
     if not isinstance(data, dict):
-        raise ScenarioError(f"{source}: expected a mapping with keys such as 'name' and 'robots', got {type(data).__name__}")
-    _check_keys(data, _TOP_KEYS, source)
+        raise _fail(shown_path(source), "expected a mapping with keys such as 'name' and 'robots', "
+                    f"got {type(data).__name__}")
+    _check_keys(data, _TOP_KEYS, shown_path(source))
     if "robots" not in data:
-        raise ScenarioError(f"{source}: missing key 'robots' (a list of {{origin: [x, y], destination: [x, y]}})")
-    name = data.get("name", Path(source).stem)
-    if not isinstance(name, str) or not name:
-        raise ScenarioError(f"{source}: 'name' must be non-empty text")
+        raise _fail("robots", "missing (a list of {origin: [x, y], destination: [x, y]})")
+    name = data.get("name", Path(str(source)).stem)
+    _text(name, "name", limits.MAX_NAME)
+    if not name.strip() or not name.isprintable():
+        raise _fail("name", f"expected one line of printable text, got {shown(name)}")
+    description = _text(data.get("description", ""), "description", limits.MAX_DESCRIPTION)
+    description = " ".join(description.split())  # one line, wherever it is printed
+    raw_robots = _robot_list(data)
+    opinion_raw = _mapping(data.get("opinion"), "opinion")
+    opinion = _opinion(opinion_raw, len(raw_robots), "opinion")
     world = _world(data.get("world"))
-    n_robots = len(data["robots"]) if isinstance(data["robots"], list) else 0
-    opinion = _opinion(_mapping(data.get("opinion"), "opinion"), n_robots, "opinion")
-    robots = _robots(data["robots"], data.get("robot_defaults"), _mapping(data.get("opinion"), "opinion"))
-    _check_geometry(world, robots)
-    for k, r in enumerate(robots, start=1):
+    robots, sources = _robots(raw_robots, data.get("robot_defaults"), opinion_raw)
+    for k, r in enumerate(robots):
         if r.opinion is not None and r.opinion.T != opinion.T:
-            raise ScenarioError(f"robot {k}.opinion.T: the opinion period is shared by every robot; set it in 'opinion'")
+            raise _fail(f"robots[{k}].opinion.T", "the opinion period is shared by every robot; set it in 'opinion'")
+    world_raw = _mapping(data.get("world"), "world")
+    corridor_key = "world.corridor" if "corridor" in world_raw else "world.corridor_width"
+    _check_geometry(world, robots, sources, corridor_key)
     players = data.get("game_players", "all")
     if players == "all" or players is None:
         game_players = None
     elif isinstance(players, int) and not isinstance(players, bool) and 0 <= players < len(robots):
         game_players = players
     else:
-        raise ScenarioError(f"game_players: expected 'all' or a whole number 0..{len(robots) - 1}, got {players!r}")
-    time_limit = _number(data.get("time_limit", 60.0), "time_limit", positive=True)
-    planner = _params(PlannerParams, data.get("planner"), "planner")
-    controller = _params(ControllerParams, data.get("controller"), "controller")
-    for p in ("dt", "horizon"):
-        if getattr(controller, p) <= 0:
-            raise ScenarioError(f"controller.{p}: must be positive, got {getattr(controller, p)}")
+        raise _fail("game_players", f"expected 'all' or a whole number 0..{len(robots) - 1}, got {shown(players)}")
+    time_limit = _number(data.get("time_limit", 60.0), "time_limit", "time_limit")
+    planner = _params(PlannerParams, data.get("planner"), "planner", "planner")
+    controller = _params(ControllerParams, data.get("controller"), "controller", "controller")
     from nodnav.control import CONTROLLERS
     from nodnav.planning import PLANNERS
 
     if planner.name not in PLANNERS:
-        raise ScenarioError(f"planner.name: unknown planner '{planner.name}'{nearest_hint(planner.name, PLANNERS, 'planners')}")
+        raise _fail("planner.name", f"unknown planner {shown(planner.name)}{nearest_hint(planner.name, PLANNERS, 'planners')}")
     if controller.name not in CONTROLLERS:
-        raise ScenarioError(f"controller.name: unknown controller '{controller.name}'{nearest_hint(controller.name, CONTROLLERS, 'controllers')}")
+        raise _fail("controller.name", f"unknown controller {shown(controller.name)}"
+                    f"{nearest_hint(controller.name, CONTROLLERS, 'controllers')}")
     if planner.waiting not in ("early", "late"):
-        raise ScenarioError(f"planner.waiting: expected 'early' or 'late', got {planner.waiting!r}")
-    if planner.dt <= 0:
-        raise ScenarioError(f"planner.dt: must be positive, got {planner.dt}")
+        raise _fail("planner.waiting", f"expected 'early' or 'late', got {shown(planner.waiting)}")
+    if "\0" in planner.cache_dir:
+        raise _fail("planner.cache_dir", "a directory name cannot hold a NUL character")
+    _check_sizes(time_limit, controller, planner, robots, world)
     ratio = opinion.T / controller.dt
-    if abs(ratio - round(ratio)) > 1e-9:
-        raise ScenarioError(f"opinion.T ({opinion.T} s) must be a whole multiple of controller.dt ({controller.dt} s)")
-    sim = _params(SimParams, data.get("sim"), "sim")
-    execution = _params(ExecutionParams, data.get("execution"), "execution")
+    if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+        raise _fail("opinion.T", f"{opinion.T:g} s must be a whole multiple of controller.dt ({controller.dt:g} s)")
+    sim = _params(SimParams, data.get("sim"), "sim", "sim")
+    execution = _params(ExecutionParams, data.get("execution"), "execution", "execution")
     if execution.mode not in ("gated", "timed"):
-        raise ScenarioError(f"execution.mode: expected 'gated' or 'timed', got {execution.mode!r}")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise ScenarioError(f"{source}: 'description' must be text")
+        raise _fail("execution.mode", f"expected 'gated' or 'timed', got {shown(execution.mode)}")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,
                     game_players=game_players, time_limit=time_limit, planner=planner,
                     controller=controller, sim=sim, execution=execution)
@@ -494,29 +638,71 @@ def builtin_names() -> list[str]:
     return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".yaml"))
 
 
+def read_yaml(path: Path, what: str = "scenario") -> Any:
+    """Parse a YAML file the user named, every failure one :class:`ScenarioError` line naming the file.
+
+    Refuses directories, files over :data:`~nodnav.scenario.limits.MAX_FILE_BYTES`, text that is
+    not UTF-8, YAML that does not parse, numbers too long to convert, and nesting too deep.
+    """
+    label = shown_path(path)
+    try:
+        is_dir, is_file, size = path.is_dir(), path.is_file(), path.stat().st_size
+    except (OSError, ValueError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else "not a usable file name"
+        raise ScenarioError(f"{label}: cannot read the {what} file ({reason})", key=str(path)) from None
+    if is_dir:
+        raise ScenarioError(f"{label}: is a directory; give a {what} YAML file", key=str(path))
+    if not is_file:  # a pipe or a device would be read forever
+        raise ScenarioError(f"{label}: not a regular file; give a {what} YAML file", key=str(path))
+    if size > limits.MAX_FILE_BYTES:
+        raise ScenarioError(f"{label}: {size} bytes; a {what} file may have at most {limits.MAX_FILE_BYTES}",
+                            key=str(path))
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ScenarioError(f"{label}: cannot read the {what} file ({exc.strerror or exc})", key=str(path)) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"{label}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
+                            f"save the {what} file as UTF-8", key=str(path)) from None
+    return parse_yaml(text, label)
+
+
+def parse_yaml(text: str, label: str) -> Any:
+    """``yaml.safe_load(text)``, every failure one :class:`ScenarioError` line starting with ``label``."""
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise ScenarioError(f"{label}: {yaml_error_message(exc)}", key=label) from None
+    except RecursionError:
+        raise ScenarioError(f"{label}: invalid YAML: nested too deeply", key=label) from None
+    except (ValueError, OverflowError, TypeError) as exc:  # e.g. an integer of more than 4300 digits
+        problem = "a number with more than 4300 digits" if "digits" in str(exc) else one_line(str(exc), 120)
+        raise ScenarioError(f"{label}: invalid YAML: {problem}", key=label) from None
+
+
 def load_scenario(spec: str | Path) -> Scenario:
     """Load a scenario by built-in name (``3r-case2``), from a YAML file path, or drawn from a
     family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.draws`)."""
     spec = str(spec)
     if spec in builtin_names():
         text = (resources.files("nodnav.scenario") / "builtin" / f"{spec}.yaml").read_text()
-        source = spec
-    else:
-        path = Path(spec)
-        if not path.exists():
-            from nodnav.scenario.draws import draw_spec  # FAMILY:SEED, a generated scenario
-
-            drawn = draw_spec(spec)
-            if drawn is not None:
-                return drawn
-            hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
-            raise ScenarioError(f"{spec}: no such built-in scenario or file{hint}")
-        text, source = path.read_text(), str(path)
+        return scenario_from_dict(parse_yaml(text, spec), spec)
+    path = Path(spec)
     try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ScenarioError(f"{source}: {yaml_error_message(exc)}") from None
-    return scenario_from_dict(data, source)
+        exists = path.exists()
+    except (OSError, ValueError):  # a name too long for the file system, or holding a NUL
+        exists = False
+    if not exists:
+        from nodnav.scenario.draws import draw_spec  # FAMILY:SEED, a generated scenario
+
+        drawn = draw_spec(spec)
+        if drawn is not None:
+            return drawn
+        hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
+        raise ScenarioError(f"{shown_path(spec)}: no such built-in scenario or file{hint}", key=spec)
+    return scenario_from_dict(read_yaml(path), spec)
 
 
 def yaml_error_message(exc: yaml.YAMLError) -> str:
@@ -524,7 +710,7 @@ def yaml_error_message(exc: yaml.YAMLError) -> str:
     mark = getattr(exc, "problem_mark", None)
     where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
     problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-    return f"invalid YAML{where}: {problem}"
+    return one_line(f"invalid YAML{where}: {problem}", 200)
 
 
 def _opinion_to_raw(opinion: OpinionParams) -> dict:

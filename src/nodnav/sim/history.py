@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nodnav.errors import NodnavError
+from nodnav.errors import NodnavError, shown, shown_path
 from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 
 FORMAT_VERSION = 1
@@ -72,10 +72,12 @@ class History:
         }
 
     def save(self, path: str | Path) -> Path:
-        """Write the history to ``path`` (``.npz``)."""
+        """Write the history to ``path`` (``.npz``), with the code version that produced it."""
+        from nodnav.provenance import code_version
+
         meta = {"format": FORMAT_VERSION, "scenario": scenario_to_dict(self.scenario), "method": self.method,
                 "seed": self.seed, "events": self.events, "entry_order": self.entry_order,
-                "outcome": self.outcome}
+                "outcome": self.outcome, "code_version": code_version()}
         path = Path(path)
         with open(path, "wb") as fh:
             np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **self.arrays())
@@ -83,26 +85,55 @@ class History:
 
     @staticmethod
     def load(path: str | Path) -> "History":
-        """Read a history written by :meth:`save`."""
+        """Read a history written by :meth:`save`; anything else is one :class:`NodnavError` line."""
+        name = shown_path(path)
+        not_history = f"{name}: not a nodnav history file (one is written by nodnav run SCENARIO --out DIR)"
+        try:
+            p = Path(path)
+            blocking = p.exists() and not p.is_file() and not p.is_dir()  # a pipe or a device: read forever
+        except (OSError, ValueError):
+            blocking = False  # np.load refuses the name below
+        if blocking:
+            raise NodnavError(not_history)
         try:
             with np.load(path, allow_pickle=False) as data:
                 meta = json.loads(str(data["meta"]))
                 arrays = {k: data[k] for k in data.files if k != "meta"}
-        except (OSError, ValueError, KeyError) as exc:
-            raise NodnavError(f"{path}: not a nodnav history file ({exc})") from None
+        except FileNotFoundError:
+            raise NodnavError(f"{name}: no such file") from None
+        except IsADirectoryError:
+            raise NodnavError(f"{name}: is a directory; give a .npz history file") from None
+        except Exception:  # whatever the file holds, it is not what save() writes
+            raise NodnavError(not_history) from None
+        if not isinstance(meta, dict):
+            raise NodnavError(not_history)
         if meta.get("format") != FORMAT_VERSION:
-            raise NodnavError(f"{path}: history format {meta.get('format')} is not {FORMAT_VERSION}; re-run the trial")
-        h = History(scenario=scenario_from_dict(meta["scenario"]), method=meta["method"], seed=meta["seed"])
-        h.times = list(arrays["times"])
-        h.positions = list(arrays["positions"])
-        h.velocities = list(arrays["velocities"])
-        h.decision_times = list(arrays["decision_times"])
-        h.opinions = list(arrays["opinions"])
-        h.probabilities = list(arrays["probabilities"])
-        h.strategies = list(arrays["strategies"])
-        h.players = list(arrays["players"])
-        h.undecided = list(arrays["undecided"])
-        h.events = meta["events"]
-        h.entry_order = meta["entry_order"]
-        h.outcome = meta["outcome"]
+            raise NodnavError(f"{name}: history format {shown(meta.get('format'))} is not {FORMAT_VERSION}; "
+                              "re-run the trial")
+        try:
+            scenario = scenario_from_dict(meta["scenario"])
+        except NodnavError as exc:
+            raise NodnavError(f"{name}: its scenario is not valid here ({exc})") from None
+        except Exception:
+            raise NodnavError(not_history) from None
+        try:
+            h = History(scenario=scenario, method=str(meta["method"]), seed=int(meta["seed"]))
+            n = scenario.n_robots
+            h.times = list(arrays["times"])
+            h.positions = list(arrays["positions"])
+            h.velocities = list(arrays["velocities"])
+            h.decision_times = list(arrays["decision_times"])
+            h.opinions = list(arrays["opinions"])
+            h.probabilities = list(arrays["probabilities"])
+            h.strategies = list(arrays["strategies"])
+            h.players = list(arrays["players"])
+            h.undecided = list(arrays["undecided"])
+            h.events = list(meta["events"])
+            h.entry_order = [int(k) for k in meta["entry_order"]]
+            h.outcome = str(meta["outcome"])
+            h.arrays()  # every array has the shape the scenario implies
+            if not h.times or arrays["positions"].shape[1:] != (n, 2):
+                raise ValueError("no states")
+        except Exception:
+            raise NodnavError(not_history) from None
         return h

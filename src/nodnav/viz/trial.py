@@ -9,7 +9,11 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image
-from matplotlib.patches import Circle
+from matplotlib import colormaps
+from matplotlib.legend_handler import HandlerPatch
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
+from matplotlib.transforms import blended_transform_factory
 
 from nodnav.decision.strategies import order_label, passing_orders, strategy_label
 from nodnav.sim.history import History
@@ -32,6 +36,8 @@ def _draw_robots(ax, history: History, arrays: dict, k: int, *, trail: bool = Tr
         if trail:
             ax.plot(pos[: k + 1, i, 0], pos[: k + 1, i, 1], "-", color=color, linewidth=1.2, alpha=0.8)
         ax.add_patch(Circle(pos[k, i], robot.radius, facecolor=color, edgecolor="k", zorder=4))
+        ax.annotate(str(i + 1), pos[k, i], ha="center", va="center", color="white", fontsize=7,
+                    fontweight="bold", zorder=6)
         ax.plot(*robot.destination, marker="x", color=color, markersize=8, markeredgewidth=2)
     if players and len(arrays["decision_times"]):
         d = max(0, int(np.searchsorted(arrays["decision_times"], arrays["times"][k], side="right")) - 1)
@@ -42,46 +48,135 @@ def _draw_robots(ax, history: History, arrays: dict, k: int, *, trail: bool = Tr
                                         "shrinkA": 6, "shrinkB": 6}, zorder=5)
 
 
-def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
-    """The paper-style snapshot figure (Figs. 4 and 5).
+def _marks_legend(has_players: bool) -> tuple[list, list[str]]:
+    """Proxy artists and labels explaining every mark of the snapshot panels."""
+    handles = [Line2D([], [], marker="o", linestyle="none", markersize=10, markerfacecolor="0.5",
+                      markeredgecolor="k"),
+               Line2D([], [], color="0.4", linewidth=1.2),
+               Line2D([], [], marker="x", linestyle="none", markersize=8, markeredgewidth=2, color="0.4"),
+               Rectangle((0, 0), 1, 1, facecolor="#fff3c4", edgecolor="none"),
+               Rectangle((0, 0), 1, 1, facecolor="0.55", edgecolor="0.3")]
+    labels = ["robot at that time (number inside, drawn to scale)", "its path so far", "its destination",
+              "corridor (one robot at a time)", "wall"]
+    if has_players:
+        handles.insert(3, FancyArrowPatch((0, 0), (1, 0), arrowstyle="->", color="0.3"))
+        labels.insert(3, "game player: from a robot to each robot it reasons about (eq. 7)")
+    return handles, labels
 
-    Top row: robots, their trajectories so far and their game players (arrows from a robot to
-    each of its players) at ``count`` instants. Bottom row: for each robot, the probability of
-    the strategy it currently selects, over time up to that instant; the legend names the
-    strategy and its passing order.
+
+class _ArrowHandler(HandlerPatch):
+    """Draws a legend entry for an arrow as an arrow."""
+
+    def create_artists(self, legend, orig_handle, xdescent, ydescent, width, height, fontsize, trans):
+        arrow = FancyArrowPatch((-xdescent, height / 2 - ydescent), (width - xdescent, height / 2 - ydescent),
+                                arrowstyle="->", mutation_scale=10, color="0.3", lw=1.2)
+        arrow.set_transform(trans)
+        return [arrow]
+
+
+def _strategy_colors(used: list[int]) -> dict[int, tuple]:
+    cmap = colormaps["tab20" if len(used) > 10 else "tab10"]
+    return {j: cmap(k % cmap.N) for k, j in enumerate(used)}
+
+
+def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) -> None:
+    """Every robot's chosen passing order at every decision, in one panel.
+
+    One band per robot (robot 1 on top); over each opinion period a bar whose colour is the
+    strategy the robot selected and whose height is that strategy's probability (a full band is
+    1). A robot that switches between orders shows alternating colours; beside its band are the
+    orders it chose and how often. ``marks`` are the snapshot times (dotted lines).
+    """
+    scenario = history.scenario
+    n = scenario.n_robots
+    dts, strategies, probs = arrays["decision_times"], arrays["strategies"], arrays["probabilities"]
+    end = float(arrays["times"][-1]) if len(arrays["times"]) else 1.0
+    ax.set_xlim(0, max(end, 1e-6))
+    ax.set_ylim(-0.6, n - 0.4)
+    ax.set_yticks(range(n), [f"robot {n - r}" for r in range(n)])
+    for r, label in enumerate(ax.get_yticklabels()):
+        label.set_color(robot_color(n - 1 - r))
+    ax.set_xlabel("time t [s]")
+    for t in marks:
+        ax.axvline(t, color="0.5", linestyle=":", linewidth=1.0)
+    if not len(dts) or not (strategies >= 0).any():
+        ax.text(0.5, 0.5, f"method {history.method} chooses no passing order: no opinions to show",
+                transform=ax.transAxes, ha="center", va="center", fontsize=9)
+        return
+    orders = passing_orders(n)
+    used = sorted({int(j) for j in strategies.ravel() if j >= 0}, key=lambda j: -(strategies == j).sum())
+    colors = _strategy_colors(used)
+    edges = np.append(dts, max(end, dts[-1] + history.scenario.opinion.T))
+    no_probability = False
+    for i in range(n):
+        y = n - 1 - i
+        ax.add_patch(Rectangle((0, y - 0.4), edges[-1], 0.8, facecolor="0.94", edgecolor="0.8", zorder=0))
+        for d, j in enumerate(strategies[:, i]):
+            if j < 0:
+                continue
+            p = probs[d, i, j] if probs.shape[-1] else np.nan
+            full = not np.isfinite(p)
+            no_probability |= full
+            ax.add_patch(Rectangle((edges[d], y - 0.4), edges[d + 1] - edges[d], 0.8 * (1.0 if full else p),
+                                   facecolor=colors[int(j)], edgecolor="white", linewidth=0.3,
+                                   hatch="//" if full else None, zorder=1))
+        chosen = strategies[:, i][strategies[:, i] >= 0]
+        if len(chosen):
+            counts = sorted(((int((chosen == j).sum()), int(j)) for j in set(chosen.tolist())), reverse=True)
+            text = ", ".join(f"{strategy_label(j)} {order_label(orders[j])} {100 * c / len(chosen):.0f} %"
+                             for c, j in counts[:3]) + (" ..." if len(counts) > 3 else "")
+            ax.text(1.005, y, text, transform=blended_transform_factory(ax.transAxes, ax.transData), fontsize=7,
+                    va="center", color=robot_color(i))
+    shown_used = used[:12]
+    handles = [Rectangle((0, 0), 1, 1, facecolor=colors[j]) for j in shown_used]
+    labels = [f"{strategy_label(j)} = order {order_label(orders[j])}" for j in shown_used]
+    if len(used) > len(shown_used):
+        handles.append(Rectangle((0, 0), 1, 1, facecolor="white"))
+        labels.append(f"... {len(used) - len(shown_used)} more")
+    ax.legend(handles, labels, title="chosen strategy (passing order)", fontsize=7, title_fontsize=7,
+              loc="upper left", bbox_to_anchor=(1.0, -0.02), frameon=False,
+              ncol=1 if len(handles) <= 6 else 2)
+    ax.set_title("Chosen passing order of each robot at each decision (colour; beside: the orders it chose and how "
+                 "often), bar height = its probability (full band = 1)"
+                 + ("; hatched: the method gives no probability" if no_probability else ""), fontsize=8)
+
+
+def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
+    """The snapshot figure (the paper's Figs. 4 and 5), readable on its own.
+
+    Top row: the robots (numbered), their paths so far and their game players (arrows from a
+    robot to each of its players) at ``count`` instants, with a legend for every mark and axes
+    in metres. Bottom: one panel with every robot's chosen passing order and its probability at
+    every decision (:func:`draw_opinion_panel`), the snapshot instants dotted; methods that
+    choose no passing order (``orca``) have no such panel.
     """
     arrays = history.arrays()
     scenario = history.scenario
-    orders = passing_orders(scenario.n_robots)
-    fig = new_figure(4.2 * count, 5.4)
+    opinions = bool(len(arrays["decision_times"]) and (arrays["strategies"] >= 0).any())
+    fig = new_figure(4.2 * count + 2.6, 6.6 if opinions else 3.2)
+    fig.set_layout_engine("constrained")
+    grid = (fig.add_gridspec(2, count, height_ratios=[1.0, 0.8 + 0.12 * scenario.n_robots]) if opinions
+            else fig.add_gridspec(1, count))
     times = snapshot_times(history, count)
+    has_players = bool(len(arrays["players"]) and arrays["players"].any())
+    marks = []
     for c, t in enumerate(times):
         k = min(int(np.searchsorted(arrays["times"], t - 1e-9)), len(arrays["times"]) - 1)
-        ax = fig.add_subplot(2, count, c + 1)
+        marks.append(float(arrays["times"][k]))
+        ax = fig.add_subplot(grid[0, c])
         draw_world(ax, scenario.world, entrances=False)
         _draw_robots(ax, history, arrays, k)
         ax.set_title(f"t = {arrays['times'][k]:.1f} s", fontsize=9)
-        ax.set_xlabel("")
-        ax.set_ylabel("")
-        bx = fig.add_subplot(2, count, count + c + 1)
-        dts = arrays["decision_times"]
-        upto = dts <= arrays["times"][k] + 1e-9
-        if upto.any() and arrays["probabilities"].shape[-1]:
-            d = int(np.flatnonzero(upto)[-1])
-            for i in range(scenario.n_robots):
-                j = int(arrays["strategies"][d, i])
-                if j < 0:
-                    continue
-                bx.plot(dts[upto], arrays["probabilities"][upto, i, j], "-", color=robot_color(i), linewidth=1.5,
-                        label=f"robot {i + 1}: {strategy_label(j)} {order_label(orders[j])}")
-            bx.legend(fontsize=7, loc="lower right")
-        bx.set_ylim(-0.02, 1.02)
-        bx.set_xlim(0, max(times[-1], 1e-6))
-        bx.set_xlabel("t [s]")
-        if c == 0:
-            bx.set_ylabel("probability of current strategy")
-    fig.suptitle(f"{scenario.name} ({history.method}, seed {history.seed}): {history.outcome}", fontsize=10)
-    fig.tight_layout()
+        if c:
+            ax.set_ylabel("")
+    if opinions:
+        draw_opinion_panel(fig.add_subplot(grid[1, :]), history, arrays, np.asarray(marks))
+    handles, labels = _marks_legend(has_players)
+    fig.legend(handles, labels, loc="outside lower center", ncol=len(handles), fontsize=7, frameon=False,
+               title="marks of the top row", title_fontsize=7, handler_map={FancyArrowPatch: _ArrowHandler()})
+    fig.suptitle(f"{scenario.name}, method {history.method}, seed {history.seed}: {history.outcome}"
+                 + ("" if opinions else f" (method {history.method} chooses no passing order: no opinions to show)"),
+                 fontsize=10)
     fig.savefig(path, dpi=110)
     return Path(path)
 

@@ -1,0 +1,58 @@
+"""Which code produced a result: the package version plus a hash of the code that determines it.
+
+:func:`code_version` is ``<version>+<12 hex digits>``, e.g. ``0.1.0+3f9a2c1b4d5e``. The digits
+are the start of a SHA-256 over the files of the installed package that can change a trial's
+result: every ``.py`` file and every built-in scenario (``scenario/builtin/*.yaml``), each
+hashed with its path relative to the package, in sorted order. Left out are the modules that
+only present or orchestrate results (:data:`PRESENTATION`): editing the command line, a
+figure or the report does not make stored trials stale. Anything else, a docstring included,
+changes the hash. Library versions (NumPy, SciPy, DAQP) are not part of it.
+
+The hash is computed once per process and is the same in every worker process of one
+installation.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from pathlib import Path
+
+import nodnav
+
+#: Files (relative to the package, ``/``-separated) and folders (ending in ``/``) that cannot
+#: change a trial's result and are left out of the hash.
+PRESENTATION = ("cli.py", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "experiments/report.py", "experiments/reproduce.py",
+                "experiments/study.py", "experiments/sweep.py", "experiments/store.py", "control/bench.py",
+                "planning/bench.py", "sim/bench.py")
+
+#: What stored rows written before code versions were recorded hold instead of one.
+UNKNOWN = "unknown"
+
+
+def result_files(root: Path) -> list[Path]:
+    """The files under ``root`` (the package directory) whose content determines a trial's result, sorted."""
+    files = [p for p in root.rglob("*.py")] + list((root / "scenario" / "builtin").glob("*.yaml"))
+    out = []
+    for p in files:
+        rel = p.relative_to(root).as_posix()
+        if "__pycache__" in rel or any(rel == x or (x.endswith("/") and rel.startswith(x)) for x in PRESENTATION):
+            continue
+        out.append(p)
+    return sorted(out, key=lambda p: p.relative_to(root).as_posix())
+
+
+def source_hash(root: Path) -> str:
+    """SHA-256 (hex) over the relative path and bytes of every :func:`result_files` file of ``root``."""
+    h = hashlib.sha256()
+    for p in result_files(root):
+        rel = p.relative_to(root).as_posix().encode()
+        data = p.read_bytes()
+        h.update(len(rel).to_bytes(4, "little") + rel + len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=1)
+def code_version() -> str:
+    """``<package version>+<first 12 hex digits of source_hash>`` of the installed package."""
+    return f"{nodnav.__version__}+{source_hash(Path(nodnav.__file__).resolve().parent)[:12]}"

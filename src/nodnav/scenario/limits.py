@@ -1,0 +1,112 @@
+"""What a scenario may ask for: the accepted range of every number and the size limits.
+
+A scenario outside these bounds is refused when it is loaded (:mod:`nodnav.scenario.schema`),
+with one line naming the key and the bound, so that nothing downstream can be asked for
+something it cannot do: a control step so small that the clock overflows, an acceleration so
+small that the controller divides by nearly zero, a horizon that needs terabytes, more passing
+orders than memory holds. The README lists the same bounds; the values were chosen from what
+the code does with each number (see each docstring), not from taste: the paper's values and
+the built-in scenarios sit well inside every range.
+"""
+
+from __future__ import annotations
+
+import math
+
+MAX_STRATEGIES = 720
+"""Most passing orders ``N_r!`` a scenario may have: 720, that is at most 6 robots.
+
+Every robot keeps an opinion for, plans and weighs every one of the ``N_r!`` orders (with
+``N_s x N_s`` consistency weights), whatever its number of game players: 6 robots (720 orders)
+run; 7 robots (5040 orders, 25 million weights per matrix) took 2.8 GB and about ten seconds of
+computing per simulated second when the bound was chosen (``/usr/bin/time`` on ``nodnav run`` of
+a 7-robot scenario). This is the one place to raise the bound when robots enumerate only their
+game players' orders.
+"""
+
+MAX_ROBOTS = max(n for n in range(1, 21) if math.factorial(n) <= MAX_STRATEGIES)
+"""Most robots a scenario may have, implied by :data:`MAX_STRATEGIES`."""
+
+MAX_CONTROL_STEPS = 100_000
+"""Most control steps of a trial, ``time_limit / controller.dt``: the history keeps every
+step's state (a few kilobytes each with four robots)."""
+
+MAX_PLAN_STEPS = 10_000
+"""Most time steps a planned path may need to cross the world, ``diagonal of world.bounds /
+(slowest max_speed x planner.dt)``: the fast planner's occupancy tables grow with its square
+(30,000 steps took about 1 GB when the bound was chosen)."""
+
+MAX_WORLD_SIZE = 100.0
+"""Longest side of ``world.bounds`` (m)."""
+
+MAX_COORDINATE = 1000.0
+"""Largest absolute value of any coordinate (m)."""
+
+MAX_OBSTACLES = 100
+"""Most wall rectangles in ``world.obstacles``."""
+
+MAX_NAME = 100
+"""Longest scenario ``name`` (characters; one line of printable text)."""
+
+MAX_DESCRIPTION = 1000
+"""Longest scenario ``description`` (characters)."""
+
+MAX_FILE_BYTES = 1 << 20
+"""Largest scenario or study file read (bytes): 1 MiB, a thousand times a built-in scenario."""
+
+#: Accepted range ``(least, greatest, least_included)`` of every number of a scenario, by key
+#: (``robots`` keys apply to ``robot_defaults`` and to every robot alike).
+RANGES: dict[str, tuple[float, float, bool]] = {
+    # The opinion layer. The discrete update (8) multiplies z by (1 - alpha d) with alpha(0) = 1:
+    # d above 2 makes it diverge; u, b, z0 far above the paper's values only overflow.
+    "opinion.u": (0.0, 1e4, True),
+    "opinion.d": (0.0, 2.0, False),
+    "opinion.eta": (1e-3, 1e3, True),
+    "opinion.K1": (0.0, 1e3, True),
+    "opinion.T": (0.0, 60.0, False),
+    "opinion.alpha_min": (0.0, 1.0, False),
+    "opinion.K2": (0.0, 1e3, True),
+    "opinion.delta": (1e-3, 1e3, True),
+    "opinion.bias": (-1e6, 1e6, True),
+    "opinion.z0": (-1e6, 1e6, True),
+    "opinion.standoff_patience": (0.0, 600.0, True),
+    # Robots. Below 0.1 m/s^2 the controller brakes over tens of metres and fails every step;
+    # above 5 m/s a robot crosses the corridor in a few control steps.
+    "robots.radius": (0.01, 5.0, True),
+    "robots.max_speed": (0.05, 5.0, True),
+    "robots.max_accel": (0.1, 50.0, True),
+    # The planner.
+    "planner.dt": (0.01, 1.0, True),
+    "planner.margin": (0.0, 0.5, True),
+    "planner.door_clearance": (0.0, 10.0, True),
+    "planner.w1": (0.0, 1e3, True),
+    "planner.varsigma": (0.0, 1.0, True),
+    "planner.roadmap_vertices": (10, 10_000, True),
+    # The controller: the MPC needs dt <= horizon; its constraint grid has horizon / 0.05 s pieces.
+    "controller.dt": (0.01, 1.0, True),
+    "controller.horizon": (0.01, 5.0, True),
+    "controller.w2": (0.0, 1e3, True),
+    "controller.safety_margin": (0.0, 0.5, True),
+    # The simulation.
+    "sim.goal_tolerance": (0.0, 1.0, False),
+    "sim.collision_tolerance": (0.0, 0.1, True),
+    "sim.deadlock_time": (0.0, 3600.0, False),
+    "sim.progress_epsilon": (0.0, 10.0, True),
+    "sim.observation_noise": (0.0, 1.0, True),
+    # Execution: precedences reach back a lag of at least one control step when it is positive.
+    "execution.lag": (0.0, 10.0, True),
+    "execution.tolerance": (0.0, 1.0, True),
+    "time_limit": (0.0, 3600.0, False),
+}
+
+
+def range_text(key: str) -> str:
+    """The range of ``key`` in words, e.g. ``from 0.01 to 1`` or ``above 0 and at most 2``."""
+    low, high, closed = RANGES[key]
+    return f"from {low:g} to {high:g}" if closed else f"above {low:g} and at most {high:g}"
+
+
+def in_range(key: str, value: float) -> bool:
+    """Whether ``value`` lies in the range of ``key``."""
+    low, high, closed = RANGES[key]
+    return (value >= low if closed else value > low) and value <= high

@@ -39,12 +39,13 @@ def test_a_robot_waiting_in_place_creates_no_precedence_on_itself_until_someone_
     lag = 3
     deps = plan_dependencies(positions, np.full((2, 2), 0.5), lag=lag)
     # The definition, brute force: the latest earlier sample (lag back at least) at which robot
-    # 0 stood within 0.5 m of robot 1's place at k, robot 1 having been farther from it then;
+    # 0 stood within 0.5 m of robot 1's place at k, robot 1 having been farther from it then (the
+    # first sample always admissible);
     # robot 1 comes within 0.5 m of the origin at k = 16 (0.4 m), while robot 0 still waited.
     hand = np.full(steps, -1)
     for k in range(steps):
         best = -1
-        for kk in range(0, k - lag + 1):
+        for kk in range(0, (max(k - lag, 0) if k >= 1 else -1) + 1):
             d = np.hypot(*(positions[k, 1] - positions[kk, 0]))
             before = np.hypot(*(positions[kk, 1] - positions[kk, 0]))
             if d < 0.5 and d < before - 1e-6:
@@ -70,3 +71,15 @@ def test_the_gate_is_the_last_sample_whose_precedences_are_met():
     assert gate_sample(deps, 1, np.array([3, 0])) == 6
     assert gate_sample(deps, 1, np.array([5, 0])) == 7
     assert gate_sample(deps, 0, np.array([0, 0])) == 7
+
+
+def test_nobody_moves_into_the_room_of_a_robot_that_has_not_moved_yet_however_soon():
+    # Robot 1 stands 0.42 m behind and beside robot 0 and, in the plan, closes in at once while
+    # robot 0 drives off: from its very first step it depends on robot 0 having left its start,
+    # although that is less than the lag back.
+    steps = 10
+    lead = _line(0.0, 1.0, steps, y=-0.15)
+    follow = _line(-0.26, 1.0, steps, y=0.18)
+    follow[:, 1] = np.linspace(0.18, 0.0, steps)
+    deps = plan_dependencies(np.stack([lead, follow], axis=1), np.full((2, 2), 0.45), lag=3)
+    assert deps[1, 1, 0] == 0

@@ -14,7 +14,9 @@ Here, robot ``m`` at sample ``k`` *depends on* robot ``j`` at an earlier sample 
 into the room ``j`` vacates. Two robots that move apart, or one that stands still, create no
 dependency, so pairs that start closer than the conflict distance (jammed robots being pulled
 apart by the plan) do not wait for each other. Dependencies reach back at least ``lag`` samples,
-which rules out cycles between robots that pass each other closely within one sample.
+which rules out cycles between robots that pass each other closely within one sample, except to
+the plan's first sample, where every robot actually stands: nobody may move into the room of a
+robot that has not yet moved, however soon the plan has it go.
 
 At run time each robot estimates how far every robot of its plan has got along its own planned
 path from what it observes (:func:`observed_progress`), and may advance along its own path up to
@@ -37,7 +39,7 @@ def plan_dependencies(positions: np.ndarray, conflict: np.ndarray, lag: int) -> 
 
     ``positions`` ``(K, n, 2)`` is the plan at its samples, ``conflict`` ``(n, n)`` the distance
     (m) within which two robots' places conflict (e.g. the sum of their radii and a margin).
-    Entry ``[k, m, j]`` is the latest sample ``k' <= k - lag`` such that robot ``m`` at some
+    Entry ``[k, m, j]`` is the latest sample ``k' <= max(k - lag, 0)`` (``k >= 1``) such that robot ``m`` at some
     sample ``k'' <= k`` depends on robot ``j`` at ``k'`` (see the module docstring), or -1 if there
     is none: robot ``m`` may be where the plan has it at sample ``k`` once robot ``j`` has got
     past sample ``[k, m, j]``. The entries are non-decreasing in ``k`` (a running maximum).
@@ -63,8 +65,10 @@ def _dependencies_kernel(p, rho, lag, epsilon):
             best = -1
             for k in range(n_samples):
                 mx, my = p[k, m, 0], p[k, m, 1]
-                # Scan back from the latest admissible sample: the first hit is the latest.
-                for kk in range(k - lag, best, -1):
+                # Scan back from the latest admissible sample: the first hit is the latest. The
+                # plan's first sample (where everybody stands now) is admissible from k = 1 on.
+                latest = max(k - lag, 0) if k >= 1 else -1
+                for kk in range(latest, best, -1):
                     jx, jy = p[kk, j, 0], p[kk, j, 1]
                     dx, dy = mx - jx, my - jy
                     d2 = dx * dx + dy * dy

@@ -13,7 +13,7 @@ import pytest
 import nodnav.sim.simulator as simulator
 from nodnav.cli import main
 from nodnav.paths import safe_filename
-from nodnav.scenario.limits import MAX_STRATEGIES
+from nodnav.scenario.limits import MAX_ROBOTS, MAX_STRATEGIES
 from nodnav.scenario.schema import ScenarioError, load_scenario, scenario_from_dict, scenario_to_dict
 
 GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0, 0.0]}]}
@@ -105,7 +105,12 @@ def test_more_robots_than_strategies_allow():
     n = 7
     assert np.prod(np.arange(1, n + 1)) > MAX_STRATEGIES
     robots = [{"origin": [-6.0, -2.0 + 0.6 * k], "destination": [6.0, -2.0 + 0.6 * k]} for k in range(n)]
-    assert _error({"robots": robots}).startswith("robots: 7 robots have 7! passing orders")
+    # With every other robot a game player each robot would weigh 7! orders; with 2 it weighs 3!.
+    assert _error({"robots": robots}).startswith("game_players: all game players make every robot weigh 7! = 5040")
+    assert _error({"robots": robots, "game_players": 6}).startswith("game_players: 6 game players")
+    scenario_from_dict({"robots": robots, "game_players": 2})
+    many = [{"origin": [-6.0, -2.0 + 0.4 * k], "destination": [6.0, -2.0 + 0.4 * k]} for k in range(MAX_ROBOTS + 1)]
+    assert _error({"robots": many, "game_players": 2}).startswith(f"robots: {MAX_ROBOTS + 1} robots; at most")
 
 
 def _write(tmp_path, name, content: bytes):
@@ -303,13 +308,16 @@ def test_opinion_panel_names_every_order_a_flipping_robot_used():
     half = np.array([[0.5, 0.5], [0.9, 0.1]])
     h.opinions, h.probabilities = [half] * 4, [half] * 4
     h.strategies = [np.array([0, 0]), np.array([1, 0]), np.array([0, 0]), np.array([1, 0])]  # robot 1 flips
+    first, second = np.array([0, 1]), np.array([1, 0])  # ranks of orders (1,2) and (2,1)
+    h.ranks = [np.stack(r) for r in ([first, first], [second, first], [first, first], [second, first])]
+    h.chosen = [np.array([0.5, 0.9])] * 4
     h.players = [np.ones((2, 2), dtype=bool)] * 4
     h.undecided = [np.ones(2, dtype=bool)] * 4
     fig = new_figure(8, 3)
     ax = fig.add_subplot(1, 1, 1)
     draw_opinion_panel(ax, h, h.arrays(), np.array([2.0]))
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels == ["S1 = order (1,2)", "S2 = order (2,1)"]
+    assert labels == ["order S1 (1,2)", "order S2 (2,1)"]
     beside = [t.get_text() for t in ax.texts]
     assert any("S1 (1,2) 50 %" in t and "S2 (2,1) 50 %" in t for t in beside)
     assert [t.get_text() for t in ax.get_yticklabels()] == ["robot 2", "robot 1"]

@@ -118,7 +118,8 @@ def warm_kernels() -> None:
 
 def trial_summary_lines(result, scenario, method: str, seed: int) -> list[str]:
     """The plain-words summary ``nodnav run`` prints for a finished trial."""
-    from nodnav.decision.strategies import order_label, passing_orders, strategy_label
+    from nodnav.decision.games import strategy_order
+    from nodnav.decision.strategies import order_label, strategy_label
 
     summary = result.to_dict()
     # Game players are a setting of nod only; methods without strategies have no consensus either.
@@ -126,11 +127,11 @@ def trial_summary_lines(result, scenario, method: str, seed: int) -> list[str]:
     lines = [f"{scenario.name} seed {seed} ({setting}): {result.outcome.upper()} at t = {result.sim_time:.1f} s "
              f"(took {result.wall_time:.1f} s)"]
     entry = summary["corridor_entry_order"]
-    chooses = bool(result.history.strategies) and bool((np.asarray(result.history.strategies) >= 0).any())
+    chooses = bool(result.history.ranks) and bool((np.asarray(result.history.ranks) >= 0).any())
     order_text = f"corridor entry order ({','.join(map(str, entry))})" if entry else "no robot entered the corridor"
     if chooses and summary["strategy"] and scenario.n_robots > 1:
         j = summary["strategy"] - 1
-        order_text += (f", which is strategy {strategy_label(j)} {order_label(passing_orders(scenario.n_robots)[j])}; "
+        order_text += (f", which is strategy {strategy_label(j)} {order_label(strategy_order(j, scenario.n_robots))}; "
                        f"the robots {'agreed' if summary['consensus'] else 'did not agree'} on the order beforehand")
     lines.append("  " + order_text)
     braking = (f"emergency braking at {plural(result.mpc_infeasible, 'robot step')} (no safe plan for the controller)"

@@ -112,17 +112,3 @@ def test_consistency_weights_are_invariant_under_relabelling(perm):
         A = consistency_weights(orders, i, players)
         B = consistency_weights(orders, int(pi[i]), [int(pi[k]) for k in players])
         np.testing.assert_array_equal(B[np.ix_(sigma, sigma)], A)
-
-
-def test_orders_agree_on_the_open_part_only():
-    from nodnav.decision.strategies import orders_agree
-
-    orders = passing_orders(3)
-    # S3 = (2,1,3) and S4 = (2,3,1) agree on robot 2 going first but not on robots 1 and 3.
-    assert orders_agree(orders, np.array([2, 3, 2]), [0, 1]) is True
-    assert orders_agree(orders, np.array([2, 3, 2]), [0, 2]) is False
-    # Once robot 2 has entered, S1 = (1,2,3) and S3 = (2,1,3) no longer differ for robots 1 and 3.
-    assert orders_agree(orders, np.array([0, 2, 2]), [0, 2]) is True
-    assert orders_agree(orders, np.array([0, 2, 2]), [0, 1, 2]) is False
-    assert orders_agree(orders, np.array([0, 5, 3]), [1]) is True
-    assert orders_agree(orders, np.array([0, -1, 0]), [0, 2]) is False

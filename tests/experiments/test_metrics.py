@@ -207,6 +207,8 @@ def test_compute_metrics_decisions_and_json():
     h = _two_straight_robots()
     h.decision_times = [0.0, 1.0, 2.0]
     h.strategies = [np.array([0, 1]), np.array([1, 1]), np.array([1, 1])]
+    # The same selections as orders (ranks): strategy 0 is (1,2), strategy 1 is (2,1).
+    h.ranks = [np.array([[0, 1], [1, 0]]), np.array([[1, 0], [1, 0]]), np.array([[1, 0], [1, 0]])]
     h.undecided = [np.array([True, True])] * 3
     m = compute_metrics(h)
     assert m["opinion_switches"] == 1 and m["opinion_switches_per_robot"] == [1, 0]

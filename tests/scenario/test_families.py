@@ -5,8 +5,6 @@ import math
 
 import numpy as np
 import pytest
-
-from nodnav.scenario.limits import MAX_ROBOTS
 import yaml
 
 from nodnav.cli import main
@@ -21,9 +19,7 @@ SEEDS = {"mixed": range(1, 241), "paper-like": range(1, 121), "crowded": range(1
 @pytest.fixture(scope="module")
 def draws():
     """Every draw of :data:`SEEDS`, by family (drawn once for the module)."""
-    # Until robots plan over their game only (issue 12), scenarios beyond MAX_ROBOTS are refused.
-    return {name: [draw(load_family(name), s) for s in seeds] for name, seeds in SEEDS.items()
-            if load_family(name).count[1] <= MAX_ROBOTS}
+    return {name: [draw(load_family(name), s) for s in seeds] for name, seeds in SEEDS.items()}
 
 
 # -- independent geometry: the rules of scenario/validity.py recomputed from the numbers ------------
@@ -87,8 +83,6 @@ def routes(s):
 
 @pytest.mark.parametrize("name", list(SEEDS))
 def test_every_draw_is_valid(draws, name):
-    if name not in draws:
-        pytest.skip(f"{name} has more than {MAX_ROBOTS} robots")
     for s in draws[name]:
         assert_valid(s)
         # The time limit's formula, by hand.
@@ -131,8 +125,6 @@ def test_paper_like_keeps_the_papers_geometry(draws):
 
 
 def test_crowded_has_five_to_eight_robots_and_two_players(draws):
-    if "crowded" not in draws:
-        pytest.skip(f"crowded has more than {MAX_ROBOTS} robots")
     assert {s.n_robots for s in draws["crowded"]} == {5, 6, 7, 8}
     assert all(s.game_players == 2 for s in draws["crowded"])
 

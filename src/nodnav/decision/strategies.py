@@ -81,24 +81,6 @@ def consistency_weights(orders: np.ndarray, robot: int, players) -> np.ndarray:
     return (ids[:, None] == ids[None, :]).astype(float)
 
 
-def orders_agree(orders: np.ndarray, selected: np.ndarray, robots) -> bool:
-    """Whether every robot's selected strategy prescribes the same order for ``robots``.
-
-    ``selected`` holds one strategy index per robot (-1: none selected, never agreeing).
-    Strategies that differ only in the part of the order history has already decided count
-    as agreeing when ``robots`` lists only the robots still to enter the corridor; with fewer
-    than two such robots nothing is left to agree on.
-    """
-    selected = np.asarray(selected)
-    if (selected < 0).any():
-        return False
-    robots = list(robots)
-    if len(robots) < 2:
-        return True
-    ids = projected_order_ids(orders, robots)
-    return bool(np.all(ids[selected] == ids[selected[0]]))
-
-
 def precedence_mask(orders: np.ndarray, first: int, second: int) -> np.ndarray:
     """Which of ``orders`` ``(N_s, N_r)`` let robot ``first`` pass before robot ``second``, ``(N_s,)``."""
     orders = np.asarray(orders)

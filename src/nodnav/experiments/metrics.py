@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from nodnav.decision.strategies import orders_agree, passing_orders
+from nodnav.decision.games import selections_agree
+from nodnav.decision.strategies import passing_orders
 from nodnav.scenario.world import INSIDE, World
 
 
@@ -106,37 +107,48 @@ def smoothness(velocities: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(velocities, axis=0), axis=-1).mean())
 
 
-def opinion_switches(strategies: np.ndarray) -> np.ndarray:
-    """Changes of each robot's selected strategy between consecutive decisions ``(N_r,)``.
+def opinion_switches(selections: np.ndarray) -> np.ndarray:
+    """Changes of each robot's selection between consecutive decisions ``(N_r,)``.
 
-    ``strategies`` ``(D, N_r)`` holds the selected strategy index per decision.
+    ``selections`` is ``(D, N_r)``, the selected strategy index per decision, or ``(D, N_r, N_r)``,
+    the selected orders as ranks (:attr:`~nodnav.sim.history.History.ranks`).
     """
-    return (np.diff(strategies, axis=0) != 0).sum(axis=0)
+    changed = np.diff(np.asarray(selections), axis=0) != 0
+    return (changed.any(axis=-1) if changed.ndim == 3 else changed).sum(axis=0)
 
 
-def time_to_consensus(decision_times: np.ndarray, strategies: np.ndarray, undecided: np.ndarray | None = None) -> float:
+def time_to_consensus(decision_times: np.ndarray, selections: np.ndarray, undecided: np.ndarray | None = None) -> float:
     """First decision time from which the robots agreed at every later decision while an order was still open (s).
 
-    Without ``undecided``, robots agree when they selected the same strategy. With
-    ``undecided`` ``(D, N_r)``, the robots that had not yet entered the corridor at each decision,
-    they agree when their selections prescribe the same order for those robots
-    (:func:`~nodnav.decision.strategies.orders_agree`), and decisions with fewer than two such
-    robots are left out (the order was settled). NaN when they disagree at the last decision
-    that counts, when there is none, or when the method selects no strategies (index -1).
+    ``selections`` is ``(D, N_r)``, the selected strategy index per decision (-1: none), or
+    ``(D, N_r, N_r)``, the selected orders of every robot's game as ranks
+    (:attr:`~nodnav.sim.history.History.ranks`). Without ``undecided``, robots agree when they
+    selected the same strategy. With ``undecided`` ``(D, N_r)``, the robots that had not yet
+    entered the corridor at each decision, they agree when no two selections order two of those
+    robots differently (:func:`~nodnav.decision.games.selections_agree`), and decisions with fewer
+    than two such robots are left out (the order was settled). NaN when they disagree at the last
+    decision that counts, when there is none, or when the method selects nothing.
     """
-    strategies = np.asarray(strategies)
-    if len(strategies) == 0:
+    selections = np.asarray(selections)
+    if len(selections) == 0:
         return math.nan
-    if undecided is None:
-        agree = np.all(strategies == strategies[:, :1], axis=1) & (strategies[:, 0] >= 0)
+    if undecided is None:  # the same selection, whatever it is
+        flat = selections.reshape(len(selections), selections.shape[1], -1)
+        agree = np.array([bool((r >= 0).any(axis=1).all() and np.all(r == r[:1])) for r in flat])
         times = np.asarray(decision_times)
     else:
-        orders = passing_orders(strategies.shape[1])
+        if selections.ndim == 2:  # strategy indices (of all N_r! orders) as the orders' ranks
+            n = selections.shape[1]
+            orders = passing_orders(n)
+            ranks = np.full(selections.shape + (n,), -1)
+            for d, i in zip(*np.nonzero(selections >= 0)):
+                ranks[d, i, orders[selections[d, i]]] = np.arange(n)
+            selections = ranks
         open_ = np.asarray(undecided, dtype=bool)
         counts = open_.sum(axis=1) >= 2
         if not counts.any():
             return math.nan
-        agree = np.array([orders_agree(orders, s, np.flatnonzero(o)) for s, o in zip(strategies[counts], open_[counts])])
+        agree = np.array([selections_agree(r, np.flatnonzero(o)) for r, o in zip(selections[counts], open_[counts])])
         times = np.asarray(decision_times)[counts]
     if not agree[-1]:
         return math.nan
@@ -158,7 +170,7 @@ def compute_metrics(history) -> dict:
     straight = np.linalg.norm(s.destinations - s.origins, axis=-1)
     ratio = np.divide(lengths, straight, out=np.full_like(lengths, np.nan), where=straight > 0)
     crossed, flow = flow_rate(times, positions, s.world)
-    switches = opinion_switches(a["strategies"])
+    switches = opinion_switches(a["ranks"])
     makespan = float(goal.max()) if history.outcome == "success" and np.isfinite(goal).all() else math.nan
     return {
         "makespan_s": makespan,
@@ -172,7 +184,7 @@ def compute_metrics(history) -> dict:
         "smoothness_mps": smoothness(velocities),
         "opinion_switches": int(switches.sum()),
         "opinion_switches_per_robot": [int(v) for v in switches],
-        "time_to_consensus_s": time_to_consensus(a["decision_times"], a["strategies"], a["undecided"]),
+        "time_to_consensus_s": time_to_consensus(a["decision_times"], a["ranks"], a["undecided"]),
     }
 
 

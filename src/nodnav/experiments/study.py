@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from nodnav.errors import NodnavError, shown, shown_path
-from nodnav.scenario.limits import MAX_STRATEGIES, RANGES
+from nodnav.scenario.limits import MAX_ROBOTS, RANGES
 from nodnav.scenario.schema import ScenarioError, builtin_names, nearest_hint, read_yaml, strategy_number
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
@@ -129,9 +129,9 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
     out = []
     for name, number in value.items():
         j = strategy_number(name)
-        if j is None or j > MAX_STRATEGIES:
+        if j is None or j > math.factorial(MAX_ROBOTS):
             raise StudyError(f"{where}: unknown strategy {shown(name)}; name strategies S1, S2, ... "
-                             f"(at most S{MAX_STRATEGIES})")
+                             f"(at most S{math.factorial(MAX_ROBOTS)})")
         try:
             v = float(number) if isinstance(number, (str, int, float)) and not isinstance(number, bool) else None
         except (ValueError, OverflowError):

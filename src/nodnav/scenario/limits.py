@@ -14,18 +14,22 @@ from __future__ import annotations
 import math
 
 MAX_STRATEGIES = 720
-"""Most passing orders ``N_r!`` a scenario may have: 720, that is at most 6 robots.
+"""Most passing orders a robot may weigh at once: the ``(k+1)!`` orders of its game, itself and
+its ``k`` game players (:mod:`nodnav.decision.games`), so games of at most 6 robots.
 
-Every robot keeps an opinion for, plans and weighs every one of the ``N_r!`` orders (with
-``N_s x N_s`` consistency weights), whatever its number of game players: 6 robots (720 orders)
-run; 7 robots (5040 orders, 25 million weights per matrix) took 2.8 GB and about ten seconds of
-computing per simulated second when the bound was chosen (``/usr/bin/time`` on ``nodnav run`` of
-a 7-robot scenario). This is the one place to raise the bound when robots enumerate only their
-game players' orders.
+Every decision, a robot plans, estimates (4) and updates (8) once per order of its game: with all
+players that is ``N_r!``, and 7 robots (5,040 orders) took about ten seconds of computing per
+simulated second when the bound was chosen; 720 orders are about a second. With game players
+(``game_players: k``) the number of robots is bounded only by :data:`MAX_ROBOTS`.
 """
 
-MAX_ROBOTS = max(n for n in range(1, 21) if math.factorial(n) <= MAX_STRATEGIES)
-"""Most robots a scenario may have, implied by :data:`MAX_STRATEGIES`."""
+MAX_GAME = max(n for n in range(1, 21) if math.factorial(n) <= MAX_STRATEGIES)
+"""Most robots in one robot's game (itself and its game players), implied by :data:`MAX_STRATEGIES`."""
+
+MAX_ROBOTS = 10
+"""Most robots a scenario may have. With ``k`` game players a decision costs ``(k+1)!`` plans
+and grows linearly in ``N_r`` (``nodnav bench scaling``); the history, a few kilobytes per
+control step, and trial length grow with it."""
 
 MAX_CONTROL_STEPS = 100_000
 """Most control steps of a trial, ``time_limit / controller.dt``: the history keeps every

@@ -72,6 +72,10 @@ class OpinionParams:
     held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the
     front of the order, where history has put them)."""
 
+    def bias_indices(self) -> dict[int, float]:
+        """The bias b_ij as a mapping from strategy index (0-based: S1 is 0) to value."""
+        return {strategy_number(name) - 1: float(value) for name, value in self.bias.items()}
+
     def bias_vector(self, n_strategies: int) -> np.ndarray:
         """The bias b_i as an array over strategies S1..S_{N_s}."""
         b = np.zeros(n_strategies)
@@ -562,8 +566,7 @@ def _robot_list(data: Any) -> list:
     if not isinstance(robots, list) or not robots:
         raise _fail("robots", f"expected a non-empty list of {{origin: [x, y], destination: [x, y]}}, got {shown(robots)}")
     if len(robots) > limits.MAX_ROBOTS:
-        raise _fail("robots", f"{len(robots)} robots have {len(robots)}! passing orders; at most "
-                    f"{limits.MAX_ROBOTS} robots ({limits.MAX_STRATEGIES} orders) are supported")
+        raise _fail("robots", f"{len(robots)} robots; at most {limits.MAX_ROBOTS} are supported")
     return robots
 
 
@@ -604,6 +607,12 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
         game_players = players
     else:
         raise _fail("game_players", f"expected 'all' or a whole number 0..{len(robots) - 1}, got {shown(players)}")
+    game = len(robots) if game_players is None else game_players + 1
+    if math.factorial(game) > limits.MAX_STRATEGIES:
+        largest = limits.MAX_GAME - 1
+        raise _fail("game_players", f"{'all' if game_players is None else game_players} game players make every robot "
+                    f"weigh {game}! = {math.factorial(game)} passing orders, more than {limits.MAX_STRATEGIES}; "
+                    f"give game_players: {largest} or fewer")
     time_limit = _number(data.get("time_limit", 60.0), "time_limit", "time_limit")
     planner = _params(PlannerParams, data.get("planner"), "planner", "planner")
     controller = _params(ControllerParams, data.get("controller"), "controller", "controller")

@@ -15,13 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
-from nodnav.decision.opinion import (opinion_update, selection_probabilities, social_sum, step_size,
-                                     strategy_probabilities)
+from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.standoff import standoff_partner
-from nodnav.decision.strategies import (consistency_weights, passing_orders, precedence_mask, project_order,
-                                       projected_order_ids)
+from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
@@ -56,17 +55,25 @@ class Decision:
     """A robot's decision for the coming period: what it follows and what it expects of others."""
 
     strategy: int
-    """Selected strategy index (0-based), or -1 for methods without strategies."""
+    """Index of the selected order among the orders of ``game`` (0-based,
+    :func:`~nodnav.decision.games.game_orders`), or -1 for methods without strategies."""
     robots: tuple[int, ...]
-    """Robots in the plan: the agent first, then its game players (scenario indices)."""
+    """Robots in the plan: the agent first, then its game players, then any robot already
+    committed to the corridor that it plans with (scenario indices)."""
     plan: PlanResult
-    """The joint plan for the selected strategy over ``robots``."""
+    """The joint plan for the selected order over ``robots``."""
     opinions: np.ndarray
-    """Opinion state z_i after the update ``(N_s,)``."""
+    """Opinion state z_i after the update, over the orders of ``game`` ``((k+1)!,)`` (empty
+    for methods without opinions)."""
     probabilities: np.ndarray
-    """Strategy probabilities x_i ``(N_s,)``."""
+    """Selection probabilities x_i over the orders of ``game`` ``((k+1)!,)`` (empty without opinions)."""
     players: tuple[int, ...]
     """Game players N_i(t)."""
+    game: tuple[int, ...] = ()
+    """The robots the opinions and the selected order are about, in increasing index: the agent
+    and its game players (every robot for a method that follows one full order)."""
+    order: tuple[int, ...] = ()
+    """The selected passing order of ``game`` (scenario indices); empty without one."""
 
     @property
     def own_trajectory(self) -> JointTrajectory:
@@ -153,8 +160,10 @@ def approach_sides(scenario: Scenario) -> np.ndarray:
 class NODAgent:
     """Robot ``index`` deciding with Nonlinear Opinion Dynamics (Algorithm 1).
 
-    ``n_players`` overrides the scenario's number of game players; ``social=False`` removes the
-    social term (u = 0), so the agent keeps its own preference (used by baselines).
+    Its opinions are over the passing orders of its game, itself and its game players
+    (:mod:`nodnav.decision.games`): ``(k+1)!`` of them for ``k`` players, however many robots
+    there are. ``n_players`` overrides the scenario's number of game players; ``social=False``
+    removes the social term (u = 0), so the agent keeps its own preference (used by baselines).
     """
 
     def __init__(self, scenario: Scenario, index: int, rng: np.random.Generator, plans: PlanCache,
@@ -164,47 +173,73 @@ class NODAgent:
         self.rng = rng
         self.plans = plans
         self.params = scenario.robot_opinion(index)
-        self.orders = passing_orders(scenario.n_robots)
         self.n_players = scenario.n_players if n_players is None else n_players
         self.social = social
-        self.bias = self.params.bias_vector(len(self.orders))
+        self.bias = self.params.bias_indices()
         self.sides = approach_sides(scenario)
-        self.z = self._initial_opinions()
-        self.previous: tuple[tuple[int, ...], tuple[int, ...], list[PlanResult]] | None = None
+        self.game: tuple[int, ...] = ()
+        """The robots the opinions are about: this robot and its game players, in increasing index."""
+        self.z = np.zeros(0)
+        """Opinions over the orders of :attr:`game` (:func:`~nodnav.decision.games.game_orders`)."""
+        self.previous: tuple[tuple[int, ...], tuple[int, ...], tuple[int, ...], list[PlanResult]] | None = None
+        """The last decision's planning robots, game players, game and plan for each order of the game."""
         self.selected = -1
-        """The strategy selected at the last decision."""
+        """The order (index among the game's) selected at the last decision."""
         self.standoff_periods = 0
         """For how many periods in a row the robot has been in a standoff (:mod:`nodnav.decision.standoff`)."""
-        # Pure functions of the (fixed) orders and a set of robots, asked again every period.
-        self._projection_ids: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray, list]] = {}
-        self._weights: dict[tuple[int, ...], np.ndarray] = {}
+        # Pure functions of a game (and of the robots planned with it), asked again every period.
+        self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
+        self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
 
-    def _initial_opinions(self) -> np.ndarray:
+    def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
+        """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
+        return self._tables(game)[0]
+
+    def _tables(self, game: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """The orders of ``game`` and this robot's bias over them (memoised)."""
+        tables = self._games.get(game)
+        if tables is None:
+            tables = self._games[game] = (game_orders(game), game_bias(self.bias, game, self.scenario.n_robots,
+                                                                       self.params.eta))
+        return tables
+
+    def initial_opinions(self, game: tuple[int, ...]) -> np.ndarray:
+        """z_i(0) over the orders of ``game``: zero, eqs. (10)-(11) among the game's robots, or the
+        given opinions over every order of all robots carried to the game."""
         if self.params.init == "distance":
-            d = self.scenario.world.corridor_distance(self.scenario.origins, self.sides)
-            return distance_initial_opinions(d, self.orders, self.params.K2)
+            d = self.scenario.world.corridor_distance(self.scenario.origins[list(game)], self.sides[list(game)])
+            return distance_initial_opinions(d, passing_orders(len(game)), self.params.K2)
         if self.params.init == "given":
-            return np.array(self.params.z0[self.index], dtype=float)
-        return np.zeros(len(self.orders))
+            everyone = tuple(range(self.scenario.n_robots))
+            return carry_opinions(np.array(self.params.z0[self.index], dtype=float), everyone, game, self.params.eta)
+        return np.zeros(len(self.orders_of(game)))
+
+    def _enter_game(self, game: tuple[int, ...]) -> None:
+        """Opinions over ``game``: initial ones at the first decision, else carried over from the
+        last game (:func:`carry_opinions`)."""
+        if not self.game:
+            self.z = self.initial_opinions(game)
+        elif game != self.game:
+            self.z = carry_opinions(self.z, self.game, game, self.params.eta)
+        self.game = game
 
     def _update_opinion(self, view: RobotView) -> None:
         """Eqs. (4), (9), (8): compare the players' observed motion with last period's plans."""
-        robots, players, plans = self.previous
-        social = np.zeros(len(self.orders))
+        planning, players, game, plans = self.previous
+        social = np.zeros(len(plans))
         if players and self.social:
-            columns = [robots.index(k) for k in players]
-            planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (N_s, N_k, M, 4)
+            columns = [planning.index(k) for k in players]
+            planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
-            A = self._weights.get(players)
-            if A is None:
-                A = self._weights[players] = consistency_weights(self.orders, self.index, players)
-            social = social_sum(r, np.ones((1, len(players))), A)[0]
+            # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
+            # of the game standing for class_size of the N_r! strategies.
+            social = class_size(self.scenario.n_robots, len(game)) * r.sum(axis=0)
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
-        self.z = opinion_update(self.z, social, u, self.params.d, self.bias, alpha)
+        self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
 
     def _select_players(self, view: RobotView) -> tuple[int, ...]:
         """Eqs. (6)-(7) on the observed positions."""
@@ -212,29 +247,28 @@ class NODAgent:
         L = conflict_likelihood(view.positions, d_corr, self.params.delta)
         return tuple(sorted(select_game_players(L, self.index, self.n_players)))
 
-    def plan_all(self, view: RobotView, robots: tuple[int, ...]) -> list[PlanResult]:
-        """The joint plan for every strategy, projected onto ``robots`` listed in increasing index;
-        one query per distinct projection.
+    def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:
+        """The joint plan of the robots ``planning`` (increasing index) for every order of ``game``.
 
+        Robots of ``planning`` outside the game have already entered the corridor, so every order
+        puts them first, where history has them (:func:`~nodnav.planning.base.feasible_order`).
         Queries list the robots in increasing index whoever asks, so that robots posing the
         same joint problem pose the same query and share its answer through the plan cache.
         """
-        if robots not in self._projection_ids:
-            ids = projected_order_ids(self.orders, robots)
-            first = np.unique(ids, return_index=True)[1]  # one strategy of each distinct projection
-            self._projection_ids[robots] = ids, first, [local_order(o, robots) for o in self.orders[first]]
-        ids, first, orders = self._projection_ids[robots]
-        requests = joint_requests(self.scenario, view, robots, orders)
-        by_class = {ids[j]: self.plans.plan(request) for j, request in zip(first, requests)}
-        return [by_class[ids[j]] for j in range(len(self.orders))]
+        key = (game, planning)
+        orders = self._local.get(key)
+        if orders is None:
+            extra = tuple(k for k in planning if k not in game)
+            orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
+        return [self.plans.plan(request) for request in joint_requests(self.scenario, view, planning, orders)]
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order
         is already decided: with ``nonplayers: entered``, every robot seen inside the corridor.
 
-        Planning with them costs little (history fixes them at the front of every order, so all
-        orders share their plans) and keeps a robot from planning into a corridor that someone
-        it does not play with is coming through; they take no part in eq. (4).
+        Planning with them costs little (history fixes them at the front of every order) and
+        keeps a robot from planning into a corridor that someone it does not play with is coming
+        through; they take no part in eq. (4).
         """
         if self.params.nonplayers != "entered":
             return ()
@@ -247,15 +281,15 @@ class NODAgent:
         patience = self.params.standoff_patience
         partner = -1
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
-            robots, _, plans = self.previous
+            planning, _, _, plans = self.previous
             plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             progress = -np.diff(self._to_go(ends), axis=1)[:, 0]
-            planned = -np.diff(self._to_go(plan, robots), axis=1)[:, 0]
-            columns = [robots.index(k) if k in robots else -1 for k in players]
+            planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
+            columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
             found = standoff_partner(progress[self.index], progress[list(players)],
-                                     planned[robots.index(self.index)], players_planned)
+                                     planned[planning.index(self.index)], players_planned)
             partner = players[found] if found >= 0 else -1
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
@@ -272,20 +306,25 @@ class NODAgent:
         if self.previous is not None:
             self._update_opinion(view)
         players = self._select_players(view)
+        game = tuple(sorted((self.index, *players)))
+        self._enter_game(game)
         x = strategy_probabilities(self.z, self.params.eta)
         robots = (self.index, *players, *self.committed(view, players))
-        canonical = tuple(sorted(robots))
-        plans = self.plan_all(view, canonical)
-        # Algorithm 1 selects by x; a strategy the planner found no path for cannot be followed.
+        planning = tuple(sorted(robots))
+        plans = self.plan_all(view, game, planning)
+        # Algorithm 1 selects by x; an order the planner found no path for cannot be followed.
         available = np.array([p.success for p in plans])
         partner = self.standoff(view, players)
+        orders = self.orders_of(game)
         if partner >= 0:  # the lower number of a standoff goes first
             first, second = min(self.index, partner), max(self.index, partner)
-            by_convention = available & precedence_mask(self.orders, first, second)
+            by_convention = available & precedence_mask(orders, first, second)
             available = by_convention if by_convention.any() else available
         choice = selection_probabilities(x, available)
         strategy = int(self.rng.choice(len(x), p=choice))
         self.selected = strategy
-        self.previous = (canonical, players, plans)
-        return Decision(strategy=strategy, robots=robots, plan=relabel(plans[strategy], [canonical.index(k) for k in robots]),
-                        opinions=self.z.copy(), probabilities=x, players=players)
+        self.previous = (planning, players, game, plans)
+        return Decision(strategy=strategy, robots=robots,
+                        plan=relabel(plans[strategy], [planning.index(k) for k in robots]),
+                        opinions=self.z.copy(), probabilities=x, players=players, game=game,
+                        order=tuple(int(k) for k in orders[strategy]))

@@ -33,12 +33,14 @@ probabilities; ``strategy`` is the index of the order a robot follows, or -1 for
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from nodnav.control import ControlResult
+from nodnav.decision.games import strategy_order
 from nodnav.decision.opinion import strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import passing_orders, strategy_index
@@ -46,6 +48,7 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.metrics import arrival_times
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
 from nodnav.planning.geometry import VisibilityGraph
+from nodnav.scenario.limits import MAX_GAME, MAX_STRATEGIES
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
@@ -138,9 +141,8 @@ def wall_polygons(world: World) -> list[np.ndarray]:
     return polys
 
 
-def no_opinion(n_strategies: int) -> np.ndarray:
-    """Opinions or probabilities of a method that has none ``(N_s,)``: NaN."""
-    return np.full(n_strategies, np.nan)
+#: Opinions or probabilities of a method that has none: nothing.
+NO_OPINION = np.zeros(0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -179,6 +181,13 @@ def plan_for_order(scenario: Scenario, plans: PlanCache, view: RobotView, robots
     return relabel(plans.plan(request), [canonical.index(k) for k in robots])
 
 
+def enumerable(scenario: Scenario, method: str) -> None:
+    """Refuse, in one line, a method that weighs every one of the N_r! orders beyond the bound."""
+    if math.factorial(scenario.n_robots) > MAX_STRATEGIES:
+        raise NodnavError(f"method '{method}' weighs all {scenario.n_robots}! passing orders; it supports at most "
+                          f"{MAX_GAME} robots ({MAX_STRATEGIES} orders), this scenario has {scenario.n_robots}")
+
+
 class FixedOrderMethod(PlannedMethod):
     """Robots that each follow one passing order, chosen once at the first decision.
 
@@ -190,7 +199,7 @@ class FixedOrderMethod(PlannedMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
-        self.orders = passing_orders(scenario.n_robots)
+        self.n_strategies = math.factorial(scenario.n_robots)
         self.sides = approach_sides(scenario)
         self.strategies: dict[int, int] = {}
         """Index of the order each robot follows, set at the first decision."""
@@ -216,9 +225,10 @@ class FixedOrderMethod(PlannedMethod):
         players = self.players(i, view)
         robots = (i, *players)
         strategy = self.strategies[i]
-        plan = plan_for_order(self.scenario, self.plans, view, robots, tuple(int(k) for k in self.orders[strategy]))
-        return Decision(strategy=strategy, robots=robots, plan=plan, opinions=no_opinion(len(self.orders)),
-                        probabilities=no_opinion(len(self.orders)), players=players)
+        order = strategy_order(strategy, self.scenario.n_robots)
+        plan = plan_for_order(self.scenario, self.plans, view, robots, order)
+        return Decision(strategy=strategy, robots=robots, plan=plan, opinions=NO_OPINION, probabilities=NO_OPINION,
+                        players=players, game=tuple(range(self.scenario.n_robots)), order=order)
 
 
 class IndependentMethod(FixedOrderMethod):
@@ -236,11 +246,16 @@ class IndependentMethod(FixedOrderMethod):
 
     name = "independent"
 
+    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
+        enumerable(scenario, self.name)
+        super().__init__(scenario, rngs, planner)
+
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
         out = {}
         for i in views:
-            z0 = NODAgent(self.scenario, i, self.rngs[i], self.plans, social=False).z
-            x = fixed_preference_probabilities(z0, self.scenario.opinion.bias_vector(len(self.orders)),
+            everyone = tuple(range(self.scenario.n_robots))
+            z0 = NODAgent(self.scenario, i, self.rngs[i], self.plans, social=False).initial_opinions(everyone)
+            x = fixed_preference_probabilities(z0, self.scenario.opinion.bias_vector(self.n_strategies),
                                                self.scenario.opinion.eta)
             out[i] = int(self.rngs[i].choice(len(x), p=x))
         return out
@@ -277,7 +292,9 @@ class OracleMethod(FixedOrderMethod):
     name = "oracle"
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
+        enumerable(scenario, self.name)
         super().__init__(scenario, rngs, planner)
+        self.orders = passing_orders(scenario.n_robots)
         self.makespans = np.full(len(self.orders), np.nan)
         """Planned makespan of every order from the initial state (s), once chosen."""
 
@@ -349,7 +366,6 @@ class OrcaMethod:
         n = scenario.n_robots
         horizon = scenario.controller.horizon
         self.sample_times = horizon * np.arange(1, MPC_SAMPLES + 1) / MPC_SAMPLES
-        self.n_strategies = len(passing_orders(n))
         self.rvo = pyrvo.RVOSimulator()
         self.rvo.set_time_step(self.dt)
         for r in scenario.robots:
@@ -384,8 +400,8 @@ class OrcaMethod:
                                       destinations=s.destinations[[i]], radii=s.radii[[i]],
                                       max_speeds=s.max_speeds[[i]], order=(0,), t0=view.t)
                 plan = PlanResult.failure(request, f"no route around the walls: {path.reason}")
-            out[i] = Decision(strategy=-1, robots=(i,), plan=plan, opinions=no_opinion(self.n_strategies),
-                              probabilities=no_opinion(self.n_strategies), players=())
+            out[i] = Decision(strategy=-1, robots=(i,), plan=plan, opinions=NO_OPINION, probabilities=NO_OPINION,
+                              players=())
         self.decisions = out
         return out
 

@@ -16,7 +16,17 @@ import numpy as np
 from nodnav.errors import NodnavError, shown, shown_path
 from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+
+
+def _stack_padded(rows: list[np.ndarray], decisions: int, n: int) -> np.ndarray:
+    """Per-decision ``(N_r, w_d)`` arrays as one ``(D, N_r, max w_d)`` array, NaN-padded."""
+    width = max([r.shape[-1] for r in rows] + [0])
+    out = np.full((decisions, n, width), np.nan)
+    for d, r in enumerate(rows):
+        r = np.asarray(r, dtype=float).reshape(n, -1)
+        out[d, :, :r.shape[1]] = r
+    return out
 
 
 @dataclass
@@ -38,11 +48,22 @@ class History:
     decision_times: list[float] = field(default_factory=list)
     """Times of the opinion updates (s)."""
     opinions: list[np.ndarray] = field(default_factory=list)
-    """Opinion states z ``(N_r, N_s)`` per decision (NaN for methods without opinions)."""
+    """Opinion states z per decision ``(N_r, W)``: robot ``i``'s over the orders of its game
+    (:func:`~nodnav.decision.games.game_orders` of ``games[i]``), NaN beyond them and for methods
+    without opinions."""
     probabilities: list[np.ndarray] = field(default_factory=list)
-    """Strategy probabilities x ``(N_r, N_s)`` per decision."""
+    """Selection probabilities x per decision ``(N_r, W)``, laid out as ``opinions``."""
     strategies: list[np.ndarray] = field(default_factory=list)
-    """Selected strategy index per robot ``(N_r,)`` per decision (0-based; -1 when none)."""
+    """Selected strategy index per robot ``(N_r,)`` per decision (0-based, among all N_r! orders)
+    when the robot's game holds every robot; -1 otherwise or when none."""
+    chosen: list[np.ndarray] = field(default_factory=list)
+    """Probability of the selected order per robot ``(N_r,)`` per decision (NaN without opinions)."""
+    games: list[np.ndarray] = field(default_factory=list)
+    """Game mask ``(N_r, N_r)`` per decision: ``games[i, k]`` when robot k is in robot i's game
+    (itself and its game players, or every robot for a method that follows a full order)."""
+    ranks: list[np.ndarray] = field(default_factory=list)
+    """Selected orders ``(N_r, N_r)`` per decision: ``ranks[i, k]`` is robot k's place in the
+    order robot i selected, -1 when k is not in it (a row of -1: none selected)."""
     players: list[np.ndarray] = field(default_factory=list)
     """Game-player mask ``(N_r, N_r)`` per decision: ``players[i, k]`` when k is in N_i."""
     undecided: list[np.ndarray] = field(default_factory=list)
@@ -56,17 +77,18 @@ class History:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """Every per-step and per-decision series as stacked arrays."""
-        n, ns = self.scenario.n_robots, len(self.opinions[0]) if self.opinions else 0
+        n, d = self.scenario.n_robots, len(self.decision_times)
         return {
             "times": np.asarray(self.times, dtype=float),
             "positions": np.asarray(self.positions, dtype=float).reshape(-1, n, 2),
             "velocities": np.asarray(self.velocities, dtype=float).reshape(-1, n, 2),
             "decision_times": np.asarray(self.decision_times, dtype=float),
-            "opinions": np.asarray(self.opinions, dtype=float).reshape(len(self.decision_times), n, -1)
-            if ns else np.zeros((0, n, 0)),
-            "probabilities": np.asarray(self.probabilities, dtype=float).reshape(len(self.decision_times), n, -1)
-            if ns else np.zeros((0, n, 0)),
+            "opinions": _stack_padded(self.opinions, d, n),
+            "probabilities": _stack_padded(self.probabilities, d, n),
             "strategies": np.asarray(self.strategies, dtype=int).reshape(-1, n),
+            "chosen": np.asarray(self.chosen, dtype=float).reshape(-1, n),
+            "games": np.asarray(self.games, dtype=bool).reshape(-1, n, n),
+            "ranks": np.asarray(self.ranks, dtype=int).reshape(-1, n, n),
             "players": np.asarray(self.players, dtype=bool).reshape(-1, n, n),
             "undecided": np.asarray(self.undecided, dtype=bool).reshape(-1, n),
         }
@@ -126,6 +148,9 @@ class History:
             h.opinions = list(arrays["opinions"])
             h.probabilities = list(arrays["probabilities"])
             h.strategies = list(arrays["strategies"])
+            h.chosen = list(arrays["chosen"])
+            h.games = list(arrays["games"])
+            h.ranks = list(arrays["ranks"])
             h.players = list(arrays["players"])
             h.undecided = list(arrays["undecided"])
             h.events = list(meta["events"])

@@ -18,7 +18,8 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control.base import STEP_FRACTIONS
-from nodnav.decision.strategies import orders_agree, passing_orders, strategy_index
+from nodnav.decision.games import selections_agree
+from nodnav.decision.strategies import strategy_index
 from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
@@ -257,13 +258,22 @@ class Simulation:
     def _decide(self, views: dict[int, RobotView]) -> None:
         decisions = self.method.decide(views)
         n, h = self.scenario.n_robots, self.history
-        ns = len(passing_orders(n))
-        opinions = np.full((n, ns), np.nan)
-        probs = np.full((n, ns), np.nan)
+        width = max([len(d.opinions) for d in decisions.values()] + [0])
+        opinions = np.full((n, width), np.nan)
+        probs = np.full((n, width), np.nan)
         strategies = np.full(n, -1)
+        chosen = np.full(n, np.nan)
+        games = np.zeros((n, n), dtype=bool)
+        ranks = np.full((n, n), -1)
         players = np.zeros((n, n), dtype=bool)
         for i, d in decisions.items():
-            opinions[i], probs[i], strategies[i] = d.opinions, d.probabilities, d.strategy
+            opinions[i, :len(d.opinions)], probs[i, :len(d.probabilities)] = d.opinions, d.probabilities
+            games[i, list(d.game)] = True
+            ranks[i, list(d.order)] = np.arange(len(d.order))
+            if len(d.order) == n:
+                strategies[i] = strategy_index(d.order)
+            if d.strategy >= 0 and len(d.probabilities):
+                chosen[i] = d.probabilities[d.strategy]
             players[i, list(d.players)] = True
             if not d.plan.success:
                 self.plan_failures += 1
@@ -272,6 +282,9 @@ class Simulation:
         h.opinions.append(opinions)
         h.probabilities.append(probs)
         h.strategies.append(strategies)
+        h.chosen.append(chosen)
+        h.games.append(games)
+        h.ranks.append(ranks)
         h.players.append(players)
         h.undecided.append(~np.isin(np.arange(n), self.entered_true))
 
@@ -316,10 +329,9 @@ class Simulation:
     def _consensus(self) -> bool:
         """Whether the robots agreed on the order of those still to enter, at the last decision
         at which at least two had not entered (the last moment the order was open)."""
-        orders = passing_orders(self.scenario.n_robots)
-        for selected, undecided in zip(reversed(self.history.strategies), reversed(self.history.undecided)):
+        for ranks, undecided in zip(reversed(self.history.ranks), reversed(self.history.undecided)):
             if undecided.sum() >= 2:
-                return orders_agree(orders, selected, np.flatnonzero(undecided))
+                return selections_agree(ranks, np.flatnonzero(undecided))
         return False
 
     def result(self, wall_time: float) -> TrialResult:

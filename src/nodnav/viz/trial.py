@@ -15,7 +15,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
 from matplotlib.transforms import blended_transform_factory
 
-from nodnav.decision.strategies import order_label, passing_orders, strategy_label
+from nodnav.decision.strategies import order_label, strategy_index, strategy_label
 from nodnav.sim.history import History
 from nodnav.viz.scenario import draw_world, new_figure, robot_color
 
@@ -74,22 +74,35 @@ class _ArrowHandler(HandlerPatch):
         return [arrow]
 
 
-def _strategy_colors(used: list[int]) -> dict[int, tuple]:
+def _order_colors(used: list[tuple[int, ...]]) -> dict[tuple[int, ...], tuple]:
     cmap = colormaps["tab20" if len(used) > 10 else "tab10"]
-    return {j: cmap(k % cmap.N) for k, j in enumerate(used)}
+    return {o: cmap(k % cmap.N) for k, o in enumerate(used)}
+
+
+def selected_orders(ranks: np.ndarray) -> list[list[tuple[int, ...]]]:
+    """The order each robot selected at each decision, from ``ranks`` ``(D, N_r, N_r)``
+    (:attr:`~nodnav.sim.history.History.ranks`): ``out[d][i]``, empty when it selected none."""
+    return [[tuple(int(k) for k in np.argsort(row)[np.sort(row) >= 0]) for row in per] for per in ranks]
+
+
+def order_name(order: tuple[int, ...], n_robots: int) -> str:
+    """An order in the paper's notation; a full order also by its strategy name, ``S5 (3,1,2)``."""
+    return f"{strategy_label(strategy_index(order))} {order_label(order)}" if len(order) == n_robots else order_label(order)
 
 
 def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) -> None:
     """Every robot's chosen passing order at every decision, in one panel.
 
     One band per robot (robot 1 on top); over each opinion period a bar whose colour is the
-    strategy the robot selected and whose height is that strategy's probability (a full band is
-    1). A robot that switches between orders shows alternating colours; beside its band are the
-    orders it chose and how often. ``marks`` are the snapshot times (dotted lines).
+    order the robot selected (of its game: itself and its game players) and whose height is that
+    order's probability (a full band is 1). A robot that switches between orders shows alternating
+    colours; beside its band are the orders it chose and how often. ``marks`` are the snapshot
+    times (dotted lines).
     """
     scenario = history.scenario
     n = scenario.n_robots
-    dts, strategies, probs = arrays["decision_times"], arrays["strategies"], arrays["probabilities"]
+    dts, chosen = arrays["decision_times"], arrays["chosen"]
+    selected = selected_orders(arrays["ranks"])
     end = float(arrays["times"][-1]) if len(arrays["times"]) else 1.0
     ax.set_xlim(0, max(end, 1e-6))
     ax.set_ylim(-0.6, n - 0.4)
@@ -99,41 +112,42 @@ def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) ->
     ax.set_xlabel("time t [s]")
     for t in marks:
         ax.axvline(t, color="0.5", linestyle=":", linewidth=1.0)
-    if not len(dts) or not (strategies >= 0).any():
+    everything = [o for per in selected for o in per if o]
+    if not len(dts) or not everything:
         ax.text(0.5, 0.5, f"method {history.method} chooses no passing order: no opinions to show",
                 transform=ax.transAxes, ha="center", va="center", fontsize=9)
         return
-    orders = passing_orders(n)
-    used = sorted({int(j) for j in strategies.ravel() if j >= 0}, key=lambda j: -(strategies == j).sum())
-    colors = _strategy_colors(used)
+    used = sorted(set(everything), key=lambda o: (-everything.count(o), o))
+    colors = _order_colors(used)
     edges = np.append(dts, max(end, dts[-1] + history.scenario.opinion.T))
     no_probability = False
     for i in range(n):
         y = n - 1 - i
         ax.add_patch(Rectangle((0, y - 0.4), edges[-1], 0.8, facecolor="0.94", edgecolor="0.8", zorder=0))
-        for d, j in enumerate(strategies[:, i]):
-            if j < 0:
+        mine = [per[i] for per in selected]
+        for d, order in enumerate(mine):
+            if not order:
                 continue
-            p = probs[d, i, j] if probs.shape[-1] else np.nan
+            p = chosen[d, i]
             full = not np.isfinite(p)
             no_probability |= full
             ax.add_patch(Rectangle((edges[d], y - 0.4), edges[d + 1] - edges[d], 0.8 * (1.0 if full else p),
-                                   facecolor=colors[int(j)], edgecolor="white", linewidth=0.3,
+                                   facecolor=colors[order], edgecolor="white", linewidth=0.3,
                                    hatch="//" if full else None, zorder=1))
-        chosen = strategies[:, i][strategies[:, i] >= 0]
-        if len(chosen):
-            counts = sorted(((int((chosen == j).sum()), int(j)) for j in set(chosen.tolist())), reverse=True)
-            text = ", ".join(f"{strategy_label(j)} {order_label(orders[j])} {100 * c / len(chosen):.0f} %"
-                             for c, j in counts[:3]) + (" ..." if len(counts) > 3 else "")
+        picked = [o for o in mine if o]
+        if picked:
+            counts = sorted(((picked.count(o), o) for o in set(picked)), key=lambda c: (-c[0], c[1]))
+            text = ", ".join(f"{order_name(o, n)} {100 * c / len(picked):.0f} %"
+                             for c, o in counts[:3]) + (" ..." if len(counts) > 3 else "")
             ax.text(1.005, y, text, transform=blended_transform_factory(ax.transAxes, ax.transData), fontsize=7,
                     va="center", color=robot_color(i))
     shown_used = used[:12]
-    handles = [Rectangle((0, 0), 1, 1, facecolor=colors[j]) for j in shown_used]
-    labels = [f"{strategy_label(j)} = order {order_label(orders[j])}" for j in shown_used]
+    handles = [Rectangle((0, 0), 1, 1, facecolor=colors[o]) for o in shown_used]
+    labels = [f"order {order_name(o, n)}" for o in shown_used]
     if len(used) > len(shown_used):
         handles.append(Rectangle((0, 0), 1, 1, facecolor="white"))
         labels.append(f"... {len(used) - len(shown_used)} more")
-    ax.legend(handles, labels, title="chosen strategy (passing order)", fontsize=7, title_fontsize=7,
+    ax.legend(handles, labels, title="chosen passing order", fontsize=7, title_fontsize=7,
               loc="upper left", bbox_to_anchor=(1.0, -0.02), frameon=False,
               ncol=1 if len(handles) <= 6 else 2)
     ax.set_title("Chosen passing order of each robot at each decision (colour; beside: the orders it chose and how "
@@ -152,7 +166,7 @@ def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
     """
     arrays = history.arrays()
     scenario = history.scenario
-    opinions = bool(len(arrays["decision_times"]) and (arrays["strategies"] >= 0).any())
+    opinions = bool(len(arrays["decision_times"]) and (arrays["ranks"] >= 0).any())
     fig = new_figure(4.2 * count + 2.6, 6.6 if opinions else 3.2)
     fig.set_layout_engine("constrained")
     grid = (fig.add_gridspec(2, count, height_ratios=[1.0, 0.8 + 0.12 * scenario.n_robots]) if opinions
@@ -198,7 +212,6 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     """
     arrays = history.arrays()
     scenario = history.scenario
-    orders = passing_orders(scenario.n_robots)
     pos = arrays["positions"]
     fig = new_figure(7.0, 3.4)
     ax = fig.add_subplot(1, 1, 1)
@@ -215,7 +228,8 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     discs = [ax.add_patch(Circle(pos[0, i], r.radius, facecolor=robot_color(i), edgecolor="k", zorder=4,
                                  animated=True)) for i, r in enumerate(scenario.robots)]
     title = ax.set_title("", fontsize=8, animated=True)
-    has_opinions = len(arrays["decision_times"]) > 0 and arrays["probabilities"].shape[-1] > 0
+    has_opinions = len(arrays["decision_times"]) > 0 and (arrays["ranks"] >= 0).any()
+    selected = selected_orders(arrays["ranks"])
     steps = list(range(0, len(arrays["times"]), stride))
     if steps[-1] != len(arrays["times"]) - 1:
         steps.append(len(arrays["times"]) - 1)
@@ -235,8 +249,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
                     artists.append(ax.annotate("", xy=pos[k, j], xytext=pos[k, i], zorder=5, animated=True, arrowprops={
                         "arrowstyle": "->", "color": robot_color(i), "lw": 1.2, "shrinkA": 6, "shrinkB": 6}))
             if has_opinions:
-                label = "  ".join(f"{i + 1}:{order_label(orders[j])}"
-                                  for i, j in enumerate(arrays["strategies"][d]) if j >= 0)
+                label = "  ".join(f"{i + 1}:{order_label(o)}" for i, o in enumerate(selected[d]) if o)
         title.set_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}")
         for artist in artists + [title]:
             ax.draw_artist(artist)

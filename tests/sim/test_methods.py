@@ -38,3 +38,10 @@ def test_horizon_predictions_by_hand():
     # A braking at 2 m/s^2 from 1 m/s stops after 0.5 s and 0.25 m: 0.4 - 0.16 = 0.24 m at 0.4 s.
     np.testing.assert_allclose(got[4], [[5.0, 5.24], [5.0, 5.25]])
     np.testing.assert_allclose(got[5], [[1.0, 1.0], [1.0, 1.0]])
+
+
+def test_reaction_margin_is_how_far_a_braking_trajectory_can_move_in_one_step():
+    from nodnav.sim.methods import reaction_margin
+
+    # a dt^2 + (v + a dt / 2) dt: at rest 2 * 0.01 + 0.1 * 0.1 = 0.03 m; at 1 m/s 0.02 + 0.11 = 0.13 m.
+    np.testing.assert_allclose(reaction_margin(np.array([0.0, 1.0]), np.array([2.0, 2.0]), 0.1), [0.03, 0.13])

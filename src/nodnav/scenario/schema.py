@@ -156,10 +156,11 @@ class ExecutionParams:
     tolerance: float = 0.05
     """Distance within which an observed robot counts as still at the earliest of its nearest
     planned samples (m): how far it must move before it counts as having moved on."""
-    reaction_margin: bool = False
-    """Whether the MPC keeps clear of every other robot's braking trajectory by how far that can
-    move in one control step (``nodnav.sim.methods.reaction_margin``), so that two robots that
-    both cannot follow their plans never squeeze each other."""
+    reaction_margin: str = "conflict"
+    """When the MPC keeps clear of every other robot's braking trajectory by how far that can move
+    in one control step (``nodnav.sim.methods.reaction_margin``): ``always``, ``conflict`` (from
+    a step at which the robot could not follow its plan until it can again: two robots that both
+    cannot never squeeze each other) or ``off``."""
 
 
 @dataclass(frozen=True)
@@ -634,6 +635,9 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
         raise _fail("opinion.T", f"{opinion.T:g} s must be a whole multiple of controller.dt ({controller.dt:g} s)")
     sim = _params(SimParams, data.get("sim"), "sim", "sim")
     execution = _params(ExecutionParams, data.get("execution"), "execution", "execution")
+    if execution.reaction_margin not in ("always", "conflict", "off"):
+        raise _fail("execution.reaction_margin",
+                    f"expected 'always', 'conflict' or 'off', got {shown(execution.reaction_margin)}")
     if execution.mode not in ("gated", "timed"):
         raise _fail("execution.mode", f"expected 'gated' or 'timed', got {shown(execution.mode)}")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,

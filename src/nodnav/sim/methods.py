@@ -123,6 +123,7 @@ class PlannedMethod:
         self._decel = [np.delete(accel, i) for i in range(n)]
         self.dt = scenario.controller.dt
         self._braking_margin = scenario.execution.reaction_margin
+        self._conflicted = np.zeros(n, dtype=bool)
         ex = scenario.execution
         self._execution_settings = ExecutionSettings(
             gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
@@ -188,7 +189,7 @@ class PlannedMethod:
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self._other_radii[i]
-            if self._braking_margin:
+            if self._braking_margin == "always" or (self._braking_margin == "conflict" and self._conflicted[i]):
                 others = self._others[i]
                 radii = radii.copy()
                 radii[2 * len(others):] += reaction_margin(np.linalg.norm(view.velocities[others], axis=1),
@@ -197,6 +198,7 @@ class PlannedMethod:
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=self._firm)
             out[i] = self.controllers[i].control(request)
+            self._conflicted[i] = not out[i].success
         return out
 
 

@@ -100,3 +100,17 @@ def test_bad_arguments_are_rejected():
         conflict_likelihood(np.zeros((3, 2)), np.zeros(3), delta=0.0)
     with pytest.raises(ValueError):
         conflict_likelihood(np.zeros((3, 2)), np.zeros(2))
+
+
+def test_robots_in_the_corridor_are_chosen_only_when_too_few_others_are_left():
+    from nodnav.decision.players import undecided_first
+
+    L = np.array([[0.0, 0.9, 0.5, 0.2],
+                  [0.9, 0.0, 0.3, 0.1],
+                  [0.5, 0.3, 0.0, 0.4],
+                  [0.2, 0.1, 0.4, 0.0]])
+    ranked = undecided_first(L, [1])  # robot 1 has entered
+    assert select_game_players(ranked, 0, 1) == (2,)  # robot 1 was robot 0's likeliest conflict
+    assert select_game_players(ranked, 0, 2) == (2, 3)
+    assert select_game_players(ranked, 0, 3) == (1, 2, 3)
+    assert select_game_players(ranked, 2, 1) == (0,)  # among the undecided, eq. (6)'s order holds

@@ -59,3 +59,16 @@ def game_player_mask(L: np.ndarray, k: int) -> np.ndarray:
     for i in range(n):
         mask[i, list(select_game_players(L, i, k))] = True
     return mask
+
+
+def undecided_first(L: np.ndarray, entered) -> np.ndarray:
+    """Conflict likelihoods with the robots that have ``entered`` the corridor ranked after every
+    other (not in the paper): their place in the order is decided, so eq. (7) picks them only when
+    fewer than ``k`` robots are still to decide. The order among each group is eq. (6)'s."""
+    L = np.array(L, dtype=float)
+    done = np.zeros(L.shape[0], dtype=bool)
+    done[list(entered)] = True
+    lowest = L.min() - 1.0
+    L[:, done] = lowest - (L.max() - L[:, done])  # below every undecided robot, in the same order
+    np.fill_diagonal(L, 0.0)
+    return L

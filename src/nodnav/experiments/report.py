@@ -28,6 +28,7 @@ import numpy as np
 from nodnav.decision.strategies import order_label, passing_orders
 from nodnav.experiments.breakdown import breakdown_lines
 from nodnav.experiments.store import OUTCOMES, ResultStore, TrialRecord
+from nodnav.experiments.variants import STUDY_REDUCTION, section_reduction
 
 log = logging.getLogger(__name__)
 
@@ -537,7 +538,7 @@ def _section_overview(rep: _Report, db_path: Path) -> None:
     else:
         rep.add("This database was not written by `nodnav reproduce`; the sections below use whichever of its "
                 "studies they find.", "")
-    known = (STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS)
+    known = (STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS, STUDY_REDUCTION)
     studies = sorted(n for n in set(rep.studies) | set(known) if n != META_STUDY and store.count(n))
     listed = ", ".join(f"`{n}` ({store.count(n)} trials)" for n in studies)
     rep.add(f"Studies in the database: {listed or 'none'}.", "")
@@ -937,6 +938,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
         snapshots = _section_snapshots(rep, rerun_snapshots)
         _section_planners(rep)
         _section_methods(rep)
+        section_reduction(rep)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")
     reason = (f"wrote {report_path} with {len(rep.figures)} figures"

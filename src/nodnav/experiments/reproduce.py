@@ -41,13 +41,14 @@ from nodnav.experiments.report import (META_STUDY, SNAPSHOTS, STUDY_FIG2C, STUDY
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
+from nodnav.experiments.variants import STUDY_REDUCTION, variant_scenario_files
 from nodnav.provenance import code_version
 from nodnav.scenario.schema import builtin_names, load_scenario, scenario_to_dict
 
 log = logging.getLogger(__name__)
 
 #: The parts of the evaluation, in the order they run within a round and get a seed the budget cannot give to all.
-PARTS = ("success", "table1", "table2", "fig2c", "methods", "planners")
+PARTS = ("success", "table1", "table2", "fig2c", "methods", "reduction", "planners")
 #: The parts that reproduce the paper; the budget brings them to their targets before the comparisons.
 PAPER_PARTS = ("success", "table1", "table2", "fig2c")
 
@@ -249,6 +250,10 @@ def plan_parts(options: ReproduceOptions) -> tuple[Part, ...]:
                                   planners=("fast",), trials=options.fig2c_trials)),
         "methods": lambda: Part("methods", f"methods compared ({', '.join(methods)})", SweepSpec(
             STUDY_METHODS, scenarios, planners=("fast",), methods=methods, trials=min(options.method_trials, t))),
+        "reduction": lambda: Part("reduction", "game reduction variants", SweepSpec(
+            STUDY_REDUCTION, tuple(str(p) for p in variant_scenario_files(
+                Path(options.out) / "reduction-scenarios",
+                tuple(s for s in scenarios if load_scenario(s).n_robots <= 4))), planners=("fast",), trials=t)),
         "planners": lambda: Part("planners", f"planners compared ({', '.join(planners)})", SweepSpec(
             STUDY_PLANNERS, scenarios, players=tuple(range(max_players + 1)), planners=planners, trials=t)),
     }

@@ -64,6 +64,9 @@ class OpinionParams:
     """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
     bias: dict[str, float] = field(default_factory=dict)
     """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
+    conflict: str = "paper"
+    """Game-player selection, eqs. (6)-(7): ``paper`` (every other robot a candidate) or
+    ``undecided`` (robots seen in the corridor only when too few others are left)."""
     standoff_patience: float = 2.0
     """After how long a standoff with a game player (both standing still, this one although its
     plan moves it) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
@@ -454,6 +457,8 @@ def _world(data: Any) -> World:
 def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     """Opinion parameters from a mapping, with their cross-field checks."""
     opinion = _params(OpinionParams, data, where, "opinion")
+    if opinion.conflict not in ("paper", "undecided"):
+        raise _fail(f"{where}.conflict", f"expected 'paper' or 'undecided', got {shown(opinion.conflict)}")
     if opinion.nonplayers not in ("static", "entered"):
         raise _fail(f"{where}.nonplayers", f"expected 'static' or 'entered', got {shown(opinion.nonplayers)}")
     if opinion.init not in ("zero", "distance", "given"):

@@ -18,7 +18,7 @@ from nodnav.decision.estimation import estimate_social_term, estimated_opinions
 from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
-from nodnav.decision.players import conflict_likelihood, select_game_players
+from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
 from nodnav.decision.standoff import standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
@@ -242,9 +242,12 @@ class NODAgent:
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
 
     def _select_players(self, view: RobotView) -> tuple[int, ...]:
-        """Eqs. (6)-(7) on the observed positions."""
+        """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
+        not yet seen to enter the corridor first (those that have are ahead in every order)."""
         d_corr = self.scenario.world.corridor_distance(view.positions, self.sides)
         L = conflict_likelihood(view.positions, d_corr, self.params.delta)
+        if self.params.conflict == "undecided" and view.entered:
+            L = undecided_first(L, view.entered)
         return tuple(sorted(select_game_players(L, self.index, self.n_players)))
 
     def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:

@@ -22,6 +22,7 @@ from nodnav.decision.players import conflict_likelihood, select_game_players, un
 from nodnav.decision.standoff import standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
+from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
 
@@ -150,6 +151,15 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
     return [PlanRequest(order=order, **state) for order in orders]
 
 
+def clearing_plan(scenario: Scenario, view: RobotView, planning: tuple[int, ...], robot: int, failed: PlanResult,
+                  graphs: dict) -> PlanResult:
+    """When no order can be planned for ``robot`` (a scenario index, in ``planning``): the plan in
+    which it clears the way (:func:`~nodnav.planning.clearing.clear_the_way`), a failure still."""
+    request = joint_requests(scenario, view, planning, [tuple(range(len(planning)))])[0]
+    p = scenario.planner
+    return clear_the_way(request, planning.index(robot), failed.reason, p.door_clearance, p.margin, p.dt, graphs)
+
+
 def approach_sides(scenario: Scenario) -> np.ndarray:
     """The side each robot approaches the corridor from (towards its destination)."""
     direction = crossing_directions(scenario.world, scenario.origins, scenario.destinations)
@@ -190,6 +200,7 @@ class NODAgent:
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
+        self._graphs: dict = {}  # visibility graphs for clearing the way, by radius
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
         """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
@@ -327,7 +338,9 @@ class NODAgent:
         strategy = int(self.rng.choice(len(x), p=choice))
         self.selected = strategy
         self.previous = (planning, players, game, plans)
-        return Decision(strategy=strategy, robots=robots,
-                        plan=relabel(plans[strategy], [planning.index(k) for k in robots]),
+        plan = plans[strategy]
+        if not available.any():  # nothing to follow: get out of everybody's way
+            plan = clearing_plan(self.scenario, view, planning, self.index, plan, self._graphs)
+        return Decision(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players, game=game,
                         order=tuple(int(k) for k in orders[strategy]))

@@ -51,7 +51,8 @@ from nodnav.planning.geometry import VisibilityGraph
 from nodnav.scenario.limits import MAX_GAME, MAX_STRATEGIES
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
+from nodnav.sim.agent import (Decision, NODAgent, PlanCache, RobotView, approach_sides, clearing_plan, joint_requests,
+                              local_order)
 from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
 
 log = logging.getLogger(__name__)
@@ -200,6 +201,7 @@ class FixedOrderMethod(PlannedMethod):
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
         self.n_strategies = math.factorial(scenario.n_robots)
+        self._graphs: dict = {}  # visibility graphs for clearing the way, by radius
         self.sides = approach_sides(scenario)
         self.strategies: dict[int, int] = {}
         """Index of the order each robot follows, set at the first decision."""
@@ -227,6 +229,10 @@ class FixedOrderMethod(PlannedMethod):
         strategy = self.strategies[i]
         order = strategy_order(strategy, self.scenario.n_robots)
         plan = plan_for_order(self.scenario, self.plans, view, robots, order)
+        if not plan.success:  # nothing to follow: get out of everybody's way
+            canonical = tuple(sorted(robots))
+            plan = relabel(clearing_plan(self.scenario, view, canonical, i, plan, self._graphs),
+                           [canonical.index(k) for k in robots])
         return Decision(strategy=strategy, robots=robots, plan=plan, opinions=NO_OPINION, probabilities=NO_OPINION,
                         players=players, game=tuple(range(self.scenario.n_robots)), order=order)
 

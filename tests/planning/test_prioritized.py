@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions
-from nodnav.planning.geometry import arc_length_grid
+from nodnav.planning.visibility import arc_length_grid
 from nodnav.planning.prioritized import (
     SLACK,
     Motion,

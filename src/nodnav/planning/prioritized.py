@@ -82,16 +82,14 @@ from functools import cached_property
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
+from nodnav.geometry import TOL, segment_clearance, segment_point_distance
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
-from nodnav.planning.geometry import (
-    TOL,
+from nodnav.planning.visibility import (
     GeometricPath,
     VisibilityGraph,
     arc_length_grid,
     disc_violations,
     polyline_point_distance,
-    segment_clearance,
-    segment_point_distance,
 )
 from nodnav.scenario.schema import PlannerParams
 from nodnav.scenario.world import World

@@ -49,9 +49,9 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
 from nodnav.planning.roadmap import (
-    TOL,
     BuildReport,
     CompiledRules,
     Roadmap,

@@ -45,7 +45,7 @@ from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
 from nodnav.experiments.metrics import arrival_times
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
-from nodnav.planning.geometry import VisibilityGraph
+from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
@@ -329,7 +329,7 @@ class OrcaMethod:
     Each robot, at every control step, loads the positions and velocities of every robot as it
     observes them into an RVO2 simulator holding the walls (:func:`wall_polygons`), sets its own
     preferred velocity towards the next vertex of its shortest route to its destination around
-    the walls (:class:`~nodnav.planning.geometry.VisibilityGraph`, clearance radius plus
+    the walls (:class:`~nodnav.planning.visibility.VisibilityGraph`, clearance radius plus
     ``route_margin``), and lets RVO2 compute its new velocity; it then moves at that velocity for
     one step. RVO2 has no acceleration limit (its agents are holonomic single integrators).
     ``planner`` is accepted for the common interface and ignored.

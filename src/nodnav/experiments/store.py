@@ -41,10 +41,11 @@ from pathlib import Path
 
 from nodnav.errors import NodnavError
 from nodnav.provenance import UNKNOWN, code_version as current_code_version
+from nodnav.sim.failure import OUTCOMES as TRIAL_OUTCOMES
 
 DEFAULT_DB = "nodnav-results.sqlite"
 
-OUTCOMES = ("success", "collision", "deadlock", "timeout", "error")
+OUTCOMES = (*TRIAL_OUTCOMES, "error")
 
 SCHEMA_VERSION = 2
 

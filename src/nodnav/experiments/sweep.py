@@ -39,11 +39,11 @@ from tqdm import tqdm
 
 import nodnav
 from nodnav.errors import NodnavError
-from nodnav.experiments.metrics import json_ready
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import code_version
 from nodnav.scenario.schema import Scenario, load_scenario, scenario_to_dict
+from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)
 

@@ -43,13 +43,13 @@ from nodnav.decision.opinion import strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
-from nodnav.experiments.metrics import arrival_times
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
 from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
+from nodnav.sim.metrics import arrival_times
 
 log = logging.getLogger(__name__)
 

@@ -14,7 +14,9 @@ import nodnav.sim.simulator as simulator
 from nodnav.cli import main
 from nodnav.paths import safe_filename
 from nodnav.scenario.limits import MAX_STRATEGIES
-from nodnav.scenario.schema import ScenarioError, load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
 GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0, 0.0]}]}
 
@@ -275,7 +277,7 @@ def test_reproduce_help_shows_parts_and_defaults(capsys):
 
 
 def test_summaries_in_plain_words(capsys):
-    from nodnav.scenario.schema import load_scenario as load
+    from nodnav.scenario.loading import load_scenario as load
     from nodnav.sim.simulator import run_trial
     from nodnav.terminal import trial_summary_lines
 

@@ -35,11 +35,15 @@ def _key(scenario: str, seed: int, method: str, overrides: dict) -> str:
 
 
 def _run(scenario: str, seed: int, method: str, overrides: dict) -> dict[str, np.ndarray]:
-    try:
-        import nodnav
+    import nodnav
+
+    if hasattr(nodnav, "run_trial"):
         load_scenario, run_trial = nodnav.load_scenario, nodnav.run_trial
-    except AttributeError:  # before the public API existed
-        from nodnav.scenario.schema import load_scenario
+    else:  # before the public API existed
+        try:
+            from nodnav.scenario.loading import load_scenario
+        except ImportError:
+            from nodnav.scenario.schema import load_scenario
         from nodnav.sim.simulator import run_trial
     s = load_scenario(scenario)
     if overrides:

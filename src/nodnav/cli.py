@@ -21,14 +21,25 @@ import numpy as np
 
 from nodnav.errors import NodnavError, one_line, shown, shown_path
 from nodnav.paths import output_dir, output_file, safe_filename
-from nodnav.terminal import (MAX_SEED, Parser, compile_notice, jobs, note, plural, real, trial_summary_lines,
-                             warm_kernels, whole)
+from nodnav.terminal import (
+    MAX_SEED,
+    Parser,
+    compile_notice,
+    jobs,
+    note,
+    plural,
+    real,
+    trial_summary_lines,
+    warm_kernels,
+    whole,
+)
 
 # -- commands --------------------------------------------------------------------------------------
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
-    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
 
     for name in builtin_names():
         s = load_scenario(name)
@@ -38,7 +49,8 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 
 def _cmd_show(args: argparse.Namespace) -> int:
     from nodnav.scenario.families import is_family
-    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
 
     if is_family(args.scenario):
         return _show_family(args)
@@ -147,7 +159,7 @@ def scenario_with_options(args: argparse.Namespace):
     """The scenario named on the command line with the options that override its settings;
     an error about an option names the option."""
     from nodnav.experiments.study import parse_bias, parse_players
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)
     changes = {}
@@ -225,8 +237,8 @@ def write_trial_outputs(result, out: Path) -> list[Path]:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from nodnav.errors import nearest_hint
     from nodnav.experiments.study import known_methods
-    from nodnav.scenario.schema import nearest_hint
 
     scenario = scenario_with_options(args)
     if args.method not in known_methods():
@@ -284,7 +296,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from nodnav.experiments.study import OPTION_NAMES, load_study, study_from_dict
     from nodnav.experiments.sweep import run_sweep
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     name = args.name
     if name is None and args.families and not args.scenarios and not args.study:  # group results by family
@@ -396,8 +408,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    from nodnav.errors import nearest_hint
     from nodnav.planning import PLANNERS
-    from nodnav.scenario.schema import load_scenario, nearest_hint
+    from nodnav.scenario.loading import load_scenario
 
     for p in args.planner or ():
         if p not in PLANNERS:
@@ -455,11 +468,12 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
     import time
 
     from nodnav.planning.roadmap import build_all_roadmaps, format_build_reports, resolve_cache_dir
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)
+    prm = scenario.with_overrides(**{"planner.name": "prm"}).planner  # the scenario's PRM* settings
     counts = _robot_counts(args.robots)
-    cache = output_dir(resolve_cache_dir(args.cache_dir or scenario.planner.cache_dir), "--cache-dir")
+    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")
     if not args.execute:
         return 0
     from tqdm import tqdm
@@ -479,7 +493,7 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
             bar.update(vertices)
 
         reports = build_all_roadmaps(scenario.world, radius=float(scenario.radii[0]), robot_counts=counts,
-                                     vertices_per_robot=args.vertices or scenario.planner.roadmap_vertices,
+                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,
                                      cache_dir=str(cache), n_jobs=args.jobs, progress=progress)
     print(format_build_reports(reports))
     print(f"{plural(len(reports), 'roadmap')} ready in {time.perf_counter() - start:.1f} s (cache {cache})")

@@ -17,7 +17,8 @@ from nodnav.experiments.study import StudyError, SweepSpec, study_from_dict  # n
 from nodnav.experiments.sweep import expand, run_sweep  # noqa: E402
 from nodnav.scenario.draws import draw  # noqa: E402
 from nodnav.scenario.families import load_family, redo_spec  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict  # noqa: E402
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
 
 @dataclass

@@ -17,7 +17,8 @@ from nodnav.experiments.report import (META_STUDY, STUDY_FIG2C, STUDY_METHODS, S
                                        newcombe_difference, paper_inside, planner_verdict, sign_rule_agreement,
                                        strategy_frequencies, table_rows, wilson_interval)
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_to_dict  # noqa: E402
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_to_dict
 from nodnav.viz.report import plot_rate_bars  # noqa: E402
 
 Z = 1.959963984540054

@@ -22,7 +22,8 @@ from nodnav.experiments.reproduce import (CostModel, Part, ReproduceOptions, che
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import SweepSpec  # noqa: E402
 from nodnav.experiments.sweep import expand  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_to_dict  # noqa: E402
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_to_dict
 
 
 def _part(name, target):

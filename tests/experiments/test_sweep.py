@@ -18,7 +18,7 @@ import pytest
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import StudyError, SweepSpec, load_study, parse_bias, study_from_dict
 from nodnav.experiments.sweep import execute_trial, expand, run_sweep
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 
 HERE = Path(__file__).resolve().parent
 

@@ -24,7 +24,7 @@ from nodnav.planning.prioritized import (
     relaxed_separation,
     separation_requirements,
 )
-from nodnav.scenario.schema import PlannerParams
+from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import paper_world
 
 DT = 0.1
@@ -37,7 +37,7 @@ def world():
 
 @pytest.fixture(scope="module")
 def planner(world):
-    return PrioritizedPlanner(world, PlannerParams(dt=DT, margin=0.05))
+    return PrioritizedPlanner(world, FastPlannerParams(dt=DT, margin=0.05))
 
 
 def request(world, pos, dest, order, entered=(), t0=0.0):
@@ -355,8 +355,8 @@ def test_same_direction_follows_closely(world, planner):
 
 def test_plans_are_deterministic_and_memo_is_transparent(world):
     req = request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (1, 2, 0))
-    a = PrioritizedPlanner(world, PlannerParams()).plan(req)
-    p = PrioritizedPlanner(world, PlannerParams())
+    a = PrioritizedPlanner(world, FastPlannerParams()).plan(req)
+    p = PrioritizedPlanner(world, FastPlannerParams())
     p.plan(request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (2, 1, 0)))
     b = p.plan(req)
     assert a.success and np.array_equal(a.trajectory.positions, b.trajectory.positions)
@@ -365,11 +365,11 @@ def test_plans_are_deterministic_and_memo_is_transparent(world):
 def test_orders_repaired_alike_share_one_read_only_plan(world):
     # Robots 0 and 2 stand in the corridor: every order is repaired to start with them, so the
     # orders (1, 0, 2) and (0, 1, 2) are both planned as (0, 2, 1) and differ only in the note.
-    p = PrioritizedPlanner(world, PlannerParams())
+    p = PrioritizedPlanner(world, FastPlannerParams())
     pos, dest = [[-1.0, 0.0], [5.0, 1.5], [-2.0, 0.0]], [[5.5, 0.0], [-5.0, -1.5], [5.0, -1.5]]
     a = p.plan(request(world, pos, dest, (1, 0, 2), entered=(0, 2)))
     b = p.plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
-    fresh = PrioritizedPlanner(world, PlannerParams()).plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
+    fresh = PrioritizedPlanner(world, FastPlannerParams()).plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
     assert a.success and a.order_planned == b.order_planned == (0, 2, 1)
     assert a.order == (1, 0, 2) and b.order == (0, 1, 2) and "repaired" in a.reason and "repaired" in b.reason
     assert np.array_equal(b.trajectory.positions, fresh.trajectory.positions) and b.cost == fresh.cost
@@ -537,9 +537,9 @@ def test_waiting_robot_stays_clear_of_the_door(world, planner):
 
 
 def test_door_rule_can_be_narrowed(world):
-    narrow = PrioritizedPlanner(world, PlannerParams(dt=DT, door_clearance=0.3))
+    narrow = PrioritizedPlanner(world, FastPlannerParams(dt=DT, door_clearance=0.3))
     req = request(world, [[-5.5, 0.0], [5.5, 0.0]], [[5.5, 1.2], [-5.5, -1.2]], (0, 1))
-    wide = PrioritizedPlanner(world, PlannerParams(dt=DT)).plan(req)
+    wide = PrioritizedPlanner(world, FastPlannerParams(dt=DT)).plan(req)
     tight = check_plan(world, req, narrow.plan(req), 0.3)
     # Waiting nearer the door, robot 1 is through sooner.
     assert narrow.plan(req).info["arrival_times"][1] < wide.info["arrival_times"][1]

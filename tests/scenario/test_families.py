@@ -12,7 +12,8 @@ import yaml
 from nodnav.cli import main
 from nodnav.scenario.draws import draw, draw_generator
 from nodnav.scenario.families import FamilyError, builtin_families, family_from_dict, load_family, parse_draw_spec
-from nodnav.scenario.schema import load_scenario, scenario_to_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 from nodnav.sim.simulator import trial_generators
 
 SEEDS = {"mixed": range(1, 241), "paper-like": range(1, 121), "crowded": range(1, 41)}

@@ -6,7 +6,10 @@ import textwrap
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import ScenarioError, builtin_names, load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import LEFT, RIGHT
 
 
@@ -54,7 +57,8 @@ def test_defaults_are_the_papers():
     s = load_scenario("3r-case1")
     o = s.opinion
     assert (o.u, o.d, o.eta, o.K1, o.T, o.alpha_min, o.K2, o.delta) == (100, 1, 1, 5, 1, 0.05, 10, 1)
-    assert s.planner.w1 == 0.4 and s.planner.varsigma == 0.1
+    prm = s.with_overrides(**{"planner.name": "prm"}).planner
+    assert prm.w1 == 0.4 and prm.varsigma == 0.1
     assert s.controller.horizon == 0.8 and s.controller.w2 == 1e-6
     assert s.game_players is None and s.n_players == 2
 

@@ -2,7 +2,9 @@
 
 import pytest
 
-from nodnav.scenario.schema import builtin_names, load_scenario, scenario_from_dict
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import check_capacity, check_layout, check_scenario, find_witness, single_file_interval
 
 

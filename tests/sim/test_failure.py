@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.failure import FAILURE_CLASSES, classify, collision_kind, plans_failing_at_end
 from nodnav.sim.simulator import Simulation
 

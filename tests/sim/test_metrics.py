@@ -227,7 +227,7 @@ def test_json_ready_replaces_non_finite_values():
 
 
 def test_metrics_of_a_real_trial_agree_with_the_simulator():
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
     from nodnav.sim.simulator import CONTACT_SUBSTEPS, run_trial
 
     result = run_trial(load_scenario("2r-case1"), seed=2)

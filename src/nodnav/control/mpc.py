@@ -90,7 +90,8 @@ from scipy.optimize import linprog
 from nodnav.compiled import compiled as _compiled
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
-from nodnav.scenario.schema import ControllerParams, RobotSpec
+from nodnav.registry import register_controller
+from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
@@ -98,48 +99,6 @@ logger = logging.getLogger(__name__)
 
 DEGREE = 3
 """The paper's third-order (cubic) B-spline."""
-
-
-@dataclass(frozen=True)
-class MPCSettings:
-    """Numerical choices of the controller (not in the paper; the defaults are the tested ones)."""
-
-    segments: int = 8
-    """Knot spans of the cubic B-spline over the horizon (one per 0.1 s for T_MPC = 0.8 s)."""
-    max_interval: float = 0.05
-    """Longest time between separation / wall constraint samples (s)."""
-    speed_polygon_sides: int = 16
-    """Sides of the inscribed polygon bounding the velocity (98 % of the limit across a face)."""
-    accel_polygon_sides: int = 8
-    """Sides of the inscribed polygon bounding the acceleration (92 % of the limit across a face)."""
-    terminal_pieces: int = 4
-    """Secants approximating the stopping-distance parabola of the terminal constraint."""
-    terminal_decel: float = 0.7
-    """Fraction of the available deceleration assumed by the terminal constraint (headroom for
-    the approximations of the next step)."""
-    sqp_iterations: int = 2
-    """QPs solved per step at most after a cold start (each re-linearised about the previous
-    QP's solution); one otherwise."""
-    sqp_tolerance: float = 0.02
-    """A further QP is solved when the solution moved farther than this from its linearisation (m)."""
-    qp_tolerance: float = 1e-9
-    """Largest row violation the QP solver accepts (DAQP's primal tolerance, m); every inequality
-    is tightened by it. DAQP's default (1e-6) left rows violated by up to 1e-6 m."""
-    evasive: bool = True
-    """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
-    the controller's earlier behaviour, kept for comparison)."""
-    evasive_penalty: float = 1e3
-    """Cost of the evasive QP per metre of intrusion into another robot's required separation
-    at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above
-    the tracking cost's sensitivity (below about 10 per metre), so the penalty is exact: no
-    intrusion that can be avoided is made."""
-    evasive_curvature: float = 1e3
-    """Quadratic cost of an intrusion (per m^2), which keeps the evasive QP strictly convex."""
-    check_tolerance: float = 1e-4
-    """Violation of a constraint, checked exactly, that makes a solution unacceptable (m, m/s, m/s^2)."""
-    contact_tolerance: float = 1e-3
-    """Penetration of the current state into a wall (the robot then brakes at once) or into another
-    robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -720,19 +679,19 @@ class _Effort:
                 "constraints": self.constraints}
 
 
+@register_controller("mpc")
 class BSplineMPC:
     """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
 
     name = "mpc"
 
-    def __init__(self, world: World, robot: RobotSpec, params: ControllerParams,
-                 settings: MPCSettings = MPCSettings()):
+    def __init__(self, world: World, robot: RobotSpec, params: MPCParams = MPCParams()):
         if params.dt <= 0 or params.horizon <= 0 or params.dt > params.horizon:
             raise ValueError(f"need 0 < dt <= horizon, got dt={params.dt}, horizon={params.horizon}")
         self.world = world
         self.robot = robot
         self.params = params
-        self.settings = settings
+        self.settings = settings = params  # the numerical choices, read as settings.*
         self.horizon = float(params.horizon)
         self.dt = float(params.dt)
         self.knots = bspline.uniform_knots(self.horizon, settings.segments, DEGREE)

@@ -36,13 +36,25 @@ import yaml
 
 import nodnav
 from nodnav.errors import NodnavError, shown
-from nodnav.experiments.report import (META_STUDY, SNAPSHOTS, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS,
-                                       STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, ReportResult, build_report)
+from nodnav.experiments.report import (
+    META_STUDY,
+    SNAPSHOTS,
+    STUDY_FIG2C,
+    STUDY_METHODS,
+    STUDY_PLANNERS,
+    STUDY_SUCCESS,
+    STUDY_TABLE1,
+    STUDY_TABLE2,
+    ReportResult,
+    build_report,
+)
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
 from nodnav.provenance import code_version
-from nodnav.scenario.schema import builtin_names, load_scenario, scenario_to_dict
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 
 log = logging.getLogger(__name__)
 

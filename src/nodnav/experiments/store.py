@@ -40,7 +40,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from nodnav.errors import NodnavError
-from nodnav.provenance import UNKNOWN, code_version as current_code_version
+from nodnav.provenance import UNKNOWN
+from nodnav.provenance import code_version as current_code_version
 from nodnav.sim.failure import OUTCOMES as TRIAL_OUTCOMES
 
 DEFAULT_DB = "nodnav-results.sqlite"

@@ -26,9 +26,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nodnav.errors import NodnavError, shown, shown_path
+from nodnav.errors import NodnavError, nearest_hint, shown, shown_path
+from nodnav.planning import PLANNERS
+from nodnav.scenario.fields import ScenarioError, strategy_number
+from nodnav.scenario.files import builtin_names, read_yaml
 from nodnav.scenario.limits import MAX_STRATEGIES, RANGES
-from nodnav.scenario.schema import ScenarioError, builtin_names, nearest_hint, read_yaml, strategy_number
+from nodnav.sim import METHODS
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
 
@@ -179,10 +182,8 @@ def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
 
 
 def known_methods() -> tuple[str, ...]:
-    """Names of the navigation methods the simulator knows."""
-    from nodnav.sim.methods import METHODS
-
-    return tuple(METHODS)
+    """Names of the navigation methods the simulator knows (:data:`~nodnav.registry.METHODS`)."""
+    return METHODS.names()
 
 
 def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | None = None) -> SweepSpec:
@@ -191,8 +192,6 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
     Errors name ``labels[key]`` for a key the user typed as an option (``--players``), else
     ``source: key``.
     """
-    from nodnav.planning import PLANNERS
-
     def at(key: str) -> str:
         return (labels or {}).get(key) or f"{source}: {key}"
 

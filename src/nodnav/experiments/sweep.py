@@ -42,7 +42,8 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import code_version
-from nodnav.scenario.schema import Scenario, load_scenario, scenario_to_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import Scenario, scenario_to_dict
 from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)

@@ -91,7 +91,7 @@ from nodnav.planning.visibility import (
     disc_violations,
     polyline_point_distance,
 )
-from nodnav.scenario.schema import PlannerParams
+from nodnav.scenario.params import FastPlannerParams as PlannerParams
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)

@@ -64,6 +64,8 @@ from nodnav.planning.roadmap import (
     proximity_penalty,
     separation_thresholds,
 )
+from nodnav.registry import register_planner
+from nodnav.scenario.params import PRMParams
 from nodnav.scenario.world import World
 
 CONNECT_FACTOR = 3
@@ -196,6 +198,7 @@ class EdgeRules:
         return self.goal if to_goal else self.inner
 
 
+@register_planner("prm")
 class PRMStarPlanner:
     """PRM* on cached joint-space roadmaps (appendix); see the module docstring.
 
@@ -213,7 +216,7 @@ class PRMStarPlanner:
 
     name = "prm"
 
-    def __init__(self, world: World, params) -> None:
+    def __init__(self, world: World, params: PRMParams) -> None:
         self.world = world
         self.params = params
         self._keys: dict[tuple, tuple[RoadmapKey, str]] = {}

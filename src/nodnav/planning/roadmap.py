@@ -919,15 +919,15 @@ def build_all_roadmaps(world: World, radius: float = 0.2, robot_counts=(1, 2, 3,
     """Build (or load) every roadmap that robots of equal ``radius`` can need in ``world``: all
     :func:`direction_patterns` for every robot count, in parallel processes (joblib).
 
-    Defaults come from :class:`~nodnav.scenario.schema.PlannerParams`. Reports are returned in
+    Defaults come from :class:`~nodnav.scenario.params.PRMParams`. Reports are returned in
     the order robot count, then pattern. ``progress(report, done, total_vertices)``, if given,
     is called as each roadmap is ready, with the vertices of all roadmaps as the total.
     """
     from joblib import Parallel, delayed
 
-    from nodnav.scenario.schema import PlannerParams
+    from nodnav.scenario.params import PRMParams
 
-    defaults = PlannerParams()
+    defaults = PRMParams()
     vpr = defaults.roadmap_vertices if vertices_per_robot is None else vertices_per_robot
     mg = defaults.margin if margin is None else margin
     vs = defaults.varsigma if varsigma is None else varsigma

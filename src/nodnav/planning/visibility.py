@@ -31,6 +31,7 @@ from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, segment_clearance, segment_point_distance
 from nodnav.planning.memo import remember
 from nodnav.scenario.world import World
+
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
 

@@ -57,7 +57,10 @@ from typing import Any
 
 import yaml
 
-from nodnav.scenario.schema import ScenarioError, nearest_hint, scenario_from_dict, yaml_error_message
+from nodnav.errors import nearest_hint
+from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.files import yaml_error_message
+from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import CLEARANCE
 
 MAX_ROBOTS = 8

@@ -6,7 +6,6 @@ Points are ``(..., 2)`` arrays in metres.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 

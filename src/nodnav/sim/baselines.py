@@ -45,10 +45,11 @@ from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
 from nodnav.planning.visibility import VisibilityGraph
+from nodnav.registry import register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView, approach_sides, joint_requests, local_order
-from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
+from nodnav.sim.methods import PlannedMethod
 from nodnav.sim.metrics import arrival_times
 
 log = logging.getLogger(__name__)
@@ -147,6 +148,8 @@ def no_opinion(n_strategies: int) -> np.ndarray:
 # Methods built on the planner and the MPC
 
 
+@register_method("no-coordination", help="the paper's |N_i| = 0 case: each robot plans alone and treats the others as "
+                 "obstacles")
 class NoCoordinationMethod(PlannedMethod):
     """The paper's ``|N_i| = 0`` case: NOD agents with no game players (Section IV).
 
@@ -221,6 +224,8 @@ class FixedOrderMethod(PlannedMethod):
                         probabilities=no_opinion(len(self.orders)), players=players)
 
 
+@register_method("independent", help="no social term (u = 0): each robot keeps the order its own initial opinion and "
+                 "bias prefer")
 class IndependentMethod(FixedOrderMethod):
     """Every robot keeps its own preferred order: no social term (u = 0) and no communication.
 
@@ -246,6 +251,8 @@ class IndependentMethod(FixedOrderMethod):
         return out
 
 
+@register_method("closest-first", help="a fixed convention: order by distance to the entrance at the start, ties to "
+                 "the lower number")
 class ClosestFirstMethod(FixedOrderMethod):
     """A social convention without communication: nearest to its entrance goes first.
 
@@ -264,6 +271,7 @@ class ClosestFirstMethod(FixedOrderMethod):
                 for i, view in views.items()}
 
 
+@register_method("oracle", help="a central coordinator gives everyone the order with the smallest planned makespan")
 class OracleMethod(FixedOrderMethod):
     """A central coordinator gives every robot the order with the smallest planned makespan.
 
@@ -323,6 +331,8 @@ class OrcaParams:
     than ``radius_margin`` so that the preferred velocity does not press against a wall."""
 
 
+@register_method("orca", help="reactive collision avoidance with ORCA (RVO2), walls as obstacles; needs "
+                 "nodnav[baselines]")
 class OrcaMethod:
     """Reactive collision avoidance with ORCA (RVO2), no passing order and no planner.
 
@@ -348,7 +358,8 @@ class OrcaMethod:
         self.dt = scenario.controller.dt
         n = scenario.n_robots
         horizon = scenario.controller.horizon
-        self.sample_times = horizon * np.arange(1, MPC_SAMPLES + 1) / MPC_SAMPLES
+        samples = scenario.controller.samples
+        self.sample_times = horizon * np.arange(1, samples + 1) / samples
         self.n_strategies = len(passing_orders(n))
         self.rvo = pyrvo.RVOSimulator()
         self.rvo.set_time_step(self.dt)

@@ -8,12 +8,12 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 from matplotlib import colormaps
 from matplotlib.legend_handler import HandlerPatch
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
 from matplotlib.transforms import blended_transform_factory
+from PIL import Image
 
 from nodnav.decision.strategies import order_label, passing_orders, strategy_label
 from nodnav.sim.history import History

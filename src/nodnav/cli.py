@@ -357,7 +357,7 @@ def _reproduce_command(args: argparse.Namespace) -> str:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from nodnav.experiments.reproduce import PARTS, ReproduceOptions, check_options, reproduce
+    from nodnav.reporting.reproduce import PARTS, ReproduceOptions, check_options, reproduce
 
     out = output_dir(args.out)
     db = output_file(args.db, "--db", formats=None) if args.db else None
@@ -380,8 +380,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from nodnav.experiments.report import build_report
     from nodnav.experiments.store import ResultStore
+    from nodnav.reporting.report import build_report
 
     db = Path(args.db)
     try:

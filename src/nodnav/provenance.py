@@ -22,9 +22,9 @@ import nodnav
 
 #: Files (relative to the package, ``/``-separated) and folders (ending in ``/``) that cannot
 #: change a trial's result and are left out of the hash.
-PRESENTATION = ("cli.py", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "experiments/report.py", "experiments/reproduce.py",
-                "experiments/study.py", "experiments/sweep.py", "experiments/store.py", "control/bench.py",
-                "planning/bench.py", "sim/bench.py")
+PRESENTATION = ("cli.py", "cli/", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
+                "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
+                "experiments/sweep.py", "experiments/store.py", "control/bench.py", "planning/bench.py", "sim/bench.py")
 
 #: What stored rows written before code versions were recorded hold instead of one.
 UNKNOWN = "unknown"

@@ -14,14 +14,24 @@ import pytest  # noqa: E402
 from nodnav.cli import main  # noqa: E402
 from nodnav.decision.heatmap import z_grid  # noqa: E402
 from nodnav.errors import NodnavError  # noqa: E402
-from nodnav.experiments.report import (META_STUDY, STUDY_METHODS, STUDY_PLANNERS, STUDY_SUCCESS,  # noqa: E402
-                                       STUDY_TABLE1)
-from nodnav.experiments.reproduce import (CostModel, Part, ReproduceOptions, check_options,  # noqa: E402
-                                          fig2c_scenario_files, next_round, pending, plan_parts, reproduce, round_parts,
-                                          round_cost, seeds_at)
+from nodnav.experiments.paper import META_STUDY, STUDY_METHODS, STUDY_PLANNERS, STUDY_SUCCESS, STUDY_TABLE1  # noqa: E402
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import SweepSpec  # noqa: E402
 from nodnav.experiments.sweep import expand  # noqa: E402
+from nodnav.reporting.reproduce import (  # noqa: E402
+    CostModel,
+    Part,
+    ReproduceOptions,
+    check_options,
+    fig2c_scenario_files,
+    next_round,
+    pending,
+    plan_parts,
+    reproduce,
+    round_cost,
+    round_parts,
+    seeds_at,
+)
 from nodnav.scenario.loading import load_scenario  #noqa: E402
 from nodnav.scenario.schema import scenario_to_dict
 
@@ -191,7 +201,7 @@ def slow_trial(scenario, method, seed):
 
 
 def test_no_sweep_starts_once_the_budget_is_spent(tmp_path, monkeypatch):
-    import nodnav.experiments.reproduce as module
+    import nodnav.reporting.reproduce as module
 
     # Budget 60 s with 58 s kept for the report: sweeps may start only in the first 2 s.
     monkeypatch.setattr(module, "REPORT_RESERVE", 58.0)

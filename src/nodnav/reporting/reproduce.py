@@ -36,7 +36,7 @@ import yaml
 
 import nodnav
 from nodnav.errors import NodnavError, shown
-from nodnav.experiments.report import (
+from nodnav.experiments.paper import (
     META_STUDY,
     SNAPSHOTS,
     STUDY_FIG2C,
@@ -45,13 +45,12 @@ from nodnav.experiments.report import (
     STUDY_SUCCESS,
     STUDY_TABLE1,
     STUDY_TABLE2,
-    ReportResult,
-    build_report,
 )
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
 from nodnav.provenance import code_version
+from nodnav.reporting.report import ReportResult, build_report
 from nodnav.scenario.files import builtin_names
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_to_dict

@@ -48,7 +48,7 @@ def _run(scenario: str, seed: int, method: str, overrides: dict) -> dict[str, np
     s = load_scenario(scenario)
     if overrides:
         s = s.with_overrides(**overrides)
-    h = run_trial(s, method, seed).history
+    h = run_trial(s, method=method, seed=seed).history
     record = dict(h.arrays())
     record["meta"] = np.array(json.dumps({"events": h.events, "entry_order": h.entry_order,
                                           "outcome": h.outcome}, sort_keys=True))

@@ -16,9 +16,14 @@ from __future__ import annotations
 
 import functools
 import hashlib
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-import nodnav
+try:
+    PACKAGE_VERSION = version("nodnav")
+    """The installed package's version."""
+except PackageNotFoundError:  # running from a source tree that is not installed
+    PACKAGE_VERSION = "0.0.0"
 
 #: Files (relative to the package, ``/``-separated) and folders (ending in ``/``) that cannot
 #: change a trial's result and are left out of the hash.
@@ -55,4 +60,4 @@ def source_hash(root: Path) -> str:
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
     """``<package version>+<first 12 hex digits of source_hash>`` of the installed package."""
-    return f"{nodnav.__version__}+{source_hash(Path(nodnav.__file__).resolve().parent)[:12]}"
+    return f"{PACKAGE_VERSION}+{source_hash(Path(__file__).resolve().parent)[:12]}"

@@ -6,7 +6,6 @@
 from pathlib import Path
 
 import cautious_planner  # noqa: F401  (registers the planner "cautious")
-
 import nodnav
 
 here = Path(__file__).parent

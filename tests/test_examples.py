@@ -38,7 +38,6 @@ def test_the_cautious_planners_own_setting_is_checked_when_the_scenario_loads(tm
     sys.path.insert(0, str(EXAMPLES))
     try:
         import cautious_planner  # noqa: F401
-
         import nodnav
 
         text = (EXAMPLES / "cautious_scenario.yaml").read_text().replace("speed_factor: 0.8", "speed_factor: 2")

@@ -13,12 +13,13 @@ import pytest
 import nodnav.sim.simulator as simulator
 from nodnav.cli import main
 from nodnav.paths import safe_filename
-from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
-GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0, 0.0]}]}
+GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0,
+                                                                                                              0.0]}]}
 
 
 def _raw(**top):
@@ -123,7 +124,8 @@ def _write(tmp_path, name, content: bytes):
     (b"name: \xff\xfe\n", "not UTF-8 text"),
 ])
 def test_files_the_loader_cannot_use(tmp_path, content, message):
-    path = _write(tmp_path, "s.yaml", content.replace(b"robots: []", b"robots: [{origin: [-5, 0], destination: [5, 0]}]"))
+    path = _write(tmp_path, "s.yaml", content.replace(b"robots: []",
+                                                      b"robots: [{origin: [-5, 0], destination: [5, 0]}]"))
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert message in str(info.value) and "\n" not in str(info.value)

@@ -46,7 +46,8 @@ _HOMES = {
     "register_method": "nodnav.registry", "Registry": "nodnav.registry",
     "Planner": "nodnav.planning.base", "PlanRequest": "nodnav.planning.base", "PlanResult": "nodnav.planning.base",
     "JointTrajectory": "nodnav.planning.base",
-    "Controller": "nodnav.control.base", "ControlRequest": "nodnav.control.base", "ControlResult": "nodnav.control.base",
+    "Controller": "nodnav.control.base", "ControlRequest": "nodnav.control.base",
+    "ControlResult": "nodnav.control.base",
     "NodnavError": "nodnav.errors",
 }
 

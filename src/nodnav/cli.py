@@ -57,7 +57,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
     if args.seed is not None or args.count is not None:
         raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
                           "(list the families with 'nodnav families')")
-    scenarios = [load_scenario(n) for n in builtin_names()] if args.scenario == "all" else [load_scenario(args.scenario)]
+    names = builtin_names() if args.scenario == "all" else [args.scenario]
+    scenarios = [load_scenario(n) for n in names]
     out = output_file(args.out)
     if not args.execute:
         return 0
@@ -89,7 +90,8 @@ def _show_family(args: argparse.Namespace) -> int:
     scenarios = [draw(family, s) for s in range(seed, seed + count)]
     if not args.execute:
         return 0
-    title = f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations (crosses)"
+    title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
+             "(crosses)")
     print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
     return 0
 
@@ -168,7 +170,7 @@ def scenario_with_options(args: argparse.Namespace):
     if getattr(args, "init", None):
         changes["opinion.init"] = args.init
     if getattr(args, "bias", None) is not None:
-        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))
+        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))  # type: ignore[assignment]
     if getattr(args, "u", None) is not None:
         changes["opinion.u"] = args.u
     if getattr(args, "planner", None):
@@ -391,7 +393,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     except (OSError, ValueError):
         found = None
     if found != "file":
-        raise NodnavError(f"{shown_path(args.db)}: no such results database ({'a directory' if found else 'no such file'}"
+        what = "a directory" if found else "no such file"
+        raise NodnavError(f"{shown_path(args.db)}: no such results database ({what}"
                           "); write one with nodnav sweep or nodnav reproduce")
     with ResultStore(db):  # opens, checks and migrates it before any work
         pass
@@ -473,7 +476,7 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     prm = scenario.with_overrides(**{"planner.name": "prm"}).planner  # the scenario's PRM* settings
     counts = _robot_counts(args.robots)
-    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")
+    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")  # type: ignore[attr-defined]
     if not args.execute:
         return 0
     from tqdm import tqdm
@@ -493,7 +496,7 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
             bar.update(vertices)
 
         reports = build_all_roadmaps(scenario.world, radius=float(scenario.radii[0]), robot_counts=counts,
-                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,
+                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,  # type: ignore[attr-defined]
                                      cache_dir=str(cache), n_jobs=args.jobs, progress=progress)
     print(format_build_reports(reports))
     print(f"{plural(len(reports), 'roadmap')} ready in {time.perf_counter() - start:.1f} s (cache {cache})")
@@ -606,11 +609,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="built-in name, YAML path, FAMILY:SEED, or 'all' for every built-in scenario (repeatable)")
     p.add_argument("--family", action="append", dest="families",
                    help="generated family (built-in name or YAML path): trial seed s runs draw s (repeatable)")
-    p.add_argument("--players", action="append", help="game players K or 'all' (repeatable; default: each scenario's own)")
+    p.add_argument("--players", action="append",
+                   help="game players K or 'all' (repeatable; default: each scenario's own)")
     p.add_argument("--init", action="append", choices=("zero", "distance"),
                    help="initial opinions (repeatable; default: each scenario's own)")
-    p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
-    p.add_argument("--planner", action="append", dest="planners", help="planner: fast or prm (repeatable; default: each scenario's own)")
+    p.add_argument("--bias", action="append",
+                   help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
+    p.add_argument("--planner", action="append", dest="planners",
+                   help="planner: fast or prm (repeatable; default: each scenario's own)")
     p.add_argument("--method", action="append", dest="methods", help="navigation method (repeatable; default nod)")
     p.add_argument("--trials", help=f"seeds 1..N for every combination (default 1, at most {MAX_TRIALS})")
     p.add_argument("--db", default="nodnav-results.sqlite", help="results database (default nodnav-results.sqlite)")
@@ -661,7 +667,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
     try:
         args = parser.parse_args(argv)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
         return 2
     except SystemExit as exc:  # --help, printed by argparse
         return exc.code if isinstance(exc.code, int) else 0
@@ -672,7 +678,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
         with compile_notice():
             return args.func(args)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
         return 2
     except KeyboardInterrupt:
         print("nodnav: interrupted", file=sys.stderr)

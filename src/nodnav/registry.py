@@ -104,7 +104,7 @@ class Registry:
                 raise RegistryError(f"{self.kind} {name!r}: its parameters are declared already as "
                                     f"{known.params.__name__}")
             text = help or (known.help if known else "") or _first_line(factory)
-            self._put(Entry(name, factory, params or (known.params if known else None), text))
+            self._put(Entry(name, factory, params or (known.params if known else None), text))  # type: ignore[arg-type]
             return factory
 
         return decorate
@@ -196,7 +196,7 @@ class Registry:
         if not isinstance(entry.name, str) or not _NAME.fullmatch(entry.name):
             raise RegistryError(f"{self.kind} name {entry.name!r}: use lower-case letters, digits, '-', '_' and '.' "
                                 "(at most 40 characters)")
-        if entry.params is not None and not (is_dataclass(entry.params) and entry.params.__dataclass_params__.frozen):
+        if entry.params is not None and not (is_dataclass(entry.params) and entry.params.__dataclass_params__.frozen):  # type: ignore[attr-defined]
             raise RegistryError(f"{self.kind} {entry.name!r}: its parameters must be a frozen dataclass, "
                                 f"got {entry.params!r}")
         self._entries[entry.name] = entry

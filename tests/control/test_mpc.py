@@ -438,7 +438,8 @@ def test_evasive_plan_keeps_clear_of_a_firm_prediction_when_it_can():
     a = np.array([-4.7, 0.0]) + TIMES[:, None] * [1.0, 0.0]
     b = np.array([-5.0, -0.5])
     ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
-    req = replace(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=np.stack([a, np.tile(b, (8, 1))]),
+    req = replace(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=np.stack([a, np.tile(b, (8,
+                                                                                                                  1))]),
                           radii=[0.2, 0.2]), firm=np.array([False, True]))
     res = ctl.control(req)
     assert not res.success and res.info["fallback"] == "evasive" and not res.info["firm_softened"]

@@ -4,8 +4,7 @@ import sqlite3
 
 import pytest
 
-from nodnav.experiments.store import (ResultStore, StoreError, bias_label, canonical_json, trial_config,
-                                      trial_key)
+from nodnav.experiments.store import ResultStore, StoreError, bias_label, canonical_json, trial_config, trial_key
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_to_dict
 

@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions
-from nodnav.planning.visibility import arc_length_grid
 from nodnav.planning.prioritized import (
     SLACK,
     Motion,
@@ -24,6 +23,7 @@ from nodnav.planning.prioritized import (
     relaxed_separation,
     separation_requirements,
 )
+from nodnav.planning.visibility import arc_length_grid
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import paper_world
 
@@ -43,7 +43,8 @@ def planner(world):
 def request(world, pos, dest, order, entered=(), t0=0.0):
     pos, dest = np.asarray(pos, float), np.asarray(dest, float)
     n = len(pos)
-    return PlanRequest(world, pos, np.zeros_like(pos), dest, np.full(n, 0.2), np.ones(n), tuple(order), tuple(entered), t0)
+    return PlanRequest(world, pos, np.zeros_like(pos), dest, np.full(n, 0.2), np.ones(n), tuple(order),
+                       tuple(entered), t0)
 
 
 def min_gap(res, radii, factor=5):
@@ -141,7 +142,7 @@ def test_conflict_intervals_straight_line_by_hand():
     samples = np.stack([arc, np.zeros_like(arc)], axis=1)
     cells = np.array([[5.03, 0.3], [9.97, 0.3], [5.0, 2.0]])
     cols, first, last = conflict_intervals(cells, [Motion(path, samples, arc)], [0.5])
-    got = {(int(c), int(f), int(min(l, 10**6))) for c, f, l in zip(cols, first, last)}
+    got = {(int(c), int(f), int(min(e, 10**6))) for c, f, e in zip(cols, first, last)}
     # Cell 0 is within 0.5 of x in (5.03 - 0.4, 5.03 + 0.4) = (4.63, 5.43): the steps whose
     # stretch [0.1 t, 0.1 t + 0.1] meets it are t = 46..54. Cell 1 is within 0.5 of x in
     # (9.57, 10]: steps 95..99 while moving, then 0.30 from the parking spot (10, 0) from step
@@ -159,7 +160,8 @@ def test_conflict_intervals_match_dense_sampling():
     rng = np.random.default_rng(3)
     path = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.5], [0.5, 2.5]])
     grid = arc_length_grid(path, 0.05)
-    idx = np.minimum(np.cumsum(np.concatenate([[0], rng.choice([0, 1, 2], 120, p=[0.2, 0.3, 0.5])])), len(grid.points) - 1)
+    idx = np.minimum(np.cumsum(np.concatenate([[0], rng.choice([0, 1, 2], 120, p=[0.2, 0.3, 0.5])])),
+                     len(grid.points) - 1)
     samples, arc = grid.points[idx], grid.arc_length[idx]
     cells = rng.uniform([-0.5, -0.7], [2.8, 3.0], (150, 2))
     required = 0.45
@@ -204,7 +206,9 @@ def brute_force_arrival(free, ok2):
     """Reachable sets as Python sets and the earliest step at which the goal is reachable and
     stays free (rows past the end repeat the last one)."""
     n_rows, n = free.shape
-    row = lambda t: free[min(t, n_rows - 1)]
+    def row(t):
+        return free[min(t, n_rows - 1)]
+
     reach = [{0}]
     for t in range(1, n_rows + 2 * n + 2):
         nxt = {c + m for c in reach[-1] for m in (0, 1, 2)

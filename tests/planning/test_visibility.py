@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.sparse.csgraph import dijkstra
 
-from nodnav.geometry import point_box_distance, segment_box_distance, segment_clearance, segment_point_distance
+from nodnav.geometry import segment_box_distance
 from nodnav.planning.visibility import (
     VisibilityGraph,
     arc_length_grid,
@@ -210,7 +210,8 @@ def test_disc_violations_by_hand():
     # Coming back into disc 0 after leaving it (a middle segment 0.6 from its centre) is not either.
     back = np.array([[-0.5, 0.0], [-2.0, 0.0], [-0.6, 0.6], [-0.6, 3.0]])
     d = np.linalg.norm(centres - back[0], axis=1)
-    assert disc_violations(back, centres, radii, d, np.linalg.norm(centres - back[-1], axis=1)).tolist() == [True, False]
+    assert disc_violations(back, centres, radii, d, np.linalg.norm(centres - back[-1], axis=1)).tolist() == [True,
+                                                                                                             False]
 
 
 def test_start_inside_a_disc_does_not_pass_around_it_closely():

@@ -124,11 +124,14 @@ def test_minimal_file(tmp_path):
     (GOOD + "world: {bounds: [1, 2, 3]}\n", "world.bounds: expected a list of 4 numbers"),
     ("robots:\n  - {origin: [-5, 0]}\n", "robots[0]: missing 'destination' for robot 1"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0], colour: red}\n", "robots[0]: unknown key 'colour'"),
-    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n", "robots[0].origin: [0.0, 0.3] puts robot 1 (radius 0.2 m) inside a wall"),
-    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n", "robots[0].destination: [9.0, 0.0] puts robot 1 outside the world bounds"),
+    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n",
+     "robots[0].origin: [0.0, 0.3] puts robot 1 (radius 0.2 m) inside a wall"),
+    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n",
+     "robots[0].destination: [9.0, 0.0] puts robot 1 outside the world bounds"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0]}\n  - {origin: [-5, 0.3], destination: [5, 1]}\n",
      "robots[1].origin: robot 1 and robot 2: origins overlap"),
-    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n", "robots[0].radius: must be from 0.01 to 5, got -1"),
+    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n",
+     "robots[0].radius: must be from 0.01 to 5, got -1"),
 ])
 def test_malformed_is_one_clear_line(tmp_path, text, message):
     with pytest.raises(ScenarioError) as exc:

@@ -6,11 +6,19 @@ import math
 import numpy as np
 import pytest
 
-from nodnav.sim.metrics import (compute_metrics, corridor_crossings, flow_rate, json_ready,
-                                        min_separation, opinion_switches, smoothness, time_to_consensus)
 from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.world import paper_world
 from nodnav.sim.history import History
+from nodnav.sim.metrics import (
+    compute_metrics,
+    corridor_crossings,
+    flow_rate,
+    json_ready,
+    min_separation,
+    opinion_switches,
+    smoothness,
+    time_to_consensus,
+)
 
 DT = 0.1
 

@@ -137,7 +137,8 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     # DAQP's constraint flags: 1 active, 2 at the lower bound.
     sense = None if start_active is None else np.concatenate(
         [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
-    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient, dtype=float),
+    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient,
+                                                                                                   dtype=float),
                                   np.ascontiguousarray(rows, dtype=float), np.full(len(low), np.inf), low, sense,
                                   primal_tol=tol)
     return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
@@ -302,8 +303,8 @@ def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
     with ``p(0) = p0``, ``v(0) = v0`` is the straight line ``p0 + v0 tau`` (control points
     ``p0 + v0 xi_k``, :func:`~nodnav.control.bspline.greville_abscissae`) plus such a curve.
     """
-    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),
-                    bspline.basis_derivative([0.0], knots, degree, 1)])
+    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),  # type: ignore[arg-type]
+                    bspline.basis_derivative([0.0], knots, degree, 1)])  # type: ignore[arg-type]
     return np.vstack([-np.linalg.solve(d0[:, :2], d0[:, 2:]), np.eye(d0.shape[1] - 2)])
 
 
@@ -486,7 +487,7 @@ class _Problem:
         self.eps_end = np.maximum(self.eps, np.append(self.eps[1:], 0.0))
 
         # Interpolation of the sampled reference and predictions.
-        self.interp_zero = interpolation_matrix(sample_times, 0.0)[0]
+        self.interp_zero = interpolation_matrix(sample_times, 0.0)[0]  # type: ignore[arg-type]
         self.interp_ends = interpolation_matrix(sample_times, self.ends)
         self.slope_end = slope_matrix(sample_times, self.term_time)
         self.check_times = np.sort(np.concatenate([self.ends, self.mids]))
@@ -511,9 +512,9 @@ class _Problem:
         # would pin the first points to the polygon's face whenever the robot is at the limit).
         d1 = h * bspline.velocity_hull_operator(knots)[1:]
         d2 = h**2 * bspline.derivative_control_operator(knots, DEGREE, 2)
-        phi_term = (bspline.basis_derivative([self.term_time], knots, DEGREE, 0)
-                    + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
-                    + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
+        phi_term = (bspline.basis_derivative([self.term_time], knots, DEGREE, 0)  # type: ignore[arg-type]
+                    + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)  # type: ignore[arg-type]
+                    + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))  # type: ignore[arg-type]
         phi = np.vstack([self.b_ends, d1, d2, phi_term])
         phi_t = phi @ ctl.nullspace
         phi_line = phi @ ctl.greville  # each functional on the line tau -> tau
@@ -700,10 +701,10 @@ class BSplineMPC:
         self.cost_hessian = (bspline.gram_matrix(self.knots, DEGREE, 0, 0.0, self.horizon)
                              + params.w2 * bspline.gram_matrix(self.knots, DEGREE, 1, 0.0, self.horizon))
         self.obstacles = world.obstacle_array
-        self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]
+        self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]  # type: ignore[arg-type]
         # Where the robot passes within a step: the spline is curved, the chord is not it.
         self.b_substeps = bspline.basis_derivative(self.dt * STEP_FRACTIONS, self.knots, DEGREE, 0)
-        self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]
+        self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]  # type: ignore[arg-type]
         # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
         d1 = bspline.velocity_hull_operator(self.knots)[1:]
         self.rates = np.vstack([d1, bspline.derivative_control_operator(self.knots, DEGREE, 2)])

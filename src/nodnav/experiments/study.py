@@ -146,7 +146,7 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
         if not low <= v <= high:  # also refuses nan and inf
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((name, v))
-    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))
+    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))  # type: ignore[arg-type, return-value]
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -196,13 +196,15 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
         return (labels or {}).get(key) or f"{source}: {key}"
 
     if not isinstance(data, dict):
-        raise StudyError(f"{source}: expected a mapping with keys such as 'scenarios' and 'trials', got {type(data).__name__}")
+        raise StudyError(f"{source}: expected a mapping with keys such as 'scenarios' and 'trials', "
+                         f"got {type(data).__name__}")
     for key in data:
         if key not in STUDY_KEYS:
             raise StudyError(f"{source}: unknown key {shown(key)}{nearest_hint(key, STUDY_KEYS, 'valid keys')}")
     if "scenarios" not in data and not data.get("families"):
         if labels and "scenarios" in labels:
-            raise StudyError(f"{labels['scenarios']}: give at least one scenario (a built-in name, a YAML path, or all)")
+            raise StudyError(f"{labels['scenarios']}: give at least one scenario (a built-in name, a YAML path, "
+                             "or all)")
         raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths, or all) "
                          "or 'families'")
     name = data.get("name", "sweep")
@@ -233,7 +235,7 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
     for key, values in changes.items():
         if not values:
             raise StudyError(f"{at(key)}: expected at least one value")
-    spec = dataclasses.replace(spec, **changes)
+    spec = dataclasses.replace(spec, **changes)  # type: ignore[arg-type]
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
                                             spec.methods)) * spec.trials
     if size > MAX_SWEEP_TRIALS:

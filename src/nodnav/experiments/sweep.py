@@ -308,7 +308,8 @@ def _dask_client(scheduler: str, timeout: float):
     try:
         from dask.distributed import Client
     except ImportError:
-        raise NodnavError("running on a Dask cluster needs dask and distributed: pip install 'nodnav[cluster]'") from None
+        raise NodnavError("running on a Dask cluster needs dask and distributed: "
+                          "pip install 'nodnav[cluster]'") from None
     try:
         return Client(scheduler, timeout=timeout)
     except (OSError, TimeoutError) as exc:

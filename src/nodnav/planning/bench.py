@@ -119,7 +119,8 @@ def _roadmap_summaries(planners) -> tuple[RoadmapSummary, ...]:
     return tuple(out)
 
 
-def benchmark_planner(name: str, scenarios, cache_dir: str = "", roadmap_vertices: int | None = None) -> PlannerBenchmark:
+def benchmark_planner(name: str, scenarios, cache_dir: str = "",
+                      roadmap_vertices: int | None = None) -> PlannerBenchmark:
     """Run planner ``name`` on every order of every scenario (loaded :class:`Scenario` objects)."""
     from nodnav.planning import make_planner
     from nodnav.planning.prm import PRMStarPlanner

@@ -298,10 +298,12 @@ class PRMStarPlanner:
             floor = -TOL if name == "start" else radii - TOL
             if np.any(clear < floor):
                 return SearchResult.failed(f"{name} configuration puts robot(s) {rank[clear < floor].tolist()} "
-                                           f"{'inside a wall' if name == 'start' else 'closer to a wall than their radius'}")
+                                           + ("inside a wall" if name == "start"
+                                              else "closer to a wall than their radius"))
             if np.any(gaps < radii[a] + radii[b] - TOL):
                 bad = int(np.argmax(gaps < radii[a] + radii[b] - TOL))
-                return SearchResult.failed(f"{name} configuration has robots {rank[a[bad]]} and {rank[b[bad]]} overlapping")
+                return SearchResult.failed(f"{name} configuration has robots {rank[a[bad]]} and {rank[b[bad]]} "
+                                           "overlapping")
             need_clear[name], need_sep[name] = np.minimum(radii, clear), np.minimum(sep, gaps)
         rules = EdgeRules(
             inner=CompiledRules.of(self.world, radii, directions, sep),

@@ -225,7 +225,7 @@ class VisibilityGraph:
                 return path
             active |= crossed
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
-            path = self._around.get(key)
+            path = self._around.get(key)  # type: ignore[assignment]
             if path is None:
                 if limits is None:
                     limits = np.minimum(self.clearance, self.world.clearance(np.array([start, goal]))) - TOL
@@ -250,7 +250,7 @@ class VisibilityGraph:
             for i, path in zip(missing, self._walls_only(starts[missing], goals[missing])):
                 paths[i] = path
                 remember(self._plain, keys[i], path)
-        return paths
+        return paths  # type: ignore[return-value]
 
     # -----------------------------------------------------------------------------------------
 
@@ -314,7 +314,8 @@ class VisibilityGraph:
         rest = np.flatnonzero(~known)
         thr = np.full(len(nodes), self.clearance - TOL)
         thr[0], thr[1] = thr_start, thr_goal
-        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]], thr[j[rest]])
+        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]],
+                                                                                               thr[j[rest]])
         e = np.flatnonzero(ok)
         limit = np.repeat(radii[None], len(e), axis=0)
         first = i[e] == 0
@@ -347,10 +348,11 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit = np.repeat(np.asarray(radii, dtype=float).reshape(1, -1), len(d), axis=0)
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
-    return (d < limit - TOL).any(axis=0)
+    return (d < limit - TOL).any(axis=0)  # type: ignore[return-value]
 
 
-def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int, target: int) -> list[int]:
+def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int,
+                   target: int) -> list[int]:
     """Nodes of a shortest path from ``source`` to ``target`` in an undirected graph with edges
     ``(i[e], j[e])`` of ``length[e]`` (Dijkstra with a binary heap); empty if unreachable.
 

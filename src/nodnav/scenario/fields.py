@@ -113,7 +113,7 @@ def _bound(field: dataclasses.Field, key: str) -> str | Range | None:
     """The range of a field: its own (``metadata["range"]``), else the one of ``key`` in
     :data:`~nodnav.scenario.limits.RANGES`, else none."""
     own = field.metadata.get("range")
-    return tuple(own) if own is not None else key if key in limits.RANGES else None  # type: ignore[return-value]
+    return tuple(own) if own is not None else key if key in limits.RANGES else None
 
 
 def read_value(hint: Any, value: Any, name: str, bound: str | Range | None) -> Any:

@@ -56,7 +56,7 @@ class OpinionParams:
         """The bias b_i as an array over strategies S1..S_{N_s}."""
         b = np.zeros(n_strategies)
         for name, value in self.bias.items():
-            b[strategy_number(name) - 1] = value
+            b[strategy_number(name) - 1] = value  # type: ignore[operator]
         return b
 
 
@@ -144,7 +144,8 @@ class ControllerParams:
     horizon: float = 0.8
     """Horizon over which the controller is given the others' predicted motion, T_MPC (s); paper: 0.8."""
     samples: int = 8
-    """Instants over the horizon at which the others' predicted motion is given (evenly spaced, the last at the horizon)."""
+    """Instants over the horizon at which the others' predicted motion is given (evenly spaced, the
+    last at the horizon); the MPC keeps clear of the predictions there and between them."""
 
 
 @CONTROLLERS.declare("mpc", help="the B-spline model predictive controller of the appendix (default)")

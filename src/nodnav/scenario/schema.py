@@ -143,7 +143,7 @@ def _box(value: Any, where: str) -> tuple[float, float, float, float]:
     box = vector(value, 4, where)
     if box[0] >= box[2] or box[1] >= box[3]:
         raise fail(where, f"need x_min < x_max and y_min < y_max, got {list(box)}")
-    return box
+    return box  # type: ignore[return-value]
 
 
 def _world(data: Any) -> World:
@@ -198,7 +198,7 @@ def _world(data: Any) -> World:
     else:
         mid = 0.5 * (corridor.y_min + corridor.y_max)
         entrances = ((corridor.x_min, mid), (corridor.x_max, mid))
-    return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)
+    return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)  # type: ignore[arg-type]
 
 
 def _component(registry: Registry, base: type, data: Any, where: str) -> Any:
@@ -229,7 +229,7 @@ def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     if opinion.init != "given" and opinion.z0:
         raise fail(f"{where}.z0", "only used with init 'given'; set init: given or remove z0")
     for name in opinion.bias:
-        if not 1 <= strategy_number(name) <= n_s:
+        if not 1 <= strategy_number(name) <= n_s:  # type: ignore[operator]
             raise fail(f"{where}.bias", f"unknown strategy {shown(name)}; use S1..S{n_s} for {n_robots} robots")
     return opinion
 
@@ -259,16 +259,16 @@ def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, .
             elif key in defaults:
                 source[key], value = f"robot_defaults.{key}", defaults[key]
             else:  # the default, which the user did not write
-                source[key], value = None, getattr(RobotSpec, key)
+                source[key], value = None, getattr(RobotSpec, key)  # type: ignore[assignment]
             body[key] = number(value, source[key] or f"{where}.{key}", f"robots.{key}")
         own = entry.get("opinion")
         robots.append(RobotSpec(
-            origin=vector(entry["origin"], 2, f"{where}.origin"),
-            destination=vector(entry["destination"], 2, f"{where}.destination"),
+            origin=vector(entry["origin"], 2, f"{where}.origin"),  # type: ignore[arg-type]
+            destination=vector(entry["destination"], 2, f"{where}.destination"),  # type: ignore[arg-type]
             opinion=_opinion({**opinion, **mapping(own, f"{where}.opinion")}, len(data), f"{where}.opinion")
             if own else None, **body))
         sources.append(source)
-    return tuple(robots), sources
+    return tuple(robots), sources  # type: ignore[return-value]
 
 
 def _check_geometry(world: World, robots: tuple[RobotSpec, ...], sources: list[dict[str, str | None]],
@@ -330,7 +330,8 @@ def _check_sizes(scenario_time: float, controller: ControllerParams, planner: Pl
 def _robot_list(data: Any) -> list:
     robots = data.get("robots")
     if not isinstance(robots, list) or not robots:
-        raise fail("robots", f"expected a non-empty list of {{origin: [x, y], destination: [x, y]}}, got {shown(robots)}")
+        raise fail("robots",
+                   f"expected a non-empty list of {{origin: [x, y], destination: [x, y]}}, got {shown(robots)}")
     if len(robots) > limits.MAX_ROBOTS:
         raise fail("robots", f"{len(robots)} robots have {len(robots)}! passing orders; at most "
                     f"{limits.MAX_ROBOTS} robots ({limits.MAX_STRATEGIES} orders) are supported")

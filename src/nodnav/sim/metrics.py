@@ -136,7 +136,8 @@ def time_to_consensus(decision_times: np.ndarray, strategies: np.ndarray, undeci
         counts = open_.sum(axis=1) >= 2
         if not counts.any():
             return math.nan
-        agree = np.array([orders_agree(orders, s, np.flatnonzero(o)) for s, o in zip(strategies[counts], open_[counts])])
+        agree = np.array([orders_agree(orders, s, np.flatnonzero(o)) for s, o in zip(strategies[counts],
+                                                                                     open_[counts])])
         times = np.asarray(decision_times)[counts]
     if not agree[-1]:
         return math.nan

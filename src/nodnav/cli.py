@@ -546,7 +546,11 @@ def _add_report_parsers(sub) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``nodnav`` command."""
     from nodnav.experiments.study import MAX_TRIALS
+    from nodnav.planning import PLANNERS
+    from nodnav.sim import METHODS
 
+    # Choices and their help come from the registries (plugins included).
+    planners, methods = PLANNERS.help_text(), METHODS.help_text()
     parser = Parser(prog="nodnav", description="nodnav: opinion-driven multi-robot navigation through a "
                      "narrow corridor")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
@@ -582,7 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
-    p.add_argument("--planner", help="planner name: fast or prm (default: the scenario's)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
     p.add_argument("--out", help="picture to write (.png, .pdf, .svg, ...)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=_cmd_plan)
@@ -594,9 +598,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's)")
     p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's)")
     p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's)")
-    p.add_argument("--planner", help="planner name: fast or prm (default: the scenario's)")
-    p.add_argument("--method", default="nod", help="navigation method: nod (default), no-coordination, "
-                   "independent, closest-first, oracle, orca")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--method", default="nod", help=f"navigation method, nod by default ({methods})")
     p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's)")
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -616,8 +619,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--bias", action="append",
                    help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
     p.add_argument("--planner", action="append", dest="planners",
-                   help="planner: fast or prm (repeatable; default: each scenario's own)")
-    p.add_argument("--method", action="append", dest="methods", help="navigation method (repeatable; default nod)")
+                   help=f"planner, one of {', '.join(PLANNERS)} (repeatable; default: each scenario's own)")
+    p.add_argument("--method", action="append", dest="methods",
+                   help=f"navigation method, one of {', '.join(METHODS)} (repeatable; default nod)")
     p.add_argument("--trials", help=f"seeds 1..N for every combination (default 1, at most {MAX_TRIALS})")
     p.add_argument("--db", default="nodnav-results.sqlite", help="results database (default nodnav-results.sqlite)")
     p.add_argument("--jobs", type=jobs, default=1, help="local worker processes (default 1)")

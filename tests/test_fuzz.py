@@ -20,7 +20,9 @@ from hypothesis import strategies as st
 
 from nodnav.cli import main
 from nodnav.errors import MAX_MESSAGE, NodnavError
-from nodnav.scenario.schema import Scenario, builtin_names, load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 
 KEYS = ["name", "description", "world", "robot_defaults", "robots", "opinion", "game_players", "time_limit",
         "planner", "controller", "sim", "bounds", "obstacles", "corridor", "entrances", "corridor_width", "x_min",

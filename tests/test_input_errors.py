@@ -13,10 +13,13 @@ import pytest
 import nodnav.sim.simulator as simulator
 from nodnav.cli import main
 from nodnav.paths import safe_filename
+from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_ROBOTS, MAX_STRATEGIES
-from nodnav.scenario.schema import ScenarioError, load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
-GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0, 0.0]}]}
+GOOD = {"robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 0.0], "destination": [-5.0,
+                                                                                                              0.0]}]}
 
 
 def _raw(**top):
@@ -126,7 +129,8 @@ def _write(tmp_path, name, content: bytes):
     (b"name: \xff\xfe\n", "not UTF-8 text"),
 ])
 def test_files_the_loader_cannot_use(tmp_path, content, message):
-    path = _write(tmp_path, "s.yaml", content.replace(b"robots: []", b"robots: [{origin: [-5, 0], destination: [5, 0]}]"))
+    path = _write(tmp_path, "s.yaml", content.replace(b"robots: []",
+                                                      b"robots: [{origin: [-5, 0], destination: [5, 0]}]"))
     with pytest.raises(ScenarioError) as info:
         load_scenario(path)
     assert message in str(info.value) and "\n" not in str(info.value)
@@ -280,7 +284,7 @@ def test_reproduce_help_shows_parts_and_defaults(capsys):
 
 
 def test_summaries_in_plain_words(capsys):
-    from nodnav.scenario.schema import load_scenario as load
+    from nodnav.scenario.loading import load_scenario as load
     from nodnav.sim.simulator import run_trial
     from nodnav.terminal import trial_summary_lines
 

@@ -21,14 +21,25 @@ import numpy as np
 
 from nodnav.errors import NodnavError, one_line, shown, shown_path
 from nodnav.paths import output_dir, output_file, safe_filename
-from nodnav.terminal import (MAX_SEED, Parser, compile_notice, jobs, note, plural, real, trial_summary_lines,
-                             warm_kernels, whole)
+from nodnav.terminal import (
+    MAX_SEED,
+    Parser,
+    compile_notice,
+    jobs,
+    note,
+    plural,
+    real,
+    trial_summary_lines,
+    warm_kernels,
+    whole,
+)
 
 # -- commands --------------------------------------------------------------------------------------
 
 
 def _cmd_scenarios(args: argparse.Namespace) -> int:
-    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
 
     for name in builtin_names():
         s = load_scenario(name)
@@ -38,14 +49,16 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 
 def _cmd_show(args: argparse.Namespace) -> int:
     from nodnav.scenario.families import is_family
-    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
 
     if is_family(args.scenario):
         return _show_family(args)
     if args.seed is not None or args.count is not None:
         raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
                           "(list the families with 'nodnav families')")
-    scenarios = [load_scenario(n) for n in builtin_names()] if args.scenario == "all" else [load_scenario(args.scenario)]
+    names = builtin_names() if args.scenario == "all" else [args.scenario]
+    scenarios = [load_scenario(n) for n in names]
     out = output_file(args.out)
     if not args.execute:
         return 0
@@ -77,7 +90,8 @@ def _show_family(args: argparse.Namespace) -> int:
     scenarios = [draw(family, s) for s in range(seed, seed + count)]
     if not args.execute:
         return 0
-    title = f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations (crosses)"
+    title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
+             "(crosses)")
     print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
     return 0
 
@@ -147,7 +161,7 @@ def scenario_with_options(args: argparse.Namespace):
     """The scenario named on the command line with the options that override its settings;
     an error about an option names the option."""
     from nodnav.experiments.study import parse_bias, parse_players
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)
     changes = {}
@@ -156,7 +170,7 @@ def scenario_with_options(args: argparse.Namespace):
     if getattr(args, "init", None):
         changes["opinion.init"] = args.init
     if getattr(args, "bias", None) is not None:
-        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))
+        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))  # type: ignore[assignment]
     if getattr(args, "u", None) is not None:
         changes["opinion.u"] = args.u
     if getattr(args, "planner", None):
@@ -225,8 +239,8 @@ def write_trial_outputs(result, out: Path) -> list[Path]:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from nodnav.errors import nearest_hint
     from nodnav.experiments.study import known_methods
-    from nodnav.scenario.schema import nearest_hint
 
     scenario = scenario_with_options(args)
     if args.method not in known_methods():
@@ -284,7 +298,7 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from nodnav.experiments.study import OPTION_NAMES, load_study, study_from_dict
     from nodnav.experiments.sweep import run_sweep
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     name = args.name
     if name is None and args.families and not args.scenarios and not args.study:  # group results by family
@@ -345,7 +359,7 @@ def _reproduce_command(args: argparse.Namespace) -> str:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from nodnav.experiments.reproduce import PARTS, ReproduceOptions, check_options, reproduce
+    from nodnav.reporting.reproduce import PARTS, ReproduceOptions, check_options, reproduce
 
     out = output_dir(args.out)
     db = output_file(args.db, "--db", formats=None) if args.db else None
@@ -368,8 +382,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from nodnav.experiments.report import build_report
     from nodnav.experiments.store import ResultStore
+    from nodnav.reporting.report import build_report
 
     db = Path(args.db)
     try:
@@ -379,7 +393,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     except (OSError, ValueError):
         found = None
     if found != "file":
-        raise NodnavError(f"{shown_path(args.db)}: no such results database ({'a directory' if found else 'no such file'}"
+        what = "a directory" if found else "no such file"
+        raise NodnavError(f"{shown_path(args.db)}: no such results database ({what}"
                           "); write one with nodnav sweep or nodnav reproduce")
     with ResultStore(db):  # opens, checks and migrates it before any work
         pass
@@ -396,8 +411,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
+    from nodnav.errors import nearest_hint
     from nodnav.planning import PLANNERS
-    from nodnav.scenario.schema import load_scenario, nearest_hint
+    from nodnav.scenario.loading import load_scenario
 
     for p in args.planner or ():
         if p not in PLANNERS:
@@ -455,11 +471,12 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
     import time
 
     from nodnav.planning.roadmap import build_all_roadmaps, format_build_reports, resolve_cache_dir
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)
+    prm = scenario.with_overrides(**{"planner.name": "prm"}).planner  # the scenario's PRM* settings
     counts = _robot_counts(args.robots)
-    cache = output_dir(resolve_cache_dir(args.cache_dir or scenario.planner.cache_dir), "--cache-dir")
+    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")  # type: ignore[attr-defined]
     if not args.execute:
         return 0
     from tqdm import tqdm
@@ -479,7 +496,7 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
             bar.update(vertices)
 
         reports = build_all_roadmaps(scenario.world, radius=float(scenario.radii[0]), robot_counts=counts,
-                                     vertices_per_robot=args.vertices or scenario.planner.roadmap_vertices,
+                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,  # type: ignore[attr-defined]
                                      cache_dir=str(cache), n_jobs=args.jobs, progress=progress)
     print(format_build_reports(reports))
     print(f"{plural(len(reports), 'roadmap')} ready in {time.perf_counter() - start:.1f} s (cache {cache})")
@@ -529,7 +546,11 @@ def _add_report_parsers(sub) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``nodnav`` command."""
     from nodnav.experiments.study import MAX_TRIALS
+    from nodnav.planning import PLANNERS
+    from nodnav.sim import METHODS
 
+    # Choices and their help come from the registries (plugins included).
+    planners, methods = PLANNERS.help_text(), METHODS.help_text()
     parser = Parser(prog="nodnav", description="nodnav: opinion-driven multi-robot navigation through a "
                      "narrow corridor")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
@@ -565,7 +586,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
-    p.add_argument("--planner", help="planner name: fast or prm (default: the scenario's)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
     p.add_argument("--out", help="picture to write (.png, .pdf, .svg, ...)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=_cmd_plan)
@@ -577,9 +598,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's)")
     p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's)")
     p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's)")
-    p.add_argument("--planner", help="planner name: fast or prm (default: the scenario's)")
-    p.add_argument("--method", default="nod", help="navigation method: nod (default), no-coordination, "
-                   "independent, closest-first, oracle, orca")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--method", default="nod", help=f"navigation method, nod by default ({methods})")
     p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's)")
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -592,12 +612,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="built-in name, YAML path, FAMILY:SEED, or 'all' for every built-in scenario (repeatable)")
     p.add_argument("--family", action="append", dest="families",
                    help="generated family (built-in name or YAML path): trial seed s runs draw s (repeatable)")
-    p.add_argument("--players", action="append", help="game players K or 'all' (repeatable; default: each scenario's own)")
+    p.add_argument("--players", action="append",
+                   help="game players K or 'all' (repeatable; default: each scenario's own)")
     p.add_argument("--init", action="append", choices=("zero", "distance"),
                    help="initial opinions (repeatable; default: each scenario's own)")
-    p.add_argument("--bias", action="append", help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
-    p.add_argument("--planner", action="append", dest="planners", help="planner: fast or prm (repeatable; default: each scenario's own)")
-    p.add_argument("--method", action="append", dest="methods", help="navigation method (repeatable; default nod)")
+    p.add_argument("--bias", action="append",
+                   help="e.g. S3=150,S5=150 or 'none' (repeatable; default: each scenario's own)")
+    p.add_argument("--planner", action="append", dest="planners",
+                   help=f"planner, one of {', '.join(PLANNERS)} (repeatable; default: each scenario's own)")
+    p.add_argument("--method", action="append", dest="methods",
+                   help=f"navigation method, one of {', '.join(METHODS)} (repeatable; default nod)")
     p.add_argument("--trials", help=f"seeds 1..N for every combination (default 1, at most {MAX_TRIALS})")
     p.add_argument("--db", default="nodnav-results.sqlite", help="results database (default nodnav-results.sqlite)")
     p.add_argument("--jobs", type=jobs, default=1, help="local worker processes (default 1)")
@@ -647,7 +671,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
     try:
         args = parser.parse_args(argv)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
         return 2
     except SystemExit as exc:  # --help, printed by argparse
         return exc.code if isinstance(exc.code, int) else 0
@@ -658,7 +682,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
         with compile_notice():
             return args.func(args)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
         return 2
     except KeyboardInterrupt:
         print("nodnav: interrupted", file=sys.stderr)

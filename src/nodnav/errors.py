@@ -7,7 +7,9 @@ is the command line's last guard that every message it prints is one line.
 
 from __future__ import annotations
 
+import difflib
 import reprlib
+from collections.abc import Iterable
 
 #: Longest message the command line prints (characters); anything beyond is cut with "...".
 MAX_MESSAGE = 600
@@ -59,3 +61,10 @@ def shown_path(path) -> str:
     """A file name as typed when it is one line of printable text of reasonable length, else :func:`shown`."""
     text = str(path)
     return text if text.isprintable() and 0 < len(text) <= 300 else shown(text)
+
+
+def nearest_hint(key: object, valid: Iterable[str], what: str = "valid keys") -> str:
+    """'; did you mean X?' for the closest valid name, else the list of valid names."""
+    valid = list(valid)
+    match = difflib.get_close_matches(str(key)[:100], valid, n=1, cutoff=0.5) if isinstance(key, str) else []
+    return f"; did you mean '{match[0]}'?" if match else f"; {what}: {', '.join(sorted(valid))}"

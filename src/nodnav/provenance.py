@@ -16,15 +16,20 @@ from __future__ import annotations
 
 import functools
 import hashlib
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-import nodnav
+try:
+    PACKAGE_VERSION = version("nodnav")
+    """The installed package's version."""
+except PackageNotFoundError:  # running from a source tree that is not installed
+    PACKAGE_VERSION = "0.0.0"
 
 #: Files (relative to the package, ``/``-separated) and folders (ending in ``/``) that cannot
 #: change a trial's result and are left out of the hash.
-PRESENTATION = ("cli.py", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "experiments/report.py", "experiments/reproduce.py",
-                "experiments/study.py", "experiments/sweep.py", "experiments/store.py", "control/bench.py",
-                "planning/bench.py", "sim/bench.py")
+PRESENTATION = ("cli.py", "cli/", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
+                "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
+                "experiments/sweep.py", "experiments/store.py", "control/bench.py", "planning/bench.py", "sim/bench.py")
 
 #: What stored rows written before code versions were recorded hold instead of one.
 UNKNOWN = "unknown"
@@ -55,4 +60,4 @@ def source_hash(root: Path) -> str:
 @functools.lru_cache(maxsize=1)
 def code_version() -> str:
     """``<package version>+<first 12 hex digits of source_hash>`` of the installed package."""
-    return f"{nodnav.__version__}+{source_hash(Path(nodnav.__file__).resolve().parent)[:12]}"
+    return f"{PACKAGE_VERSION}+{source_hash(Path(__file__).resolve().parent)[:12]}"

@@ -110,7 +110,7 @@ def compile_notice():
 def warm_kernels() -> None:
     """Compile (or load) the kernels in this process before workers start, so that they load them
     from the cache and the progress bar's first trials are not slowed by compiling."""
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
     from nodnav.sim.simulator import run_trial
 
     run_trial(load_scenario("2r-case1").with_overrides(time_limit=0.5), "nod", 1)

@@ -5,7 +5,7 @@ import pytest
 
 from nodnav.control import CONTROLLERS, Controller, ControlRequest, ControlResult, make_controller
 from nodnav.control.base import STEP_FRACTIONS
-from nodnav.scenario.schema import ControllerParams, RobotSpec
+from nodnav.scenario.params import ControllerParams, MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
@@ -20,7 +20,7 @@ def name(request):
 
 
 def make(name, robot=ROBOT):
-    return make_controller(ControllerParams(name=name), WORLD, robot)
+    return make_controller(MPCParams(name=name), WORLD, robot)
 
 
 def request(p, v, reference, others=None, radii=None):

@@ -10,7 +10,6 @@ from nodnav.control import ControlRequest, bspline
 from nodnav.control.bench import benchmark_mpc, queue_references
 from nodnav.control.mpc import (
     BSplineMPC,
-    MPCSettings,
     braking_profile,
     chord_inflation,
     constraint_grid,
@@ -23,12 +22,13 @@ from nodnav.control.mpc import (
     solve_qp,
     stopping_rows,
 )
-from nodnav.scenario.schema import ControllerParams, RobotSpec, load_scenario
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
 ROBOT = RobotSpec(origin=(-5.0, 0.0), destination=(5.0, 0.0))  # radius 0.2, 1 m/s, 2 m/s^2
-PARAMS = ControllerParams()  # dt 0.1, horizon 0.8
+PARAMS = MPCParams()  # dt 0.1, horizon 0.8
 TIMES = 0.1 * np.arange(1, 9)
 FINE = np.linspace(0.0, PARAMS.dt, 21)
 NO_OTHERS = np.zeros((0, 8, 2))
@@ -438,7 +438,8 @@ def test_evasive_plan_keeps_clear_of_a_firm_prediction_when_it_can():
     a = np.array([-4.7, 0.0]) + TIMES[:, None] * [1.0, 0.0]
     b = np.array([-5.0, -0.5])
     ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
-    req = replace(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=np.stack([a, np.tile(b, (8, 1))]),
+    req = replace(request([-5.0, 0.0], [0.0, 0.0], np.tile([-5.0, -1.2], (8, 1)), others=np.stack([a, np.tile(b, (8,
+                                                                                                                  1))]),
                           radii=[0.2, 0.2]), firm=np.array([False, True]))
     res = ctl.control(req)
     assert not res.success and res.info["fallback"] == "evasive" and not res.info["firm_softened"]
@@ -461,7 +462,7 @@ def scripted_encounter(settings, steps=30):
     """Robot A (our controller) moving at 0.5 m/s along +x, holding position as its reference;
     robot B drives straight at it at 1 m/s and never yields. A's prediction of B is exact
     (constant velocity). Returns (closest centre distance along the motion, results)."""
-    ctl = BSplineMPC(WORLD, ROBOT, PARAMS, settings)
+    ctl = BSplineMPC(WORLD, ROBOT, settings)
     p, v = np.array([-5.0, 0.0]), np.array([0.5, 0.0])
     b0, vb = np.array([-3.9, 0.0]), np.array([-1.0, 0.0])
     sub = np.linspace(0.0, 1.0, 11)[:, None]
@@ -480,7 +481,7 @@ def scripted_encounter(settings, steps=30):
 
 def test_moves_away_from_an_approaching_robot_instead_of_braking_into_it():
     contact = 2 * ROBOT.radius
-    closest, results = scripted_encounter(MPCSettings())
+    closest, results = scripted_encounter(MPCParams())
     failed = [r for r in results if not r.success]
     assert failed and all(r.info["fallback"] == "evasive" for r in failed)
     assert closest >= contact - 1e-3                     # it got out of the way
@@ -495,7 +496,7 @@ def test_moves_away_from_an_approaching_robot_instead_of_braking_into_it():
     braking_gap = np.linalg.norm(braked - b, axis=1)
     assert np.all(evasive_gap >= braking_gap - 1e-9) and evasive_gap[-1] > braking_gap[-1] + 0.1
     # The earlier fallback, braking at once, stays in B's path and is hit.
-    closest_braking, results_braking = scripted_encounter(MPCSettings(evasive=False))
+    closest_braking, results_braking = scripted_encounter(MPCParams(evasive=False))
     assert any(r.info["fallback"] == "braking" for r in results_braking)
     assert closest_braking < contact - 0.1
 
@@ -506,7 +507,7 @@ def crossing(settings, steps=60):
     game, wrong here) and, as the simulator adds, where it goes at its observed velocity.
     The safety margin is a thin 2 cm, with which braking alone is not enough.
     Returns (closest centre distance along the motion, number of evasive steps)."""
-    ctls = [BSplineMPC(WORLD, ROBOT, ControllerParams(safety_margin=0.02), settings) for _ in range(2)]
+    ctls = [BSplineMPC(WORLD, ROBOT, replace(settings, safety_margin=0.02)) for _ in range(2)]
     centre, u = np.array([-5.2, 0.0]), np.array([np.cos(np.radians(120)), np.sin(np.radians(120))])
     pos = np.array([centre - [1.2, 0.0], centre + 1.2 * u])
     goals = np.array([centre + [1.5, 0.0], centre - 1.5 * u])
@@ -533,10 +534,10 @@ def crossing(settings, steps=60):
 
 def test_two_robots_driving_at_each_other_keep_apart_with_the_evasive_fallback():
     contact = 2 * ROBOT.radius
-    closest, evasive, left = crossing(MPCSettings())
+    closest, evasive, left = crossing(MPCParams())
     assert evasive > 0 and closest >= contact - 1e-3
     assert left < 0.05                                   # both got through
-    closest_braking, _, _ = crossing(MPCSettings(evasive=False))
+    closest_braking, _, _ = crossing(MPCParams(evasive=False))
     assert closest_braking < contact - 1e-3              # braking along the velocity collides
 
 
@@ -552,7 +553,7 @@ def test_malformed_requests_raise():
     with pytest.raises(ValueError):
         ctl.control(replace(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2))), firm=np.array([True])))
     with pytest.raises(ValueError):
-        BSplineMPC(WORLD, ROBOT, ControllerParams(dt=1.0, horizon=0.8))
+        BSplineMPC(WORLD, ROBOT, MPCParams(dt=1.0, horizon=0.8))
 
 
 def test_benchmark_situation_is_consistent_and_runs():

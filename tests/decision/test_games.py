@@ -6,8 +6,15 @@ from itertools import permutations
 import numpy as np
 import pytest
 
-from nodnav.decision.games import (carry_opinions, class_size, game_bias, game_orders, log_mean_exp,
-                                   selections_agree, strategy_order)
+from nodnav.decision.games import (
+    carry_opinions,
+    class_size,
+    game_bias,
+    game_orders,
+    log_mean_exp,
+    selections_agree,
+    strategy_order,
+)
 from nodnav.decision.strategies import passing_orders, strategy_index
 
 

@@ -5,7 +5,7 @@ import pytest
 
 from nodnav.decision.initial import distance_initial_opinions, order_likelihoods
 from nodnav.decision.strategies import passing_orders
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 
 
 def test_order_likelihoods_hand_values():

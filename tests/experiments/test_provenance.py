@@ -33,7 +33,7 @@ def test_code_version_is_the_package_version_and_a_hash_of_the_installed_source(
     assert code_version() == f"{nodnav.__version__}+{source_hash(root)[:12]}"
     names = {p.relative_to(root).as_posix() for p in result_files(root)}
     assert {"sim/simulator.py", "control/mpc.py", "scenario/builtin/3r-case4.yaml"} <= names
-    assert not names & {"cli.py", "viz/trial.py", "experiments/report.py"}
+    assert not names & {"cli.py", "viz/trial.py", "reporting/report.py"}
 
 
 def test_the_hash_follows_what_determines_a_result_and_nothing_else(tmp_path):

@@ -4,9 +4,9 @@ import sqlite3
 
 import pytest
 
-from nodnav.experiments.store import (ResultStore, StoreError, bias_label, canonical_json, trial_config,
-                                      trial_key)
-from nodnav.scenario.schema import load_scenario, scenario_to_dict
+from nodnav.experiments.store import ResultStore, StoreError, bias_label, canonical_json, trial_config, trial_key
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 
 
 def _config(name="2r-case1", method="nod", **overrides):

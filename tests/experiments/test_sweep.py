@@ -18,7 +18,7 @@ import pytest
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import StudyError, SweepSpec, load_study, parse_bias, study_from_dict
 from nodnav.experiments.sweep import execute_trial, expand, run_sweep
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 
 HERE = Path(__file__).resolve().parent
 
@@ -49,7 +49,8 @@ def cheap_trial(scenario, method, seed):
     rng = np.random.default_rng([seed, scenario.n_robots, scenario.n_players, len(method)])
     outcome = "success" if rng.random() < 0.7 else "deadlock"
     summary = {"scenario": scenario.name, "method": method, "seed": seed, "outcome": outcome,
-               "success": outcome == "success", "makespan_s": float(10 + rng.random()) if outcome == "success" else None,
+               "success": outcome == "success",
+               "makespan_s": float(10 + rng.random()) if outcome == "success" else None,
                "min_separation_m": float(0.4 + rng.random()), "strategy": int(rng.integers(1, 3)), "consensus": True,
                "sim_time_s": 20.0, "wall_time_s": float(rng.random())}
     return CheapResult(outcome, summary, {"flow_rate_rps": float(rng.random()), "time_to_consensus_s": float("nan")})
@@ -132,7 +133,8 @@ def test_expansion_is_the_cross_product_less_what_does_not_apply():
     assert ex.notes == ("2r-case1: players 2 skipped (2 robots allow 0..1)",
                         "2r-case1: bias S3=150 skipped (2 robots have strategies S1..S2)")
     first = ex.trials[0]
-    assert (first.scenario.name, first.scenario.n_players, first.scenario.opinion.init, first.seed) == ("2r-case1", 0, "zero", 1)
+    assert (first.scenario.name, first.scenario.n_players, first.scenario.opinion.init, first.seed) == ("2r-case1", 0,
+                                                                                                        "zero", 1)
     three = [t for t in ex.trials if t.scenario.n_robots == 3]
     assert {t.scenario.n_players for t in three} == {0, 2}
     assert {tuple(t.scenario.opinion.bias.items()) for t in three} == {(), (("S3", 150.0),)}

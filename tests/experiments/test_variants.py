@@ -1,8 +1,8 @@
 """Game-reduction variants: the scenario files they run and the table that compares them."""
 
-from nodnav.experiments.report import RateCell
+from nodnav.experiments.analysis import RateCell
 from nodnav.experiments.variants import VARIANTS, reduction_rows, split_name, variant_name, variant_scenario_files
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 
 
 def test_every_scenario_of_three_or_more_robots_runs_as_every_variant_for_every_reduced_k(tmp_path):

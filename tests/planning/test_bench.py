@@ -9,7 +9,8 @@ import pytest
 from nodnav.planning import make_planner
 from nodnav.planning.base import PlanRequest
 from nodnav.planning.bench import format_benchmark, main_bench_planners, run_planner_benchmark
-from nodnav.scenario.schema import PlannerParams, load_scenario
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.params import PRMParams
 
 VERTICES = 150
 
@@ -39,7 +40,7 @@ def test_prm_counts_and_roadmaps(result):
 def test_separation_and_cost_match_a_recomputation(result, cache):
     (b,) = result.planners
     sc = load_scenario("2r-case1")
-    planner = make_planner(PlannerParams(name="prm", roadmap_vertices=VERTICES, cache_dir=cache), sc.world)
+    planner = make_planner(PRMParams(name="prm", roadmap_vertices=VERTICES, cache_dir=cache), sc.world)
     dists, costs, durations = [], [], []
     for order in itertools.permutations(range(2)):
         res = planner.plan(PlanRequest(sc.world, sc.origins, np.zeros((2, 2)), sc.destinations, sc.radii,

@@ -16,7 +16,9 @@ import pytest
 
 from nodnav.planning import PLANNERS, make_planner
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions, feasible_order
-from nodnav.scenario.schema import PlannerParams, builtin_names, load_scenario
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.params import FastPlannerParams, PRMParams
 from nodnav.scenario.world import paper_world
 
 #: PRM*: roadmap vertices per robot for the test roadmaps (built once per session).
@@ -32,10 +34,10 @@ def planner(request, tmp_path_factory):
     if name == "prm":
         if importlib.util.find_spec("nodnav.planning.prm") is None:
             pytest.skip("the prm planner is not written yet")
-        params = PlannerParams(name="prm", roadmap_vertices=PRM_VERTICES,
+        params = PRMParams(name="prm", roadmap_vertices=PRM_VERTICES,
                                cache_dir=str(tmp_path_factory.mktemp("roadmaps")))
     else:
-        params = PlannerParams(name=name)
+        params = FastPlannerParams(name=name)
     return make_planner(params, paper_world())
 
 

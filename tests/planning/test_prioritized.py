@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions
-from nodnav.planning.geometry import arc_length_grid
 from nodnav.planning.prioritized import (
     SLACK,
     Motion,
@@ -24,7 +23,8 @@ from nodnav.planning.prioritized import (
     relaxed_separation,
     separation_requirements,
 )
-from nodnav.scenario.schema import PlannerParams
+from nodnav.planning.visibility import arc_length_grid
+from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import paper_world
 
 DT = 0.1
@@ -37,13 +37,14 @@ def world():
 
 @pytest.fixture(scope="module")
 def planner(world):
-    return PrioritizedPlanner(world, PlannerParams(dt=DT, margin=0.05))
+    return PrioritizedPlanner(world, FastPlannerParams(dt=DT, margin=0.05))
 
 
 def request(world, pos, dest, order, entered=(), t0=0.0):
     pos, dest = np.asarray(pos, float), np.asarray(dest, float)
     n = len(pos)
-    return PlanRequest(world, pos, np.zeros_like(pos), dest, np.full(n, 0.2), np.ones(n), tuple(order), tuple(entered), t0)
+    return PlanRequest(world, pos, np.zeros_like(pos), dest, np.full(n, 0.2), np.ones(n), tuple(order),
+                       tuple(entered), t0)
 
 
 def min_gap(res, radii, factor=5):
@@ -141,7 +142,7 @@ def test_conflict_intervals_straight_line_by_hand():
     samples = np.stack([arc, np.zeros_like(arc)], axis=1)
     cells = np.array([[5.03, 0.3], [9.97, 0.3], [5.0, 2.0]])
     cols, first, last = conflict_intervals(cells, [Motion(path, samples, arc)], [0.5])
-    got = {(int(c), int(f), int(min(l, 10**6))) for c, f, l in zip(cols, first, last)}
+    got = {(int(c), int(f), int(min(e, 10**6))) for c, f, e in zip(cols, first, last)}
     # Cell 0 is within 0.5 of x in (5.03 - 0.4, 5.03 + 0.4) = (4.63, 5.43): the steps whose
     # stretch [0.1 t, 0.1 t + 0.1] meets it are t = 46..54. Cell 1 is within 0.5 of x in
     # (9.57, 10]: steps 95..99 while moving, then 0.30 from the parking spot (10, 0) from step
@@ -159,7 +160,8 @@ def test_conflict_intervals_match_dense_sampling():
     rng = np.random.default_rng(3)
     path = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 1.5], [0.5, 2.5]])
     grid = arc_length_grid(path, 0.05)
-    idx = np.minimum(np.cumsum(np.concatenate([[0], rng.choice([0, 1, 2], 120, p=[0.2, 0.3, 0.5])])), len(grid.points) - 1)
+    idx = np.minimum(np.cumsum(np.concatenate([[0], rng.choice([0, 1, 2], 120, p=[0.2, 0.3, 0.5])])),
+                     len(grid.points) - 1)
     samples, arc = grid.points[idx], grid.arc_length[idx]
     cells = rng.uniform([-0.5, -0.7], [2.8, 3.0], (150, 2))
     required = 0.45
@@ -204,7 +206,9 @@ def brute_force_arrival(free, ok2):
     """Reachable sets as Python sets and the earliest step at which the goal is reachable and
     stays free (rows past the end repeat the last one)."""
     n_rows, n = free.shape
-    row = lambda t: free[min(t, n_rows - 1)]
+    def row(t):
+        return free[min(t, n_rows - 1)]
+
     reach = [{0}]
     for t in range(1, n_rows + 2 * n + 2):
         nxt = {c + m for c in reach[-1] for m in (0, 1, 2)
@@ -355,8 +359,8 @@ def test_same_direction_follows_closely(world, planner):
 
 def test_plans_are_deterministic_and_memo_is_transparent(world):
     req = request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (1, 2, 0))
-    a = PrioritizedPlanner(world, PlannerParams()).plan(req)
-    p = PrioritizedPlanner(world, PlannerParams())
+    a = PrioritizedPlanner(world, FastPlannerParams()).plan(req)
+    p = PrioritizedPlanner(world, FastPlannerParams())
     p.plan(request(world, [[-5.0, 1.5], [5.0, 1.5], [-5.0, -1.5]], [[5.0, -1.5], [-5.0, -1.5], [5.5, 1.5]], (2, 1, 0)))
     b = p.plan(req)
     assert a.success and np.array_equal(a.trajectory.positions, b.trajectory.positions)
@@ -365,11 +369,11 @@ def test_plans_are_deterministic_and_memo_is_transparent(world):
 def test_orders_repaired_alike_share_one_read_only_plan(world):
     # Robots 0 and 2 stand in the corridor: every order is repaired to start with them, so the
     # orders (1, 0, 2) and (0, 1, 2) are both planned as (0, 2, 1) and differ only in the note.
-    p = PrioritizedPlanner(world, PlannerParams())
+    p = PrioritizedPlanner(world, FastPlannerParams())
     pos, dest = [[-1.0, 0.0], [5.0, 1.5], [-2.0, 0.0]], [[5.5, 0.0], [-5.0, -1.5], [5.0, -1.5]]
     a = p.plan(request(world, pos, dest, (1, 0, 2), entered=(0, 2)))
     b = p.plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
-    fresh = PrioritizedPlanner(world, PlannerParams()).plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
+    fresh = PrioritizedPlanner(world, FastPlannerParams()).plan(request(world, pos, dest, (0, 1, 2), entered=(0, 2)))
     assert a.success and a.order_planned == b.order_planned == (0, 2, 1)
     assert a.order == (1, 0, 2) and b.order == (0, 1, 2) and "repaired" in a.reason and "repaired" in b.reason
     assert np.array_equal(b.trajectory.positions, fresh.trajectory.positions) and b.cost == fresh.cost
@@ -537,9 +541,9 @@ def test_waiting_robot_stays_clear_of_the_door(world, planner):
 
 
 def test_door_rule_can_be_narrowed(world):
-    narrow = PrioritizedPlanner(world, PlannerParams(dt=DT, door_clearance=0.3))
+    narrow = PrioritizedPlanner(world, FastPlannerParams(dt=DT, door_clearance=0.3))
     req = request(world, [[-5.5, 0.0], [5.5, 0.0]], [[5.5, 1.2], [-5.5, -1.2]], (0, 1))
-    wide = PrioritizedPlanner(world, PlannerParams(dt=DT)).plan(req)
+    wide = PrioritizedPlanner(world, FastPlannerParams(dt=DT)).plan(req)
     tight = check_plan(world, req, narrow.plan(req), 0.3)
     # Waiting nearer the door, robot 1 is through sooner.
     assert narrow.plan(req).info["arrival_times"][1] < wide.info["arrival_times"][1]

@@ -8,7 +8,8 @@ import pytest
 from nodnav.planning import make_planner
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions, feasible_order
 from nodnav.planning.prm import PRMStarPlanner, path_cost, timed_trajectory
-from nodnav.scenario.schema import PlannerParams, load_scenario
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.params import PRMParams
 from nodnav.scenario.world import paper_world
 
 R = 0.2
@@ -17,7 +18,7 @@ W1, VARSIGMA = 0.4, 0.1
 
 @pytest.fixture(scope="module")
 def planner(tmp_path_factory):
-    params = PlannerParams(name="prm", roadmap_vertices=300, cache_dir=str(tmp_path_factory.mktemp("roadmaps")))
+    params = PRMParams(name="prm", roadmap_vertices=300, cache_dir=str(tmp_path_factory.mktemp("roadmaps")))
     p = make_planner(params, paper_world())
     assert isinstance(p, PRMStarPlanner) and p.name == "prm"
     return p

@@ -6,6 +6,7 @@ import zipfile
 import numpy as np
 import pytest
 
+from nodnav.geometry import segment_clearance
 from nodnav.planning import roadmap as rm
 from nodnav.scenario.world import paper_world
 
@@ -97,17 +98,6 @@ def _rect_distance(p, rect):
     return np.hypot(dx, dy)
 
 
-def test_segment_rectangle_distance_hand_values():
-    rect = (0.0, 0.0, 1.0, 1.0)
-    seg = lambda a, b: rm.segment_rectangle_distance(np.array(a, float), np.array(b, float), rect)
-    assert seg([-1, 2], [2, 2]) == pytest.approx(1.0)            # parallel above the top side
-    assert seg([-1, 0.5], [2, 0.5]) == 0.0                         # straight through
-    assert seg([2, -1], [3, 0]) == pytest.approx(np.sqrt(2.0))     # (2, -1) is the closest point, to corner (1, 0)
-    assert seg([0.0, 2.0], [2.0, 0.0]) == pytest.approx(0.0)       # touches the corner (1, 1)
-    assert seg([0.5, 3.0], [3.0, 0.5]) == pytest.approx(np.hypot(0.75, 0.75))  # closest point (1.75, 1.75)
-    assert seg([0.5, 0.5], [0.5, 0.5]) == 0.0                      # a point inside
-
-
 def test_segment_geometry_matches_dense_sampling(world):
     rng = np.random.default_rng(3)
     p0 = rng.uniform([-7, -2.5], [7, 2.5], size=(200, 2))
@@ -115,7 +105,7 @@ def test_segment_geometry_matches_dense_sampling(world):
     t = np.linspace(0, 1, 4001)[:, None, None]
     pts = (1 - t) * p0 + t * p1
     # Both clipped at zero: inside a wall the exact value is 0, outside the bounds it is negative.
-    exact = np.maximum(rm.segment_clearance(world, p0, p1), 0.0)
+    exact = np.maximum(segment_clearance(world, p0, p1), 0.0)
     sampled = np.maximum(world.clearance(pts), 0.0).min(axis=0)
     # Sampling can only overestimate the minimum, by at most the step length.
     step = np.linalg.norm(p1 - p0, axis=1) / 4000

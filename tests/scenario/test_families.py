@@ -10,7 +10,8 @@ import yaml
 from nodnav.cli import main
 from nodnav.scenario.draws import draw, draw_generator
 from nodnav.scenario.families import FamilyError, builtin_families, family_from_dict, load_family, parse_draw_spec
-from nodnav.scenario.schema import load_scenario, scenario_to_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 from nodnav.sim.simulator import trial_generators
 
 SEEDS = {"mixed": range(1, 241), "paper-like": range(1, 121), "crowded": range(1, 41)}
@@ -77,7 +78,8 @@ def routes(s):
         start, goal = side(r.origin[0], h), side(r.destination[0], h)
         far = (goal * h, 0.0)
         tail = math.dist(r.destination, far)
-        out.append(math.dist(r.origin, far) + tail if start == 0 else math.dist(r.origin, (start * h, 0.0)) + 2 * h + tail)
+        out.append(math.dist(r.origin, far) + tail if start == 0 else math.dist(r.origin, (start * h,
+                                                                                           0.0)) + 2 * h + tail)
     return out
 
 
@@ -105,7 +107,8 @@ def test_mixed_covers_what_the_family_promises(draws):
         seen["inside"] += 0 in sides
         seen["one-sided"] += 0 not in sides and len(set(sides)) == 1
         seen["head-on"] += sides.count(-1) == sides.count(1) > 0
-        seen["mouth"] += any(abs(abs(r.destination[0]) - h - r.radius) <= 0.3 and r.destination[1] == 0 for r in s.robots)
+        seen["mouth"] += any(abs(abs(r.destination[0]) - h - r.radius) <= 0.3 and r.destination[1] == 0
+                             for r in s.robots)
         seen["axis"] += any(r.destination[1] == 0 for r in s.robots)
         seen["mixed radii"] += len({r.radius for r in s.robots}) > 1
         seen["mixed speeds"] += len({r.max_speed for r in s.robots}) > 1

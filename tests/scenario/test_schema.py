@@ -6,7 +6,10 @@ import textwrap
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import ScenarioError, builtin_names, load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import LEFT, RIGHT
 
 
@@ -54,7 +57,8 @@ def test_defaults_are_the_papers():
     s = load_scenario("3r-case1")
     o = s.opinion
     assert (o.u, o.d, o.eta, o.K1, o.T, o.alpha_min, o.K2, o.delta) == (100, 1, 1, 5, 1, 0.05, 10, 1)
-    assert s.planner.w1 == 0.4 and s.planner.varsigma == 0.1
+    prm = s.with_overrides(**{"planner.name": "prm"}).planner
+    assert prm.w1 == 0.4 and prm.varsigma == 0.1
     assert s.controller.horizon == 0.8 and s.controller.w2 == 1e-6
     assert s.game_players is None and s.n_players == 2
 
@@ -120,11 +124,14 @@ def test_minimal_file(tmp_path):
     (GOOD + "world: {bounds: [1, 2, 3]}\n", "world.bounds: expected a list of 4 numbers"),
     ("robots:\n  - {origin: [-5, 0]}\n", "robots[0]: missing 'destination' for robot 1"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0], colour: red}\n", "robots[0]: unknown key 'colour'"),
-    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n", "robots[0].origin: [0.0, 0.3] puts robot 1 (radius 0.2 m) inside a wall"),
-    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n", "robots[0].destination: [9.0, 0.0] puts robot 1 outside the world bounds"),
+    ("robots:\n  - {origin: [0, 0.3], destination: [5, 0]}\n",
+     "robots[0].origin: [0.0, 0.3] puts robot 1 (radius 0.2 m) inside a wall"),
+    ("robots:\n  - {origin: [-5, 0], destination: [9, 0]}\n",
+     "robots[0].destination: [9.0, 0.0] puts robot 1 outside the world bounds"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0]}\n  - {origin: [-5, 0.3], destination: [5, 1]}\n",
      "robots[1].origin: robot 1 and robot 2: origins overlap"),
-    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n", "robots[0].radius: must be from 0.01 to 5, got -1"),
+    ("robots:\n  - {origin: [-5, 0], destination: [5, 0], radius: -1}\n",
+     "robots[0].radius: must be from 0.01 to 5, got -1"),
 ])
 def test_malformed_is_one_clear_line(tmp_path, text, message):
     with pytest.raises(ScenarioError) as exc:

@@ -2,7 +2,9 @@
 
 import pytest
 
-from nodnav.scenario.schema import builtin_names, load_scenario, scenario_from_dict
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import check_capacity, check_layout, check_scenario, find_witness, single_file_interval
 
 
@@ -60,7 +62,7 @@ def test_robots_waiting_at_both_mouths_step_aside():
     s = scenario([((-3.25, 0.0), (6.0, 1.0)), ((3.25, 0.0), (-6.0, -1.0))])
     verdict = check_scenario(s)
     assert verdict.ok and verdict.waits  # someone had to clear a mouth first
-    for robot, (x, y) in verdict.waits:
+    for _robot, (x, y) in verdict.waits:
         mouth = (-3.0 if x < 0 else 3.0, 0.0)
         assert ((x - mouth[0]) ** 2 + (y - mouth[1]) ** 2) ** 0.5 >= 0.35 + 0.4 + 0.1 + 0.2 - 1e-9
 

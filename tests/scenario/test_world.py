@@ -67,7 +67,8 @@ def test_paper_world_is_the_two_room_layout_unchanged():
         world = paper_world(h, width, depth, height)
         assert world.bounds == (-xmax, -ymax, xmax, ymax)
         assert world.obstacles == ((-h, -ymax, h, -w), (-h, w, h, ymax))
-        assert (world.corridor.x_min, world.corridor.x_max, world.corridor.y_min, world.corridor.y_max) == (-h, h, -w, w)
+        assert (world.corridor.x_min, world.corridor.x_max, world.corridor.y_min, world.corridor.y_max) == (-h, h, -w,
+                                                                                                            w)
         assert world.entrances == ((-h, 0.0), (h, 0.0))
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from nodnav.planning import make_planner
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
-from nodnav.scenario.schema import load_scenario, scenario_from_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict
 from nodnav.sim.baselines import (
     IndependentMethod,
     best_strategy,

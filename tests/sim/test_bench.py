@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.bench import benchmark_closed_loop
 from nodnav.sim.simulator import run_trial
 

@@ -34,7 +34,7 @@ def test_the_follower_holds_one_conflict_distance_behind_a_leader_that_stays_put
 
 def test_the_follower_goes_on_as_the_leader_moves():
     ex = PlanExecution(_queue(), (1, 0), np.array([0.2, 0.2]), _settings())
-    for step in range(20):
+    for _step in range(20):
         where = ex.read(np.zeros(1))[0]
         ex.observe(where)  # everybody where the plan has them
         ex.advance()

@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.failure import FAILURE_CLASSES, classify, collision_kind, plans_failing_at_end
 from nodnav.sim.simulator import Simulation
 
@@ -49,6 +49,7 @@ def test_the_summary_names_the_class_and_the_collision_kind():
     # Discs of radius 0.2 with centres 0.3 m apart overlap; a centre 0.05 m from the corridor's
     # wall (y = 0.35) puts the disc in it.
     d = _ended(np.array([[-5.0, 1.5], [-4.7, 1.5]]))
-    assert (d["outcome"], d["collision_kind"], d["failure_class"]) == ("collision", "robot-robot", "collision-robot-robot")
+    assert (d["outcome"], d["collision_kind"], d["failure_class"]) == ("collision", "robot-robot",
+                                                                       "collision-robot-robot")
     d = _ended(np.array([[0.0, 0.3], [5.0, 1.5]]))
     assert (d["outcome"], d["collision_kind"], d["failure_class"]) == ("collision", "wall", "collision-wall")

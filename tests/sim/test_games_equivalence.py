@@ -13,7 +13,7 @@ import pytest
 from nodnav.decision.estimation import estimate_social_term, estimated_opinions
 from nodnav.decision.opinion import opinion_update, social_sum, step_size, strategy_probabilities
 from nodnav.decision.strategies import consistency_weights, passing_orders
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim import agent as agent_module
 from nodnav.sim.simulator import Simulation
 
@@ -49,7 +49,8 @@ def test_opinions_per_game_equal_opinions_per_strategy_while_the_game_stays(monk
                 dt = float(view.window_times[1] - view.window_times[0])
                 z_prime = estimated_opinions(view.window_states[list(players_)], planned, dt, self.params.K1)
                 r = estimate_social_term(z_prime, np.array([plans[of[j]].success for j in range(len(orders))]))
-                social = social_sum(r, np.ones((1, len(players_))), consistency_weights(orders, self.index, players_))[0]
+                weights = consistency_weights(orders, self.index, players_)
+                social = social_sum(r, np.ones((1, len(players_))), weights)[0]
             z_all = opinion_update(z_all, social, self.params.u, self.params.d, np.zeros(len(orders)),
                                    step_size(view.t, self.params.alpha_min))
             reference[self.index] = (game, z_all)

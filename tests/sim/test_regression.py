@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import run_trial
 
 HERE = Path(__file__).parent / "regression"

@@ -5,7 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import paper_world
 from nodnav.sim.history import History
 from nodnav.sim.simulator import Simulation, contact_counts, run_trial, straight_substeps

@@ -10,7 +10,6 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-
 #: Points of a control step at which a controller reports the motion it commands: the fractions
 #: 1/4, 2/4, 3/4 and 4/4 of the step (the simulator checks contacts there).
 STEP_FRACTIONS = np.array([0.25, 0.5, 0.75, 1.0])

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.control.base import ControlRequest
-from nodnav.control.mpc import BSplineMPC, MPCSettings
-from nodnav.scenario.schema import load_scenario
+from nodnav.control.mpc import BSplineMPC
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.params import MPCParams
 from nodnav.scenario.world import World
 
 
@@ -80,25 +81,27 @@ def queue_references(world: World, origins: np.ndarray, destinations: np.ndarray
 
 
 def benchmark_mpc(duration: float = 25.0, speed: float = 0.8, headway: float = 1.2,
-                  settings: MPCSettings = MPCSettings()) -> MPCBenchmark:
-    """Run the four-robot closed loop for ``duration`` seconds and time every MPC call."""
+                  params: MPCParams | None = None) -> MPCBenchmark:
+    """Run the four-robot closed loop for ``duration`` seconds and time every MPC call
+    (``params``: the MPC's settings, by default the scenario's)."""
     scenario = load_scenario("4r-case1")
-    world, params = scenario.world, scenario.controller
+    world = scenario.world
+    params = params or scenario.controller  # type: ignore[assignment]
     destinations = scenario.destinations[[2, 3, 0, 1]]
-    dt = params.dt
-    n_h = int(round(params.horizon / dt))
+    dt = params.dt  # type: ignore[union-attr]
+    n_h = int(round(params.horizon / dt))  # type: ignore[union-attr]
     sample_offsets = dt * np.arange(1, n_h + 1)
     steps = int(round(duration / dt))
     grid = dt * np.arange(steps + n_h + 1)
     refs = queue_references(world, scenario.origins, destinations, speed, headway, grid)
     robots = scenario.robots
     n = len(robots)
-    ctls = [BSplineMPC(world, r, params, settings) for r in robots]
+    ctls = [BSplineMPC(world, r, params) for r in robots]  # type: ignore[arg-type]
     radii = scenario.radii
     pos = scenario.origins.copy()
     vel = np.zeros_like(pos)
     # Load (or, once per machine, compile) the solver's kernels outside the timing.
-    BSplineMPC(world, robots[0], params, settings).control(ControlRequest(
+    BSplineMPC(world, robots[0], params).control(ControlRequest(  # type: ignore[arg-type]
         position=pos[0], velocity=vel[0], reference=refs[1:1 + n_h, 0], sample_times=sample_offsets,
         others=np.transpose(refs[1:1 + n_h, 1:], (1, 0, 2)), other_radii=radii[1:]))
     times, qp_times, steps_taken = [], [], []

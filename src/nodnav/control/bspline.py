@@ -132,7 +132,7 @@ def velocity_hull_operator(knots: np.ndarray) -> np.ndarray:
         raise ValueError("velocity_hull_operator needs uniform knots")
     lo, hi = domain(knots, 3)
     d1 = derivative_operator(knots, 3)
-    return np.vstack([basis_derivative([lo], knots, 3, 1), d1[1:-1], basis_derivative([hi], knots, 3, 1)])
+    return np.vstack([basis_derivative([lo], knots, 3, 1), d1[1:-1], basis_derivative([hi], knots, 3, 1)])  # type: ignore[arg-type]
 
 
 def basis_derivative(t: np.ndarray, knots: np.ndarray, degree: int, order: int = 0) -> np.ndarray:

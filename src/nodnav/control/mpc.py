@@ -90,7 +90,8 @@ from scipy.optimize import linprog
 from nodnav.compiled import compiled as _compiled
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
-from nodnav.scenario.schema import ControllerParams, RobotSpec
+from nodnav.registry import register_controller
+from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
@@ -98,48 +99,6 @@ logger = logging.getLogger(__name__)
 
 DEGREE = 3
 """The paper's third-order (cubic) B-spline."""
-
-
-@dataclass(frozen=True)
-class MPCSettings:
-    """Numerical choices of the controller (not in the paper; the defaults are the tested ones)."""
-
-    segments: int = 8
-    """Knot spans of the cubic B-spline over the horizon (one per 0.1 s for T_MPC = 0.8 s)."""
-    max_interval: float = 0.05
-    """Longest time between separation / wall constraint samples (s)."""
-    speed_polygon_sides: int = 16
-    """Sides of the inscribed polygon bounding the velocity (98 % of the limit across a face)."""
-    accel_polygon_sides: int = 8
-    """Sides of the inscribed polygon bounding the acceleration (92 % of the limit across a face)."""
-    terminal_pieces: int = 4
-    """Secants approximating the stopping-distance parabola of the terminal constraint."""
-    terminal_decel: float = 0.7
-    """Fraction of the available deceleration assumed by the terminal constraint (headroom for
-    the approximations of the next step)."""
-    sqp_iterations: int = 2
-    """QPs solved per step at most after a cold start (each re-linearised about the previous
-    QP's solution); one otherwise."""
-    sqp_tolerance: float = 0.02
-    """A further QP is solved when the solution moved farther than this from its linearisation (m)."""
-    qp_tolerance: float = 1e-9
-    """Largest row violation the QP solver accepts (DAQP's primal tolerance, m); every inequality
-    is tightened by it. DAQP's default (1e-6) left rows violated by up to 1e-6 m."""
-    evasive: bool = True
-    """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
-    the controller's earlier behaviour, kept for comparison)."""
-    evasive_penalty: float = 1e3
-    """Cost of the evasive QP per metre of intrusion into another robot's required separation
-    at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above
-    the tracking cost's sensitivity (below about 10 per metre), so the penalty is exact: no
-    intrusion that can be avoided is made."""
-    evasive_curvature: float = 1e3
-    """Quadratic cost of an intrusion (per m^2), which keeps the evasive QP strictly convex."""
-    check_tolerance: float = 1e-4
-    """Violation of a constraint, checked exactly, that makes a solution unacceptable (m, m/s, m/s^2)."""
-    contact_tolerance: float = 1e-3
-    """Penetration of the current state into a wall (the robot then brakes at once) or into another
-    robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -178,7 +137,8 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     # DAQP's constraint flags: 1 active, 2 at the lower bound.
     sense = None if start_active is None else np.concatenate(
         [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
-    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient, dtype=float),
+    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient,
+                                                                                                   dtype=float),
                                   np.ascontiguousarray(rows, dtype=float), np.full(len(low), np.inf), low, sense,
                                   primal_tol=tol)
     return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
@@ -343,8 +303,8 @@ def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
     with ``p(0) = p0``, ``v(0) = v0`` is the straight line ``p0 + v0 tau`` (control points
     ``p0 + v0 xi_k``, :func:`~nodnav.control.bspline.greville_abscissae`) plus such a curve.
     """
-    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),
-                    bspline.basis_derivative([0.0], knots, degree, 1)])
+    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),  # type: ignore[arg-type]
+                    bspline.basis_derivative([0.0], knots, degree, 1)])  # type: ignore[arg-type]
     return np.vstack([-np.linalg.solve(d0[:, :2], d0[:, 2:]), np.eye(d0.shape[1] - 2)])
 
 
@@ -527,7 +487,7 @@ class _Problem:
         self.eps_end = np.maximum(self.eps, np.append(self.eps[1:], 0.0))
 
         # Interpolation of the sampled reference and predictions.
-        self.interp_zero = interpolation_matrix(sample_times, 0.0)[0]
+        self.interp_zero = interpolation_matrix(sample_times, 0.0)[0]  # type: ignore[arg-type]
         self.interp_ends = interpolation_matrix(sample_times, self.ends)
         self.slope_end = slope_matrix(sample_times, self.term_time)
         self.check_times = np.sort(np.concatenate([self.ends, self.mids]))
@@ -552,9 +512,9 @@ class _Problem:
         # would pin the first points to the polygon's face whenever the robot is at the limit).
         d1 = h * bspline.velocity_hull_operator(knots)[1:]
         d2 = h**2 * bspline.derivative_control_operator(knots, DEGREE, 2)
-        phi_term = (bspline.basis_derivative([self.term_time], knots, DEGREE, 0)
-                    + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
-                    + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
+        phi_term = (bspline.basis_derivative([self.term_time], knots, DEGREE, 0)  # type: ignore[arg-type]
+                    + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)  # type: ignore[arg-type]
+                    + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))  # type: ignore[arg-type]
         phi = np.vstack([self.b_ends, d1, d2, phi_term])
         phi_t = phi @ ctl.nullspace
         phi_line = phi @ ctl.greville  # each functional on the line tau -> tau
@@ -720,19 +680,19 @@ class _Effort:
                 "constraints": self.constraints}
 
 
+@register_controller("mpc")
 class BSplineMPC:
     """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
 
     name = "mpc"
 
-    def __init__(self, world: World, robot: RobotSpec, params: ControllerParams,
-                 settings: MPCSettings = MPCSettings()):
+    def __init__(self, world: World, robot: RobotSpec, params: MPCParams = MPCParams()):
         if params.dt <= 0 or params.horizon <= 0 or params.dt > params.horizon:
             raise ValueError(f"need 0 < dt <= horizon, got dt={params.dt}, horizon={params.horizon}")
         self.world = world
         self.robot = robot
         self.params = params
-        self.settings = settings
+        self.settings = settings = params  # the numerical choices, read as settings.*
         self.horizon = float(params.horizon)
         self.dt = float(params.dt)
         self.knots = bspline.uniform_knots(self.horizon, settings.segments, DEGREE)
@@ -741,10 +701,10 @@ class BSplineMPC:
         self.cost_hessian = (bspline.gram_matrix(self.knots, DEGREE, 0, 0.0, self.horizon)
                              + params.w2 * bspline.gram_matrix(self.knots, DEGREE, 1, 0.0, self.horizon))
         self.obstacles = world.obstacle_array
-        self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]
+        self.b_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 0)[0]  # type: ignore[arg-type]
         # Where the robot passes within a step: the spline is curved, the chord is not it.
         self.b_substeps = bspline.basis_derivative(self.dt * STEP_FRACTIONS, self.knots, DEGREE, 0)
-        self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]
+        self.bv_step = bspline.basis_derivative([self.dt], self.knots, DEGREE, 1)[0]  # type: ignore[arg-type]
         # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
         d1 = bspline.velocity_hull_operator(self.knots)[1:]
         self.rates = np.vstack([d1, bspline.derivative_control_operator(self.knots, DEGREE, 2)])

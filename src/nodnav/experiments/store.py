@@ -40,11 +40,13 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from nodnav.errors import NodnavError
-from nodnav.provenance import UNKNOWN, code_version as current_code_version
+from nodnav.provenance import UNKNOWN
+from nodnav.provenance import code_version as current_code_version
+from nodnav.sim.failure import OUTCOMES as TRIAL_OUTCOMES
 
 DEFAULT_DB = "nodnav-results.sqlite"
 
-OUTCOMES = ("success", "collision", "deadlock", "timeout", "error")
+OUTCOMES = (*TRIAL_OUTCOMES, "error")
 
 SCHEMA_VERSION = 2
 
@@ -329,7 +331,7 @@ class ResultStore:
     def stored_versions(self, keys) -> dict[str, tuple[str, str]]:
         """``(outcome, code_version)`` of each of ``keys`` that is stored."""
         keys = list(keys)
-        out = {}
+        out = {}  # type: ignore[var-annotated]
         for start in range(0, len(keys), 500):  # keep below SQLite's limit on parameters
             chunk = keys[start:start + 500]
             rows = self._db.execute(f"SELECT key, outcome, code_version FROM trials WHERE key IN "
@@ -371,7 +373,8 @@ class ResultStore:
             raise StoreError(f"{self.path}: not a usable results database (a stored row does not parse); "
                              "if it is damaged, use another --db file") from None
 
-    def outcome_counts(self, by=("scenario", "players"), study: str | None = None, **filters) -> dict[tuple, dict[str, int]]:
+    def outcome_counts(self, by=("scenario", "players"), study: str | None = None, **filters) -> dict[tuple, dict[str,
+                                                                                                                  int]]:
         """Number of trials of each outcome per group of the columns ``by``.
 
         ``{("3r-case2", 2): {"success": 38, "deadlock": 2}, ...}``; outcomes with no trial are left out.
@@ -392,7 +395,8 @@ class ResultStore:
 
     def studies(self) -> dict[str, dict]:
         """Every stored study's specification, by name."""
-        return {name: self._json(spec) for name, spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
+        return {name: self._json(spec) for name,
+                spec in self._db.execute("SELECT name, spec FROM studies ORDER BY name")}
 
     def count(self, study: str | None = None, **filters) -> int:
         """Number of stored trials of ``study`` matching ``filters``."""

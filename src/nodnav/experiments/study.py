@@ -26,9 +26,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nodnav.errors import NodnavError, shown, shown_path
+from nodnav.errors import NodnavError, nearest_hint, shown, shown_path
+from nodnav.planning import PLANNERS
+from nodnav.scenario.fields import ScenarioError, strategy_number
+from nodnav.scenario.files import builtin_names, read_yaml
 from nodnav.scenario.limits import MAX_ROBOTS, RANGES
-from nodnav.scenario.schema import ScenarioError, builtin_names, nearest_hint, read_yaml, strategy_number
+from nodnav.sim import METHODS
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
 
@@ -143,7 +146,7 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
         if not low <= v <= high:  # also refuses nan and inf
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((name, v))
-    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))
+    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))  # type: ignore[arg-type, return-value]
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -179,10 +182,8 @@ def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
 
 
 def known_methods() -> tuple[str, ...]:
-    """Names of the navigation methods the simulator knows."""
-    from nodnav.sim.methods import METHODS
-
-    return tuple(METHODS)
+    """Names of the navigation methods the simulator knows (:data:`~nodnav.registry.METHODS`)."""
+    return METHODS.names()
 
 
 def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | None = None) -> SweepSpec:
@@ -191,19 +192,19 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
     Errors name ``labels[key]`` for a key the user typed as an option (``--players``), else
     ``source: key``.
     """
-    from nodnav.planning import PLANNERS
-
     def at(key: str) -> str:
         return (labels or {}).get(key) or f"{source}: {key}"
 
     if not isinstance(data, dict):
-        raise StudyError(f"{source}: expected a mapping with keys such as 'scenarios' and 'trials', got {type(data).__name__}")
+        raise StudyError(f"{source}: expected a mapping with keys such as 'scenarios' and 'trials', "
+                         f"got {type(data).__name__}")
     for key in data:
         if key not in STUDY_KEYS:
             raise StudyError(f"{source}: unknown key {shown(key)}{nearest_hint(key, STUDY_KEYS, 'valid keys')}")
     if "scenarios" not in data and not data.get("families"):
         if labels and "scenarios" in labels:
-            raise StudyError(f"{labels['scenarios']}: give at least one scenario (a built-in name, a YAML path, or all)")
+            raise StudyError(f"{labels['scenarios']}: give at least one scenario (a built-in name, a YAML path, "
+                             "or all)")
         raise StudyError(f"{source}: missing key 'scenarios' (a list of built-in names or YAML paths, or all) "
                          "or 'families'")
     name = data.get("name", "sweep")
@@ -234,7 +235,7 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
     for key, values in changes.items():
         if not values:
             raise StudyError(f"{at(key)}: expected at least one value")
-    spec = dataclasses.replace(spec, **changes)
+    spec = dataclasses.replace(spec, **changes)  # type: ignore[arg-type]
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
                                             spec.methods)) * spec.trials
     if size > MAX_SWEEP_TRIALS:

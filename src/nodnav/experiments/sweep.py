@@ -37,13 +37,13 @@ from typing import Callable
 from joblib import Parallel, delayed, parallel_config
 from tqdm import tqdm
 
-import nodnav
 from nodnav.errors import NodnavError
-from nodnav.experiments.metrics import json_ready
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
-from nodnav.provenance import code_version
-from nodnav.scenario.schema import Scenario, load_scenario, scenario_to_dict
+from nodnav.provenance import PACKAGE_VERSION, code_version
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import Scenario, scenario_to_dict
+from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)
 
@@ -291,7 +291,7 @@ def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, 
                 trial = by_key[out.key]
                 store.add_trial(key=out.key, study=spec.name, config=trial.config, seed=trial.seed,
                                 outcome=out.outcome, summary=out.summary, metrics=out.metrics,
-                                version=nodnav.__version__, error=out.error,
+                                version=PACKAGE_VERSION, error=out.error,
                                 code_version=out.code_version or current)
                 outcomes[out.outcome] += 1
                 bar.update(1)
@@ -308,7 +308,8 @@ def _dask_client(scheduler: str, timeout: float):
     try:
         from dask.distributed import Client
     except ImportError:
-        raise NodnavError("running on a Dask cluster needs dask and distributed: pip install 'nodnav[cluster]'") from None
+        raise NodnavError("running on a Dask cluster needs dask and distributed: "
+                          "pip install 'nodnav[cluster]'") from None
     try:
         return Client(scheduler, timeout=timeout)
     except (OSError, TimeoutError) as exc:

@@ -6,7 +6,7 @@ fails head-on (the two robots on each side play with each other and both pairs e
 variants below change one thing at a time, each selectable by name in the scenario file
 (``opinion.conflict``, ``opinion.nonplayers``); ``nodnav reproduce`` runs them all on the
 built-in scenarios for every ``1 <= k < N_r - 1`` (part ``reduction``) and the report puts them
-side by side (:func:`section_reduction`).
+side by side (:mod:`nodnav.reporting.reduction`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,10 @@ from pathlib import Path
 
 import yaml
 
-from nodnav.scenario.schema import load_scenario, scenario_to_dict
+from nodnav.experiments.analysis import RateCell
+from nodnav.experiments.statistics import fmt_rate, wilson_interval
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 
 
 @dataclass(frozen=True)
@@ -82,12 +85,10 @@ STUDY_REDUCTION = "game-reduction-variants"
 """The built-in scenarios of up to four robots, for every 1 <= k < N_r - 1, as every variant."""
 
 
-def reduction_rows(cells) -> tuple[list[str], list[list[str]], dict[str, tuple[int, int]]]:
+def reduction_rows(cells: list[RateCell]) -> tuple[list[str], list[list[str]], dict[str, tuple[int, int]]]:
     """The report's table from rate cells keyed ``(scenario name, players)``: one row per scenario
     and k, one column per variant; and each variant's pooled ``(successes, trials)``."""
-    from nodnav.experiments.report import fmt_rate, wilson_interval
-
-    by: dict[tuple[str, int], dict[str, object]] = {}
+    by: dict[tuple[str, int], dict[str, RateCell]] = {}
     pooled: dict[str, list[int]] = {v.name: [0, 0] for v in VARIANTS}
     for cell in cells:
         split = split_name(cell.key[0])
@@ -105,33 +106,3 @@ def reduction_rows(cells) -> tuple[list[str], list[list[str]], dict[str, tuple[i
     rows.append(["**pooled**", ""] + [fmt_rate(wilson_interval(*totals[v.name]), totals[v.name][1])
                                       if v.name in totals else "" for v in VARIANTS])
     return ["scenario", "k"] + [f"`{v.name}`" for v in VARIANTS], rows, totals
-
-
-def section_reduction(rep) -> None:
-    """The report section: success per scenario and k for every variant, side by side."""
-    from nodnav.experiments.report import _md_table, fmt_rate, newcombe_difference, rate_cells, wilson_interval
-
-    rep.add("## Game reduction: variants side by side", "",
-            "Every built-in scenario of three or four robots with every number of game players "
-            "1 <= k < N_r - 1, zero initial opinions, no bias, NOD with the fast planner, run as each "
-            "of these variants (`opinion.conflict`, `opinion.nonplayers` in the scenario file):", "")
-    rep.add(*(f"- `{v.name}`: {v.description}" for v in VARIANTS), "")
-    if not rep.has(STUDY_REDUCTION):
-        rep.absent(STUDY_REDUCTION, "Run `nodnav reproduce` (part `reduction`) to add it.")
-        return
-    header, rows, totals = reduction_rows(rate_cells(rep.store, STUDY_REDUCTION, by=("scenario", "players")))
-    rep.add(*_md_table(header, rows))
-    sentences = []
-    if "paper" in totals:
-        s0, n0 = totals["paper"]
-        for v in VARIANTS[1:]:
-            if v.name in totals:
-                s1, n1 = totals[v.name]
-                d = newcombe_difference(s1, n1, s0, n0)
-                sentences.append(f"`{v.name}` against the paper's rule: {fmt_rate(wilson_interval(s1, n1))} vs "
-                                 f"{fmt_rate(wilson_interval(s0, n0))} %, difference {100 * d.rate:+.1f} points "
-                                 f"[{100 * d.low:+.1f}, {100 * d.high:+.1f}] (Newcombe 95 %).")
-    if totals:
-        best = max(totals, key=lambda name: totals[name][0] / totals[name][1])
-        sentences.append(f"Highest pooled success: `{best}`.")
-    rep.read(sentences)

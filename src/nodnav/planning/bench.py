@@ -119,7 +119,8 @@ def _roadmap_summaries(planners) -> tuple[RoadmapSummary, ...]:
     return tuple(out)
 
 
-def benchmark_planner(name: str, scenarios, cache_dir: str = "", roadmap_vertices: int | None = None) -> PlannerBenchmark:
+def benchmark_planner(name: str, scenarios, cache_dir: str = "",
+                      roadmap_vertices: int | None = None) -> PlannerBenchmark:
     """Run planner ``name`` on every order of every scenario (loaded :class:`Scenario` objects)."""
     from nodnav.planning import make_planner
     from nodnav.planning.prm import PRMStarPlanner
@@ -129,12 +130,12 @@ def benchmark_planner(name: str, scenarios, cache_dir: str = "", roadmap_vertice
     min_sep, gap, queries = math.inf, math.inf, 0
     jobs = []
     for sc in scenarios:
-        changes = {"name": name}
+        changes: dict = {"planner.name": name}
         if cache_dir:
-            changes["cache_dir"] = cache_dir
+            changes["planner.cache_dir"] = cache_dir
         if roadmap_vertices is not None:
-            changes["roadmap_vertices"] = roadmap_vertices
-        params = dataclasses.replace(sc.planner, **changes)
+            changes["planner.roadmap_vertices"] = roadmap_vertices
+        params = sc.with_overrides(**changes).planner
         if (sc.world, params) not in planners:
             planners[(sc.world, params)] = make_planner(params, sc.world)
         planner = planners[(sc.world, params)]
@@ -178,7 +179,8 @@ def run_planner_benchmark(planners=("fast", "prm"), scenarios=None, cache_dir: s
 
     ``cache_dir`` and ``roadmap_vertices`` override the scenarios' PRM* settings when given.
     """
-    from nodnav.scenario.schema import builtin_names, load_scenario
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
 
     names = tuple(builtin_names() if scenarios is None else scenarios)
     loaded = [load_scenario(n) for n in names]

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
-from nodnav.planning.geometry import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
 
 #: Radii (m) of the rings of candidate spots around the robot, and directions per ring.
 RINGS = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)

@@ -19,7 +19,7 @@ How a query is answered
    walls, around where the robots after it in the order stand (so that every later robot can
    always wait there), and around the destinations of the robots before it (where they will
    park for good). A robot that starts closer than required to one of these may move away but
-   not closer (:func:`~nodnav.planning.geometry.disc_violations`). When that is impossible the
+   not closer (:func:`~nodnav.planning.visibility.disc_violations`). When that is impossible the
    robot falls back to avoiding the destinations only, then the walls only; the timing step
    then decides.
 4. Timing: the path is cut into cells of at most ``v_max dt / 2``; per time step the robot waits,
@@ -82,18 +82,16 @@ from functools import cached_property
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
+from nodnav.geometry import TOL, segment_clearance, segment_point_distance
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
-from nodnav.planning.geometry import (
-    TOL,
+from nodnav.planning.visibility import (
     GeometricPath,
     VisibilityGraph,
     arc_length_grid,
     disc_violations,
     polyline_point_distance,
-    segment_clearance,
-    segment_point_distance,
 )
-from nodnav.scenario.schema import PlannerParams
+from nodnav.scenario.params import FastPlannerParams as PlannerParams
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)

@@ -49,9 +49,9 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
 from nodnav.planning.roadmap import (
-    TOL,
     BuildReport,
     CompiledRules,
     Roadmap,
@@ -64,6 +64,8 @@ from nodnav.planning.roadmap import (
     proximity_penalty,
     separation_thresholds,
 )
+from nodnav.registry import register_planner
+from nodnav.scenario.params import PRMParams
 from nodnav.scenario.world import World
 
 CONNECT_FACTOR = 3
@@ -196,6 +198,7 @@ class EdgeRules:
         return self.goal if to_goal else self.inner
 
 
+@register_planner("prm")
 class PRMStarPlanner:
     """PRM* on cached joint-space roadmaps (appendix); see the module docstring.
 
@@ -213,7 +216,7 @@ class PRMStarPlanner:
 
     name = "prm"
 
-    def __init__(self, world: World, params) -> None:
+    def __init__(self, world: World, params: PRMParams) -> None:
         self.world = world
         self.params = params
         self._keys: dict[tuple, tuple[RoadmapKey, str]] = {}
@@ -295,10 +298,12 @@ class PRMStarPlanner:
             floor = -TOL if name == "start" else radii - TOL
             if np.any(clear < floor):
                 return SearchResult.failed(f"{name} configuration puts robot(s) {rank[clear < floor].tolist()} "
-                                           f"{'inside a wall' if name == 'start' else 'closer to a wall than their radius'}")
+                                           + ("inside a wall" if name == "start"
+                                              else "closer to a wall than their radius"))
             if np.any(gaps < radii[a] + radii[b] - TOL):
                 bad = int(np.argmax(gaps < radii[a] + radii[b] - TOL))
-                return SearchResult.failed(f"{name} configuration has robots {rank[a[bad]]} and {rank[b[bad]]} overlapping")
+                return SearchResult.failed(f"{name} configuration has robots {rank[a[bad]]} and {rank[b[bad]]} "
+                                           "overlapping")
             need_clear[name], need_sep[name] = np.minimum(radii, clear), np.minimum(sep, gaps)
         rules = EdgeRules(
             inner=CompiledRules.of(self.world, radii, directions, sep),

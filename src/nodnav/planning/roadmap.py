@@ -88,6 +88,7 @@ from pathlib import Path
 import numpy as np
 
 from nodnav.compiled import compiled as _njit
+from nodnav.geometry import TOL, segment_clearance, segment_clearance_one
 from nodnav.scenario.world import World
 
 log = logging.getLogger(__name__)
@@ -97,8 +98,6 @@ FORMAT_VERSION = 2
 either changes, so that stale cached roadmaps are rebuilt)."""
 ROADMAP_SEED = 1
 """Seed of every roadmap build (part of the key)."""
-TOL = 1e-9
-"""Geometric tolerance (m), as in :meth:`World.is_free`."""
 BEFORE, INSIDE, AFTER = 0, 1, 2
 """Stages of a robot relative to the corridor, along its crossing direction."""
 
@@ -207,62 +206,6 @@ def configurations_valid(world: World, configs: np.ndarray, radii: np.ndarray, d
     return ok & order_holds(p[..., 0], directions, world)
 
 
-def segment_rectangle_distance(p0: np.ndarray, p1: np.ndarray, rect) -> np.ndarray:
-    """Distance (m) between segments ``p0 -> p1`` ``(..., 2)`` and a closed axis-aligned rectangle.
-
-    Zero when they meet (slab test). Otherwise the distance between two disjoint convex sets, a
-    segment and a rectangle, is reached at an endpoint of the segment or at a corner of the
-    rectangle, so it is the least of the two endpoint-to-rectangle and four corner-to-segment
-    distances: exact, no sampling.
-    """
-    x0, y0, x1, y1 = (float(v) for v in rect)
-    p0 = np.asarray(p0, dtype=float)
-    p1 = np.asarray(p1, dtype=float)
-    d = p1 - p0
-    lo = np.zeros(p0.shape[:-1])
-    hi = np.ones(p0.shape[:-1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for axis, (a, b) in enumerate(((x0, x1), (y0, y1))):
-            q, v = p0[..., axis], d[..., axis]
-            ta, tb = (a - q) / v, (b - q) / v
-            within = (q >= a) & (q <= b)
-            lo = np.maximum(lo, np.where(v == 0, np.where(within, -np.inf, np.inf), np.minimum(ta, tb)))
-            hi = np.minimum(hi, np.where(v == 0, np.where(within, np.inf, -np.inf), np.maximum(ta, tb)))
-    hit = lo <= hi
-
-    def to_rect(p):
-        dx = np.maximum(np.maximum(x0 - p[..., 0], p[..., 0] - x1), 0.0)
-        dy = np.maximum(np.maximum(y0 - p[..., 1], p[..., 1] - y1), 0.0)
-        return np.hypot(dx, dy)
-
-    dist = np.minimum(to_rect(p0), to_rect(p1))
-    dd = np.sum(d * d, axis=-1)
-    for corner in ((x0, y0), (x0, y1), (x1, y0), (x1, y1)):
-        w = np.asarray(corner) - p0
-        t = np.clip(np.sum(w * d, axis=-1) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-        dist = np.minimum(dist, np.linalg.norm(w - t[..., None] * d, axis=-1))
-    return np.where(hit, 0.0, dist)
-
-
-def segment_clearance(world: World, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """Least clearance (m) along segments ``p0 -> p1`` ``(..., 2)``, clipped at 0 inside a wall.
-
-    The distance to the outer boundary is concave along a segment, so its minimum is at an
-    endpoint; each wall contributes :func:`segment_rectangle_distance`.
-    """
-    p0 = np.asarray(p0, dtype=float)
-    p1 = np.asarray(p1, dtype=float)
-    bx0, by0, bx1, by1 = world.bounds
-
-    def to_bounds(p):
-        return np.minimum(np.minimum(p[..., 0] - bx0, bx1 - p[..., 0]), np.minimum(p[..., 1] - by0, by1 - p[..., 1]))
-
-    c = np.minimum(to_bounds(p0), to_bounds(p1))
-    for rect in world.obstacles:
-        c = np.minimum(c, segment_rectangle_distance(p0, p1, rect))
-    return c
-
-
 def segment_pair_distance(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
     """Least distance (m) of every pair of robots while the joint configuration moves linearly.
 
@@ -320,7 +263,7 @@ def edges_valid(world: World, start: np.ndarray, end: np.ndarray, radii: np.ndar
                 chunk: int = 20000) -> np.ndarray:
     """Whether straight joint edges ``start -> end`` ``(E, 2n)`` keep rules 1-3 at every instant, ``(E,)``.
 
-    Exact: walls by :func:`segment_clearance`, pairs by :func:`segment_pair_distance`, order by
+    Exact: walls by :func:`nodnav.geometry.segment_clearance`, pairs by :func:`segment_pair_distance`, order by
     :func:`edge_order_holds`. ``min_separation`` per pair and ``min_clearance`` per robot
     (default: the radii) are the required values.
     """
@@ -377,46 +320,12 @@ def _order_ok(xs, dirs, cx0, cx1):
 
 
 @_njit
-def _segment_clear(ax, ay, bx, by, box, rects):
-    """Least clearance along one segment (scalar :func:`segment_clearance`)."""
-    c = min(min(ax - box[0], box[2] - ax), min(ay - box[1], box[3] - ay))
-    c = min(c, min(min(bx - box[0], box[2] - bx), min(by - box[1], box[3] - by)))
-    dx, dy = bx - ax, by - ay
-    dd = dx * dx + dy * dy
-    for m in range(rects.shape[0]):
-        x0, y0, x1, y1 = rects[m, 0], rects[m, 1], rects[m, 2], rects[m, 3]
-        lo, hi = 0.0, 1.0
-        for axis in range(2):
-            q, v, a, b = (ax, dx, x0, x1) if axis == 0 else (ay, dy, y0, y1)
-            if v == 0.0:
-                if q < a or q > b:
-                    lo, hi = 1.0, 0.0
-            else:
-                ta, tb = (a - q) / v, (b - q) / v
-                lo = max(lo, min(ta, tb))
-                hi = min(hi, max(ta, tb))
-        if lo <= hi:
-            return 0.0
-        for px, py in ((ax, ay), (bx, by)):
-            ex = max(max(x0 - px, px - x1), 0.0)
-            ey = max(max(y0 - py, py - y1), 0.0)
-            c = min(c, math.sqrt(ex * ex + ey * ey))
-        for qx, qy in ((x0, y0), (x0, y1), (x1, y0), (x1, y1)):
-            t = 0.0
-            if dd > 0.0:
-                t = min(max(((qx - ax) * dx + (qy - ay) * dy) / dd, 0.0), 1.0)
-            ex, ey = ax + t * dx - qx, ay + t * dy - qy
-            c = min(c, math.sqrt(ex * ex + ey * ey))
-    return c
-
-
-@_njit
 def _state_ok(x, clear, dirs, sep, box, rects, cx0, cx1):
     """Rules 1-3 at one configuration (scalar :func:`configurations_valid`); ``clear`` is the
     required wall clearance per robot (the radii), ``sep`` the required distance per pair."""
     n = clear.shape[0]
     for i in range(n):
-        if _segment_clear(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], box, rects) < clear[i] - TOL:
+        if segment_clearance_one(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], rects, box) < clear[i] - TOL:
             return False
     k = 0
     for a in range(n):
@@ -436,7 +345,7 @@ def _motion_ok(xa, xb, clear, dirs, sep, box, rects, cx0, cx1):
     """Rules 1-3 all along one straight edge (scalar :func:`edges_valid`)."""
     n = clear.shape[0]
     for i in range(n):
-        if _segment_clear(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], box, rects) < clear[i] - TOL:
+        if segment_clearance_one(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], rects, box) < clear[i] - TOL:
             return False
     k = 0
     for a in range(n):
@@ -1010,15 +919,15 @@ def build_all_roadmaps(world: World, radius: float = 0.2, robot_counts=(1, 2, 3,
     """Build (or load) every roadmap that robots of equal ``radius`` can need in ``world``: all
     :func:`direction_patterns` for every robot count, in parallel processes (joblib).
 
-    Defaults come from :class:`~nodnav.scenario.schema.PlannerParams`. Reports are returned in
+    Defaults come from :class:`~nodnav.scenario.params.PRMParams`. Reports are returned in
     the order robot count, then pattern. ``progress(report, done, total_vertices)``, if given,
     is called as each roadmap is ready, with the vertices of all roadmaps as the total.
     """
     from joblib import Parallel, delayed
 
-    from nodnav.scenario.schema import PlannerParams
+    from nodnav.scenario.params import PRMParams
 
-    defaults = PlannerParams()
+    defaults = PRMParams()
     vpr = defaults.roadmap_vertices if vertices_per_robot is None else vertices_per_robot
     mg = defaults.margin if margin is None else margin
     vs = defaults.varsigma if varsigma is None else varsigma

@@ -226,7 +226,7 @@ class _Attempt:
                 y += (group[k - 1].radius + gaps[k] if k else 0.0) + r.radius
                 r.origin = np.array([_mm(x), _mm(y)])
         for r in group:
-            self._fit(side, r.origin, r.radius)
+            self._fit(side, r.origin, r.radius)  # type: ignore[arg-type]
 
     def inside(self, group: list[_Robot]) -> None:
         """Robots in the corridor, those heading left left of those heading right: nobody must pass."""
@@ -269,7 +269,7 @@ class _Attempt:
     def scatter(self, side: int, r: float, robots: list[_Robot]) -> np.ndarray:
         for _ in range(100):
             p = self._room_point(side, r, False)
-            if self._free(p, r, robots, None):
+            if self._free(p, r, robots, None):  # type: ignore[arg-type]
                 return p
         raise _Reject("no free place to start in a room")
 
@@ -313,8 +313,8 @@ class _Attempt:
             "world": {"bounds": [x0, y0, x1, y1], "obstacles": [[-h, y0, h, -half], [-h, half, h, y1]],
                       "corridor": {"x_min": -h, "x_max": h, "y_min": -half, "y_max": half},
                       "entrances": [[-h, 0.0], [h, 0.0]]},
-            "robots": [{"origin": [float(r.origin[0]), float(r.origin[1])],
-                        "destination": [float(r.destination[0]), float(r.destination[1])],
+            "robots": [{"origin": [float(r.origin[0]), float(r.origin[1])],  # type: ignore[index]
+                        "destination": [float(r.destination[0]), float(r.destination[1])],  # type: ignore[index]
                         "radius": r.radius, "max_speed": r.speed, "max_accel": f.max_accel} for r in robots],
             "time_limit": time_limit(robots_routes(h, robots), [r.speed for r in robots], 2 * h,
                                      max(r.radius for r in robots)),
@@ -337,7 +337,7 @@ def robots_routes(h: float, robots: list[_Robot]) -> list[float]:
 
 def time_limit(routes, speeds, corridor_length: float, r_max: float) -> float:
     """``ceil(20 + 1.5 (max_i l_i / v_i + sum_i (L + 4 r_max) / v_i))`` seconds (module docstring)."""
-    own = max(l / v for l, v in zip(routes, speeds))
+    own = max(route / v for route, v in zip(routes, speeds))
     queue = sum((corridor_length + 4 * r_max) / v for v in speeds)
     return float(math.ceil(20.0 + 1.5 * (own + queue)))
 
@@ -360,7 +360,7 @@ def draw(family: Family, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
             return scenario
         kind = re.sub(r"[0-9][0-9.]*", "N", verdict.reason)  # group reasons that differ only in numbers
         reasons[kind] = reasons.get(kind, 0) + 1
-    common = max(reasons, key=reasons.get) if reasons else "-"
+    common = max(reasons, key=reasons.get) if reasons else "-"  # type: ignore[arg-type]
     raise FamilyError(f"{family.name}:{seed}: no valid scenario in {attempts} attempts (most often: {common}); "
                       "widen the family's rooms or ranges, or set rooms.grow: true")
 

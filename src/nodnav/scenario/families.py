@@ -1,7 +1,8 @@
 """Generated scenario families: a YAML file of ranges, and deterministic draws from it.
 
 A family describes many scenarios at once, so that nobody tunes a method to a few fixed ones.
-``draw(family, seed)`` (:mod:`nodnav.scenario.draws`) turns it into one :class:`~nodnav.scenario.schema.Scenario`; the same
+``draw(family,
+       seed)`` (:mod:`nodnav.scenario.draws`) turns it into one :class:`~nodnav.scenario.schema.Scenario`; the same
 family and seed give the same scenario on any machine, and every draw is valid and solvable in
 principle by construction (:mod:`nodnav.scenario.validity` states and checks the rules).
 
@@ -57,7 +58,10 @@ from typing import Any
 
 import yaml
 
-from nodnav.scenario.schema import ScenarioError, nearest_hint, scenario_from_dict, yaml_error_message
+from nodnav.errors import nearest_hint
+from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.files import yaml_error_message
+from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import CLEARANCE
 
 MAX_ROBOTS = 8
@@ -223,7 +227,8 @@ def _check_keys(data: dict, valid, where: str) -> None:
 def family_from_dict(data: Any, source: str = "family") -> Family:
     """Validate a parsed family mapping (see the module docstring) and build a :class:`Family`."""
     if not isinstance(data, dict):
-        raise FamilyError(f"{source}: expected a mapping with keys such as 'family' and 'robots', got {type(data).__name__}")
+        raise FamilyError(f"{source}: expected a mapping with keys such as 'family' and 'robots', "
+                          f"got {type(data).__name__}")
     _check_keys(data, _TOP, source)
     name = data.get("family")
     if not isinstance(name, str) or not _NAME.fullmatch(name):
@@ -258,13 +263,16 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
         kw["grow"] = rooms["grow"]
     put("count", robots, "count", lambda v: _count(v, w + "robots.count"))
     put("radius", robots, "radius", lambda v: _range(v, w + "robots.radius", 0.08, 2.0, " (m)"))
-    put("mixed_radii", robots, "mixed_radii", lambda v: _real(v, w + "robots.mixed_radii", 0.0, 1.0, " (a probability)"))
+    put("mixed_radii", robots, "mixed_radii", lambda v: _real(v, w + "robots.mixed_radii", 0.0, 1.0,
+                                                              " (a probability)"))
     put("max_speed", robots, "max_speed", lambda v: _range(v, w + "robots.max_speed", 0.01, 5.0, " (m/s)"))
-    put("mixed_speeds", robots, "mixed_speeds", lambda v: _real(v, w + "robots.mixed_speeds", 0.0, 1.0, " (a probability)"))
+    put("mixed_speeds", robots, "mixed_speeds", lambda v: _real(v, w + "robots.mixed_speeds", 0.0, 1.0,
+                                                                " (a probability)"))
     put("max_accel", robots, "max_accel", lambda v: _real(v, w + "robots.max_accel", 0.01, 20.0, " (m/s^2)"))
     if "traffic" in data:
         kw["traffic"] = _weights(data["traffic"], w + "traffic", TRAFFIC)
-    put("inside_probability", inside, "probability", lambda v: _real(v, w + "inside.probability", 0.0, 1.0, " (a probability)"))
+    put("inside_probability", inside, "probability", lambda v: _real(v, w + "inside.probability", 0.0, 1.0,
+                                                                     " (a probability)"))
     if "max" in inside:
         m = inside["max"]
         if isinstance(m, bool) or not isinstance(m, int) or not 0 <= m < MAX_ROBOTS:

@@ -58,9 +58,15 @@ MAX_DESCRIPTION = 1000
 MAX_FILE_BYTES = 1 << 20
 """Largest scenario or study file read (bytes): 1 MiB, a thousand times a built-in scenario."""
 
-#: Accepted range ``(least, greatest, least_included)`` of every number of a scenario, by key
-#: (``robots`` keys apply to ``robot_defaults`` and to every robot alike).
-RANGES: dict[str, tuple[float, float, bool]] = {
+MAX_LIST = 100
+"""Longest list of numbers a parameter may hold (e.g. ``planner.retreat_radii``)."""
+
+Range = tuple[float, float, bool]
+"""An accepted range ``(least, greatest, least_included)``; the greatest is always included."""
+
+#: Accepted range of every number of a scenario, by key (``robots`` keys apply to
+#: ``robot_defaults`` and to every robot alike; a list's range applies to each of its numbers).
+RANGES: dict[str, Range] = {
     # The opinion layer. The discrete update (8) multiplies z by (1 - alpha d) with alpha(0) = 1:
     # d above 2 makes it diverge; u, b, z0 far above the paper's values only overflow.
     "opinion.u": (0.0, 1e4, True),
@@ -86,11 +92,33 @@ RANGES: dict[str, tuple[float, float, bool]] = {
     "planner.w1": (0.0, 1e3, True),
     "planner.varsigma": (0.0, 1.0, True),
     "planner.roadmap_vertices": (10, 10_000, True),
+    # The fast planner's ways of making room: spots up to a world's side away, in rings of a few
+    # dozen directions; each try and each level of the cascade replans robots, so both stay small.
+    "planner.retreat_radii": (0.01, MAX_WORLD_SIZE, True),
+    "planner.retreat_angles": (1, 360, True),
+    "planner.retreat_tries": (1, 100, True),
+    "planner.cascade": (0, 6, True),
     # The controller: the MPC needs dt <= horizon; its constraint grid has horizon / 0.05 s pieces.
     "controller.dt": (0.01, 1.0, True),
     "controller.horizon": (0.01, 5.0, True),
     "controller.w2": (0.0, 1e3, True),
     "controller.safety_margin": (0.0, 0.5, True),
+    "controller.samples": (1, 100, True),
+    # The MPC's numerical settings: its QP has 2 (segments + 3) - 4 variables and rows for every
+    # interval of at least max_interval over the horizon, every polygon side and terminal piece.
+    "controller.segments": (2, 64, True),
+    "controller.max_interval": (0.01, 1.0, True),
+    "controller.speed_polygon_sides": (4, 64, True),
+    "controller.accel_polygon_sides": (4, 64, True),
+    "controller.terminal_pieces": (1, 32, True),
+    "controller.terminal_decel": (0.0, 1.0, False),
+    "controller.sqp_iterations": (1, 10, True),
+    "controller.sqp_tolerance": (0.0, 1.0, True),
+    "controller.qp_tolerance": (1e-12, 1e-3, True),
+    "controller.evasive_penalty": (1.0, 1e9, True),
+    "controller.evasive_curvature": (1e-6, 1e9, True),
+    "controller.check_tolerance": (0.0, 0.1, True),
+    "controller.contact_tolerance": (0.0, 0.1, True),
     # The simulation.
     "sim.goal_tolerance": (0.0, 1.0, False),
     "sim.collision_tolerance": (0.0, 0.1, True),
@@ -104,13 +132,13 @@ RANGES: dict[str, tuple[float, float, bool]] = {
 }
 
 
-def range_text(key: str) -> str:
-    """The range of ``key`` in words, e.g. ``from 0.01 to 1`` or ``above 0 and at most 2``."""
-    low, high, closed = RANGES[key]
+def range_text(key: str | Range) -> str:
+    """The range of ``key`` (or a range) in words, e.g. ``from 0.01 to 1`` or ``above 0 and at most 2``."""
+    low, high, closed = RANGES[key] if isinstance(key, str) else key
     return f"from {low:g} to {high:g}" if closed else f"above {low:g} and at most {high:g}"
 
 
-def in_range(key: str, value: float) -> bool:
-    """Whether ``value`` lies in the range of ``key``."""
-    low, high, closed = RANGES[key]
+def in_range(key: str | Range, value: float) -> bool:
+    """Whether ``value`` lies in the range of ``key`` (or in a range)."""
+    low, high, closed = RANGES[key] if isinstance(key, str) else key
     return (value >= low if closed else value > low) and value <= high

@@ -134,7 +134,8 @@ def check_layout(scenario: Scenario) -> Verdict:
     lo, hi = single_file_interval(radii)
     width = world.corridor.width
     if not lo - 1e-9 <= width <= hi + 1e-9:
-        return Verdict(False, f"corridor width {width:.3f} m is outside the single-file interval [{lo:.3f}, {hi:.3f}] m")
+        return Verdict(False,
+                       f"corridor width {width:.3f} m is outside the single-file interval [{lo:.3f}, {hi:.3f}] m")
     for what, pts in (("origin", origins), ("destination", dests)):
         clear = world.clearance(pts) - radii
         k = int(np.argmin(clear))

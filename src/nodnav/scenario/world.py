@@ -6,38 +6,15 @@ Points are ``(..., 2)`` arrays in metres.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from nodnav.compiled import compiled
+from nodnav.geometry import TOL, clearance_of, segment_clearance
 
 #: Sides of the corridor, as returned by :meth:`World.side_of`.
 LEFT, INSIDE, RIGHT = -1, 0, 1
-
-
-@compiled
-def clearance_of(points: np.ndarray, bounds: np.ndarray, obstacles: np.ndarray) -> np.ndarray:
-    """Signed distance ``(N,)`` from each of ``points`` ``(N, 2)`` to the nearest of the
-    rectangles ``obstacles`` ``(M, 4)`` or the box ``bounds`` ``(4,)``; negative inside a wall.
-
-    To a rectangle it is the length of the point's excess over the rectangle's extent when
-    outside, minus the distance to the nearest side when inside.
-    """
-    out = np.empty(points.shape[0])
-    for i in range(points.shape[0]):
-        x, y = points[i, 0], points[i, 1]
-        d = min(min(x - bounds[0], bounds[2] - x), min(y - bounds[1], bounds[3] - y))
-        for o in range(obstacles.shape[0]):
-            dx = max(obstacles[o, 0] - x, x - obstacles[o, 2])
-            dy = max(obstacles[o, 1] - y, y - obstacles[o, 3])
-            outside = math.hypot(max(dx, 0.0), max(dy, 0.0))
-            inside = min(max(dx, dy), 0.0)
-            d = min(d, outside + inside)
-        out[i] = d
-    return out
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -103,9 +80,13 @@ class World:
         flat = np.ascontiguousarray(p.reshape(-1, 2))
         return clearance_of(flat, self.bounds_array, self.obstacle_array).reshape(p.shape[:-1])
 
+    def segment_clearance(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Least clearance (m) along each segment ``a -> b`` (:func:`nodnav.geometry.segment_clearance`)."""
+        return segment_clearance(self, a, b)
+
     def is_free(self, points: np.ndarray, radius: float | np.ndarray) -> np.ndarray:
         """Whether a disc of ``radius`` centred at each point lies in free space."""
-        return self.clearance(points) >= np.asarray(radius) - 1e-9
+        return self.clearance(points) >= np.asarray(radius) - TOL
 
     def side_of(self, points: np.ndarray) -> np.ndarray:
         """``LEFT`` (-1) left of the corridor, ``INSIDE`` (0) between the entrances, ``RIGHT`` (+1)."""

@@ -1,0 +1,10 @@
+"""The closed loop: robots' decisions, their motion, and how a trial is judged.
+
+Importing this package registers the built-in navigation methods (:data:`~nodnav.registry.METHODS`):
+``nod`` (:mod:`nodnav.sim.methods`) and the baselines (:mod:`nodnav.sim.baselines`).
+"""
+
+from nodnav.registry import METHODS
+from nodnav.sim import baselines, methods
+
+__all__ = ["METHODS", "baselines", "methods"]

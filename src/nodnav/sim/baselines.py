@@ -45,15 +45,24 @@ from nodnav.decision.opinion import strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
-from nodnav.experiments.metrics import arrival_times
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
-from nodnav.planning.geometry import VisibilityGraph
+from nodnav.planning.visibility import VisibilityGraph
+from nodnav.registry import register_method
 from nodnav.scenario.limits import MAX_GAME, MAX_STRATEGIES
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import (Decision, NODAgent, PlanCache, RobotView, approach_sides, clearing_plan, joint_requests,
-                              local_order)
-from nodnav.sim.methods import MPC_SAMPLES, PlannedMethod
+from nodnav.sim.agent import (
+    Decision,
+    NODAgent,
+    PlanCache,
+    RobotView,
+    approach_sides,
+    clearing_plan,
+    joint_requests,
+    local_order,
+)
+from nodnav.sim.methods import PlannedMethod
+from nodnav.sim.metrics import arrival_times
 
 log = logging.getLogger(__name__)
 
@@ -150,6 +159,8 @@ NO_OPINION = np.zeros(0)
 # Methods built on the planner and the MPC
 
 
+@register_method("no-coordination", help="the paper's |N_i| = 0 case: each robot plans alone and treats the others as "
+                 "obstacles")
 class NoCoordinationMethod(PlannedMethod):
     """The paper's ``|N_i| = 0`` case: NOD agents with no game players (Section IV).
 
@@ -237,6 +248,8 @@ class FixedOrderMethod(PlannedMethod):
                         players=players, game=tuple(range(self.scenario.n_robots)), order=order)
 
 
+@register_method("independent", help="no social term (u = 0): each robot keeps the order its own initial opinion and "
+                 "bias prefer")
 class IndependentMethod(FixedOrderMethod):
     """Every robot keeps its own preferred order: no social term (u = 0) and no communication.
 
@@ -267,6 +280,8 @@ class IndependentMethod(FixedOrderMethod):
         return out
 
 
+@register_method("closest-first", help="a fixed convention: order by distance to the entrance at the start, ties to "
+                 "the lower number")
 class ClosestFirstMethod(FixedOrderMethod):
     """A social convention without communication: nearest to its entrance goes first.
 
@@ -285,6 +300,7 @@ class ClosestFirstMethod(FixedOrderMethod):
                 for i, view in views.items()}
 
 
+@register_method("oracle", help="a central coordinator gives everyone the order with the smallest planned makespan")
 class OracleMethod(FixedOrderMethod):
     """A central coordinator gives every robot the order with the smallest planned makespan.
 
@@ -346,13 +362,15 @@ class OrcaParams:
     than ``radius_margin`` so that the preferred velocity does not press against a wall."""
 
 
+@register_method("orca", help="reactive collision avoidance with ORCA (RVO2), walls as obstacles; needs "
+                 "nodnav[baselines]")
 class OrcaMethod:
     """Reactive collision avoidance with ORCA (RVO2), no passing order and no planner.
 
     Each robot, at every control step, loads the positions and velocities of every robot as it
     observes them into an RVO2 simulator holding the walls (:func:`wall_polygons`), sets its own
     preferred velocity towards the next vertex of its shortest route to its destination around
-    the walls (:class:`~nodnav.planning.geometry.VisibilityGraph`, clearance radius plus
+    the walls (:class:`~nodnav.planning.visibility.VisibilityGraph`, clearance radius plus
     ``route_margin``), and lets RVO2 compute its new velocity; it then moves at that velocity for
     one step. RVO2 has no acceleration limit (its agents are holonomic single integrators).
     ``planner`` is accepted for the common interface and ignored.
@@ -371,7 +389,8 @@ class OrcaMethod:
         self.dt = scenario.controller.dt
         n = scenario.n_robots
         horizon = scenario.controller.horizon
-        self.sample_times = horizon * np.arange(1, MPC_SAMPLES + 1) / MPC_SAMPLES
+        samples = scenario.controller.samples
+        self.sample_times = horizon * np.arange(1, samples + 1) / samples
         self.rvo = pyrvo.RVOSimulator()
         self.rvo.set_time_step(self.dt)
         for r in scenario.robots:

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodnav.scenario.schema import load_scenario
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import Simulation, run_trial
 
 

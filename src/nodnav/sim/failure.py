@@ -23,6 +23,9 @@ position whatever the others decide: agreement cannot help it.
 
 from __future__ import annotations
 
+OUTCOMES = ("success", "collision", "deadlock", "timeout")
+"""How a trial can end, as the simulator judges it."""
+
 FAILURE_CLASSES = {
     "success": "every robot arrived, no contact",
     "collision-robot-robot": "two robots touched",

@@ -16,12 +16,10 @@ import numpy as np
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, make_controller
 from nodnav.planning import make_planner
+from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
 from nodnav.sim.execution import ExecutionSettings, PlanExecution
-
-#: Number of MPC constraint samples over the horizon.
-MPC_SAMPLES = 8
 
 
 @compiled
@@ -109,7 +107,8 @@ class PlannedMethod:
         self.controllers = [make_controller(scenario.controller, scenario.world, r) for r in scenario.robots]
         self.decisions: dict[int, Decision] = {}
         horizon = scenario.controller.horizon
-        self.sample_times = horizon * np.arange(1, MPC_SAMPLES + 1) / MPC_SAMPLES
+        samples = scenario.controller.samples
+        self.sample_times = horizon * np.arange(1, samples + 1) / samples
         self._offsets = np.concatenate([[0.0], self.sample_times])
         n = scenario.n_robots
         self._others = [[k for k in range(n) if k != i] for i in range(n)]
@@ -202,6 +201,8 @@ class PlannedMethod:
         return out
 
 
+@register_method("nod", help="the paper: every robot runs Algorithm 1 (opinions, game players, planning per "
+                 "strategy, MPC) (default)")
 class NODMethod(PlannedMethod):
     """The paper's opinion-driven navigation: every robot runs Algorithm 1."""
 
@@ -215,21 +216,6 @@ class NODMethod(PlannedMethod):
         return self.agents[i].decide(view)
 
 
-#: Every method by name: ``nod`` is a class here; the baselines (:mod:`nodnav.sim.baselines`,
-#: which imports this module) are named by class and imported when one is made.
-METHODS = {"nod": NODMethod, "no-coordination": "NoCoordinationMethod", "independent": "IndependentMethod",
-           "closest-first": "ClosestFirstMethod", "oracle": "OracleMethod", "orca": "OrcaMethod"}
-
-
 def make_method(name: str, scenario: Scenario, rngs: list[np.random.Generator], planner=None) -> Method:
-    """The method called ``name`` for one trial."""
-    if name not in METHODS:
-        from nodnav.errors import NodnavError
-
-        raise NodnavError(f"unknown method '{name}'; choose one of {', '.join(METHODS)}")
-    cls = METHODS[name]
-    if isinstance(cls, str):
-        from nodnav.sim import baselines
-
-        cls = getattr(baselines, cls)
-    return cls(scenario, rngs, planner)
+    """The method registered as ``name`` (:data:`~nodnav.registry.METHODS`) for one trial."""
+    return METHODS.create(name, scenario, rngs, planner)

@@ -20,17 +20,15 @@ from nodnav.compiled import compiled
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import strategy_index
-from nodnav.experiments.metrics import compute_metrics, json_ready
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import make_method
+from nodnav.sim.metrics import compute_metrics, json_ready
 
 log = logging.getLogger(__name__)
-
-OUTCOMES = ("success", "collision", "deadlock", "timeout")
 
 #: Sub-steps at which contacts are checked between two control steps: where the controllers
 #: report their motion (:data:`~nodnav.control.base.STEP_FRACTIONS`), else on straight lines.
@@ -101,7 +99,7 @@ class TrialResult:
     history: History = field(repr=False)
     """The full record."""
     metrics: dict = field(default_factory=dict)
-    """Further per-trial metrics (see :mod:`nodnav.experiments.metrics`)."""
+    """Further per-trial metrics (see :mod:`nodnav.sim.metrics`)."""
     collision_kind: str = ""
     """What the collision that ended the trial was between: ``robot-robot``, ``wall``, or empty."""
 

@@ -59,7 +59,7 @@ def plot_strategy_frequencies(rows, paper: list[tuple[float, ...]], labels: list
                               title: str = "") -> Path:
     """One panel per row of a strategy table: the paper's percentages beside ours with 95 % intervals.
 
-    ``rows`` are :class:`~nodnav.experiments.report.StrategyFrequencies`, ``paper`` the paper's
+    ``rows`` are :class:`~nodnav.experiments.analysis.StrategyFrequencies`, ``paper`` the paper's
     percentages per row, ``labels`` each row's name.
     """
     fig = new_figure(4.2 * max(1, len(rows)), 3.4)
@@ -88,7 +88,7 @@ def plot_strategy_frequencies(rows, paper: list[tuple[float, ...]], labels: list
 def plot_closed_loop_grid(grid, path: str | Path) -> Path:
     """Fig. 2c: share of trials realising S1 over ``z_11(0)`` (across) and ``z_21(0)`` (up).
 
-    ``grid`` is a :class:`~nodnav.experiments.report.ClosedLoopGrid`; each cell is labelled with
+    ``grid`` is a :class:`~nodnav.experiments.analysis.ClosedLoopGrid`; each cell is labelled with
     ``S1 trials / realised orders``, and cells without a realised order are grey.
     """
     z = np.asarray(grid.z_values, dtype=float)

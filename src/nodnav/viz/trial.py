@@ -8,12 +8,12 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 from matplotlib import colormaps
 from matplotlib.legend_handler import HandlerPatch
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
 from matplotlib.transforms import blended_transform_factory
+from PIL import Image
 
 from nodnav.decision.strategies import order_label, strategy_index, strategy_label
 from nodnav.sim.history import History
@@ -87,7 +87,9 @@ def selected_orders(ranks: np.ndarray) -> list[list[tuple[int, ...]]]:
 
 def order_name(order: tuple[int, ...], n_robots: int) -> str:
     """An order in the paper's notation; a full order also by its strategy name, ``S5 (3,1,2)``."""
-    return f"{strategy_label(strategy_index(order))} {order_label(order)}" if len(order) == n_robots else order_label(order)
+    if len(order) == n_robots:
+        return f"{strategy_label(strategy_index(order))} {order_label(order)}"
+    return order_label(order)
 
 
 def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) -> None:
@@ -222,7 +224,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     fig.tight_layout()
     canvas = fig.canvas
     canvas.draw()
-    background = canvas.copy_from_bbox(fig.bbox)
+    background = canvas.copy_from_bbox(fig.bbox)  # type: ignore[attr-defined]
     trails = [ax.plot([], [], "-", color=robot_color(i), linewidth=1.2, alpha=0.8, animated=True)[0]
               for i in range(scenario.n_robots)]
     discs = [ax.add_patch(Circle(pos[0, i], r.radius, facecolor=robot_color(i), edgecolor="k", zorder=4,
@@ -235,11 +237,11 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
         steps.append(len(arrays["times"]) - 1)
     frames = []
     for k in steps:
-        canvas.restore_region(background)
+        canvas.restore_region(background)  # type: ignore[attr-defined]
         artists = []
         for i in range(scenario.n_robots):
             trails[i].set_data(pos[: k + 1, i, 0], pos[: k + 1, i, 1])
-            discs[i].center = pos[k, i]
+            discs[i].center = pos[k, i]  # type: ignore[attr-defined]
             artists += [trails[i], discs[i]]
         label = ""
         if len(arrays["decision_times"]):
@@ -253,7 +255,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
         title.set_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}")
         for artist in artists + [title]:
             ax.draw_artist(artist)
-        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
+        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())  # type: ignore[attr-defined]
         for artist in artists[2 * scenario.n_robots:]:
             artist.remove()
     path = Path(path)

@@ -1,23 +1,17 @@
-"""The paper's evaluation read back from a results database, and ``report.md`` written from it.
+"""``report.md``: the paper's evaluation written from a results database, in words, tables and figures.
 
 Every number of the report comes from the trials stored by :mod:`nodnav.experiments.sweep`,
-grouped by the study that ran them (the names are the ``STUDY_*`` constants, which
-:mod:`nodnav.experiments.reproduce` uses). Only two things are recomputed when the report is
-built, both deterministically: the pure-NOD heatmaps of Fig. 2a/2b (an ODE) and the two snapshot
-figures, whose trials are re-run from their stored configuration and seed.
-
-Statistics
-----------
-A rate ``k / n`` is reported with its 95 % Wilson score interval (:func:`wilson_interval`); a
-difference of two rates with Newcombe's hybrid score interval (:func:`newcombe_difference`),
-which is built from the two Wilson intervals. Two rates are called different only when their
-intervals do not overlap, a conservative rule that the report states wherever it uses it.
+grouped by the study that ran them (:mod:`nodnav.experiments.paper` names them; the numbers
+are read by :mod:`nodnav.experiments.analysis`, the figures drawn by :mod:`nodnav.viz.report`).
+Only two things are recomputed when the report is built, both deterministically: the pure-NOD
+heatmaps of Fig. 2a/2b (an ODE) and the two snapshot figures, whose trials are re-run from their
+stored configuration and seed. Rates carry 95 % Wilson intervals, differences Newcombe's
+(:mod:`nodnav.experiments.statistics`).
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from collections import defaultdict
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -25,396 +19,55 @@ from pathlib import Path
 
 import numpy as np
 
+from nodnav.decision.heatmap import steady_state_selection, z_grid
 from nodnav.decision.strategies import order_label, passing_orders
-from nodnav.experiments.breakdown import breakdown_lines
-from nodnav.experiments.store import OUTCOMES, ResultStore, TrialRecord
-from nodnav.experiments.variants import STUDY_REDUCTION, section_reduction
+from nodnav.experiments.analysis import (
+    closed_loop_grid,
+    method_rows,
+    methods_reading,
+    paper_inside,
+    pooled,
+    rate_cells,
+    sign_rule_agreement,
+    table_rows,
+)
+from nodnav.experiments.paper import (
+    META_STUDY,
+    NEAR_ALL_MARGIN,
+    PAPER_CLAIMED_SETS,
+    PAPER_NEAR_ALL,
+    PAPER_TABLE1,
+    PAPER_TABLE2,
+    SNAPSHOTS,
+    STUDY_FIG2C,
+    STUDY_METHODS,
+    STUDY_PLANNERS,
+    STUDY_SUCCESS,
+    STUDY_TABLE1,
+    STUDY_TABLE2,
+)
+from nodnav.experiments.statistics import (
+    fmt_mean_sd,
+    fmt_rate,
+    intervals_separate,
+    mean_sd,
+    newcombe_difference,
+    planner_verdict,
+    wilson_interval,
+)
+from nodnav.experiments.store import OUTCOMES, ResultStore
+from nodnav.experiments.variants import STUDY_REDUCTION
+from nodnav.reporting.breakdown import breakdown_lines
+from nodnav.reporting.markdown import md_table, produced
+from nodnav.reporting.reduction import section_reduction
+from nodnav.scenario.schema import scenario_from_dict
+from nodnav.sim.simulator import run_trial
+from nodnav.viz.heatmap import plot_heatmap
+from nodnav.viz.report import plot_closed_loop_grid, plot_rate_bars, plot_strategy_frequencies
+from nodnav.viz.trial import save_snapshots
 
 log = logging.getLogger(__name__)
 
-#: Two-sided 95 % quantile of the standard normal distribution.
-Z95 = 1.959963984540054
-
-STUDY_SUCCESS = "paper-success-rates"
-"""Every built-in scenario x every game-player count, NOD with the fast planner (Fig. 3)."""
-STUDY_TABLE1 = "paper-table1"
-"""3-Robot Case-2 with zero and distance-based initial opinions (Table I)."""
-STUDY_TABLE2 = "paper-table2"
-"""3-Robot Case-3 without bias and with b = 150 on S3 and S5 (Table II)."""
-STUDY_FIG2C = "paper-fig2c"
-"""2-Robot Case-2, u = 10, over a grid of given z_11(0), z_21(0) (Fig. 2c)."""
-STUDY_METHODS = "methods"
-"""Every navigation method on every built-in scenario with its own settings."""
-STUDY_PLANNERS = "planners"
-"""The success-rate study with every planner compared."""
-META_STUDY = "reproduce"
-"""Not a study of trials: what ``nodnav reproduce`` asked for and did, stored in the studies table."""
-
-#: Table I of the paper, percent per strategy S1..S6, by initial opinions.
-PAPER_TABLE1 = {"zero": (10.0, 21.67, 10.00, 18.33, 6.67, 33.33), "distance": (0.0, 0.0, 40.0, 60.0, 0.0, 0.0)}
-#: Table II of the paper, percent per strategy S1..S6, by bias label.
-PAPER_TABLE2 = {"": (6.67, 41.67, 8.33, 23.33, 1.67, 18.33), "S3=150,S5=150": (0.0, 0.0, 53.33, 0.0, 46.67, 0.0)}
-#: The strategies each paper row's claim is about (1-based): robot 2 first (Table I, eq. (11)),
-#: robot 1 second (Table II, bias).
-PAPER_CLAIMED_SETS = {("table1", "distance"): (3, 4), ("table2", "S3=150,S5=150"): (3, 5)}
-#: The paper's success rates (Fig. 3 and its text): 0 % without game players, "close to 100 %" with any.
-PAPER_NEAR_ALL = 100.0
-#: How close to 100 % "close to" is taken to be when reading our numbers against the paper.
-NEAR_ALL_MARGIN = 10.0
-#: A planner difference inside +-this many percentage points counts as "barely matters".
-PLANNER_EQUIVALENCE = 10.0
-
-SNAPSHOTS = (
-    {"scenario": "3r-case4", "players": 2, "count": 4, "figure": "fig4-3r-case4-snapshots.png",
-     "paper": "Fig. 4: 3-Robot Case-4, every robot plays with all others"},
-    {"scenario": "4r-case4", "players": 1, "count": 5, "figure": "fig5-4r-case4-snapshots.png",
-     "paper": "Fig. 5: 4-Robot Case-4, one game player per robot"},
-)
-
-
-# ---------------------------------------------------------------------------------------------
-# Statistics
-
-
-@dataclass(frozen=True)
-class Interval:
-    """A rate (or a difference of rates) and its confidence interval, all as fractions in [0, 1]
-    (in [-1, 1] for a difference); arrays when the inputs were arrays, NaN where ``n = 0``."""
-
-    rate: np.ndarray | float
-    """Point estimate ``k / n``."""
-    low: np.ndarray | float
-    """Lower end of the interval."""
-    high: np.ndarray | float
-    """Upper end of the interval."""
-
-
-def wilson_interval(successes, trials, z: float = Z95) -> Interval:
-    """Wilson score interval of a binomial proportion ``k / n`` (Wilson 1927).
-
-    ``centre = (k + z^2/2) / (n + z^2)``, ``half-width = z sqrt(k (n - k) / n + z^2 / 4) / (n + z^2)``:
-    the set of ``p`` that a two-sided score test at level ``z`` does not reject. Vectorised over
-    ``successes`` and ``trials``; NaN where ``trials == 0``. Unlike the normal approximation it
-    stays inside [0, 1] and is not degenerate at ``k = 0`` or ``k = n``.
-    """
-    k = np.asarray(successes, dtype=float)
-    n = np.asarray(trials, dtype=float)
-    if np.any(k < 0) or np.any(k > n):
-        raise ValueError(f"need 0 <= successes <= trials, got {successes!r} of {trials!r}")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rate = np.where(n > 0, k / n, np.nan)
-        denom = n + z * z
-        centre = (k + z * z / 2.0) / denom
-        half = z * np.sqrt(np.where(n > 0, k * (n - k) / n, np.nan) + z * z / 4.0) / denom
-    # At k = 0 and k = n the ends are exactly 0 and 1; rounding would put them a hair inside.
-    low = np.where(k == 0, 0.0, np.clip(centre - half, 0.0, 1.0))
-    high = np.where(k == n, 1.0, np.clip(centre + half, 0.0, 1.0))
-    low, high = np.where(n > 0, low, np.nan), np.where(n > 0, high, np.nan)
-    if rate.ndim == 0:
-        return Interval(float(rate), float(low), float(high))
-    return Interval(rate, low, high)
-
-
-def newcombe_difference(k1, n1, k2, n2, z: float = Z95) -> Interval:
-    """Difference ``p1 - p2`` of two independent proportions with Newcombe's hybrid score interval.
-
-    With Wilson intervals ``[l_i, u_i]`` of each proportion (Newcombe 1998, method 10):
-    ``low = d - sqrt((p1 - l1)^2 + (u2 - p2)^2)``, ``high = d + sqrt((u1 - p1)^2 + (p2 - l2)^2)``.
-    """
-    a, b = wilson_interval(k1, n1, z), wilson_interval(k2, n2, z)
-    d = np.asarray(a.rate) - np.asarray(b.rate)
-    low = d - np.sqrt((np.asarray(a.rate) - a.low) ** 2 + (b.high - np.asarray(b.rate)) ** 2)
-    high = d + np.sqrt((a.high - np.asarray(a.rate)) ** 2 + (np.asarray(b.rate) - b.low) ** 2)
-    if d.ndim == 0:
-        return Interval(float(d), float(low), float(high))
-    return Interval(d, low, high)
-
-
-def intervals_separate(a: Interval, b: Interval) -> int:
-    """+1 when ``a``'s interval lies wholly above ``b``'s, -1 wholly below, 0 when they overlap or either is empty."""
-    if any(math.isnan(float(x)) for x in (a.low, a.high, b.low, b.high)):
-        return 0
-    if a.low > b.high:
-        return 1
-    if a.high < b.low:
-        return -1
-    return 0
-
-
-def fmt_rate(iv: Interval, n: int | None = None) -> str:
-    """``92.5 [81.8, 97.4]`` in percent, with `` (n)`` when ``n`` is given; ``-`` when undefined."""
-    if math.isnan(float(iv.rate)):
-        return "-"
-    text = f"{100 * iv.rate:.1f} [{100 * iv.low:.1f}, {100 * iv.high:.1f}]"
-    return f"{text} ({n})" if n is not None else text
-
-
-def _mean_sd(values) -> tuple[float, float, int]:
-    v = np.array([x for x in values if x is not None and math.isfinite(x)], dtype=float)
-    if v.size == 0:
-        return math.nan, math.nan, 0
-    return float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0, int(v.size)
-
-
-def _fmt_mean_sd(mean: float, sd: float, n: int, digits: int = 1) -> str:
-    if n == 0:
-        return "-"
-    return f"{mean:.{digits}f} ± {sd:.{digits}f}" if n > 1 else f"{mean:.{digits}f}"
-
-
-# ---------------------------------------------------------------------------------------------
-# Outcome rates
-
-
-@dataclass(frozen=True)
-class RateCell:
-    """The outcomes of the trials of one group (a scenario and a game-player count, a method, ...)."""
-
-    key: tuple
-    """The group, e.g. ``("3r-case2", 2)``."""
-    counts: dict[str, int]
-    """Trials per outcome (outcomes with none left out)."""
-
-    @property
-    def trials(self) -> int:
-        """Number of trials."""
-        return int(sum(self.counts.values()))
-
-    def rate(self, outcome: str = "success") -> Interval:
-        """Share of trials with ``outcome`` and its Wilson interval."""
-        return wilson_interval(self.counts.get(outcome, 0), self.trials)
-
-
-def rate_cells(store: ResultStore, study: str, by=("scenario", "players"), **filters) -> list[RateCell]:
-    """Outcome counts of ``study`` grouped by the columns ``by``, in the database's order."""
-    return [RateCell(key, counts) for key, counts in store.outcome_counts(by=by, study=study, **filters).items()]
-
-
-def pooled(cells: list[RateCell], outcome: str = "success") -> tuple[int, int]:
-    """Total trials with ``outcome`` and total trials over ``cells``."""
-    return sum(c.counts.get(outcome, 0) for c in cells), sum(c.trials for c in cells)
-
-
-# ---------------------------------------------------------------------------------------------
-# Strategy frequencies (Tables I and II)
-
-
-@dataclass(frozen=True)
-class StrategyFrequencies:
-    """How often each passing order was realised in a set of trials."""
-
-    label: str
-    """What the trials have in common, e.g. ``distance``."""
-    counts: np.ndarray
-    """``(N_s,)`` trials whose robots entered the corridor in the order of strategy ``S_{j+1}``."""
-    trials: int
-    """Trials in the set."""
-
-    @property
-    def realised(self) -> int:
-        """Trials in which every robot entered the corridor (so a passing order was realised)."""
-        return int(self.counts.sum())
-
-    @property
-    def incomplete(self) -> int:
-        """Trials that ended before every robot had entered the corridor."""
-        return self.trials - self.realised
-
-    @property
-    def share(self) -> Interval:
-        """Share of each strategy among the realised orders, with Wilson intervals ``(N_s,)``."""
-        return wilson_interval(self.counts, np.full(self.counts.shape, self.realised))
-
-    def set_share(self, strategies) -> Interval:
-        """Share of the realised orders that are one of ``strategies`` (1-based numbers)."""
-        return wilson_interval(int(self.counts[[j - 1 for j in strategies]].sum()), self.realised)
-
-
-def strategy_frequencies(records: list[TrialRecord], n_strategies: int, label: str = "") -> StrategyFrequencies:
-    """Count the realised passing order (the stored ``strategy``, 1-based) of every trial.
-
-    A trial without a complete corridor entry order (``strategy`` null) counts in ``trials`` but
-    in no strategy.
-    """
-    counts = np.zeros(n_strategies, dtype=int)
-    for r in records:
-        s = r.summary.get("strategy")
-        if s is not None:
-            if not 1 <= int(s) <= n_strategies:
-                raise ValueError(f"trial {r.key[:12]}: strategy {s} outside S1..S{n_strategies}")
-            counts[int(s) - 1] += 1
-    return StrategyFrequencies(label=label, counts=counts, trials=len(records))
-
-
-def table_rows(store: ResultStore, study: str, column: str, values, n_robots: int) -> list[StrategyFrequencies]:
-    """One :class:`StrategyFrequencies` per value of ``column`` (``init`` or ``bias``) in ``study``."""
-    n_s = math.factorial(n_robots)
-    return [strategy_frequencies(store.records(study, **{column: v, "method": "nod"}), n_s, label=v) for v in values]
-
-
-def paper_inside(freq: StrategyFrequencies, paper: tuple[float, ...]) -> int:
-    """Number of strategies whose paper percentage lies inside our 95 % interval."""
-    sh = freq.share
-    p = np.asarray(paper) / 100.0
-    return int(np.sum((p >= np.asarray(sh.low) - 1e-12) & (p <= np.asarray(sh.high) + 1e-12)))
-
-
-# ---------------------------------------------------------------------------------------------
-# Fig. 2c
-
-
-@dataclass(frozen=True)
-class ClosedLoopGrid:
-    """Fig. 2c: how often the robots realised S1 = (1, 2), per pair of initial opinions."""
-
-    z_values: np.ndarray
-    """``(N,)`` grid values of ``z_11(0)`` (rows) and ``z_21(0)`` (columns)."""
-    s1: np.ndarray
-    """``(N, N)`` trials that realised S1."""
-    realised: np.ndarray
-    """``(N, N)`` trials that realised a complete order."""
-    trials: np.ndarray
-    """``(N, N)`` trials run."""
-    u: float
-    """Attention ``u`` of the trials (NaN when they differ)."""
-
-    @property
-    def fraction(self) -> np.ndarray:
-        """Share of realised orders that were S1; NaN where no order was realised."""
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.where(self.realised > 0, self.s1 / np.maximum(self.realised, 1), np.nan)
-
-
-def closed_loop_grid(records: list[TrialRecord]) -> ClosedLoopGrid:
-    """Group Fig. 2c trials by their given initial opinions ``z_11(0)`` and ``z_21(0)``."""
-    cells: dict[tuple[float, float], list[int]] = defaultdict(lambda: [0, 0, 0])
-    us = set()
-    for r in records:
-        op = r.config["scenario"]["opinion"]
-        z0 = op["z0"]
-        cell = cells[(float(z0[0][0]), float(z0[1][0]))]
-        s = r.summary.get("strategy")
-        cell[0] += int(s == 1)
-        cell[1] += int(s is not None)
-        cell[2] += 1
-        us.add(float(op["u"]))
-    values = np.array(sorted({a for a, _ in cells} | {c for _, c in cells}), dtype=float)
-    index = {v: i for i, v in enumerate(values)}
-    arrays = np.zeros((3, len(values), len(values)), dtype=int)
-    for (a, c), counts in cells.items():
-        arrays[:, index[a], index[c]] = counts
-    return ClosedLoopGrid(values, arrays[0], arrays[1], arrays[2], us.pop() if len(us) == 1 else math.nan)
-
-
-def sign_rule_agreement(grid: ClosedLoopGrid) -> tuple[int, int]:
-    """Cells off the anti-diagonal where the majority realised order follows the pure NOD's rule
-    (S1 when ``z_11(0) + z_21(0) > 0``, S2 when negative, Fig. 2b), and cells with a majority."""
-    z = grid.z_values
-    total = z[:, None] + z[None, :]
-    frac = grid.fraction
-    decided = (np.abs(total) > 1e-12) & np.isfinite(frac) & (np.abs(frac - 0.5) > 1e-12)
-    agree = decided & ((frac > 0.5) == (total > 0))
-    return int(agree.sum()), int(decided.sum())
-
-
-# ---------------------------------------------------------------------------------------------
-# Methods comparison
-
-
-@dataclass(frozen=True)
-class MethodRow:
-    """One method on one scenario."""
-
-    scenario: str
-    """Scenario name."""
-    method: str
-    """Method name."""
-    cell: RateCell
-    """Outcome counts."""
-    makespan: tuple[float, float, int]
-    """Mean and standard deviation of the makespan over successful trials (s), and their number."""
-    smoothness: tuple[float, float, int]
-    """Mean and standard deviation of the smoothness metric over successful trials (m/s per step), and their
-    number (a robot stuck in a deadlock stands still, which would look smooth)."""
-
-
-def method_rows(records: list[TrialRecord]) -> list[MethodRow]:
-    """Rates and metrics per (scenario, method), in scenario then method order."""
-    groups: dict[tuple[str, str], list[TrialRecord]] = defaultdict(list)
-    for r in records:
-        groups[(r.scenario, r.method)].append(r)
-    rows = []
-    for (scenario, method), recs in sorted(groups.items()):
-        counts: dict[str, int] = defaultdict(int)
-        for r in recs:
-            counts[r.outcome] += 1
-        rows.append(MethodRow(scenario, method, RateCell((scenario, method), dict(counts)),
-                              _mean_sd(r.summary.get("makespan_s") for r in recs if r.outcome == "success"),
-                              _mean_sd(r.metrics.get("smoothness_mps") for r in recs if r.outcome == "success")))
-    return rows
-
-
-def methods_reading(rows: list[MethodRow], reference: str = "nod") -> list[str]:
-    """Sentences that read the methods table, generated from its numbers alone."""
-    methods = sorted({r.method for r in rows})
-    if len(methods) < 2:
-        return [f"Only {', '.join(methods) or 'no method'} is in the database: there is nothing to compare."]
-    out = []
-    pooled_rates = {}
-    for m in methods:
-        cells = [r.cell for r in rows if r.method == m]
-        k, n = pooled(cells)
-        pooled_rates[m] = (wilson_interval(k, n), k, n)
-    ranking = sorted(methods, key=lambda m: -pooled_rates[m][0].rate)
-    out.append("Pooled over the scenarios, success rates rank " + "; ".join(
-        f"{m} {fmt_rate(pooled_rates[m][0])} ({pooled_rates[m][1]}/{pooled_rates[m][2]})" for m in ranking) + ".")
-    for m in methods:
-        cells = [r.cell for r in rows if r.method == m]
-        failures = {o: pooled(cells, o)[0] for o in OUTCOMES if o != "success"}
-        worst = max(failures, key=failures.get)
-        if failures[worst]:
-            out.append(f"{m}: most failures are {worst}s ({failures[worst]} of {pooled(cells)[1]} trials).")
-    if reference in methods:
-        ref = {r.scenario: r for r in rows if r.method == reference}
-        for m in methods:
-            if m == reference:
-                continue
-            higher, lower, same, faster, compared, smoother, both = [], [], [], 0, 0, 0, 0
-            for r in rows:
-                if r.method != m or r.scenario not in ref:
-                    continue
-                other = ref[r.scenario]
-                side = intervals_separate(other.cell.rate(), r.cell.rate())
-                (higher if side > 0 else lower if side < 0 else same).append(r.scenario)
-                if r.makespan[2] and other.makespan[2]:
-                    compared += 1
-                    faster += int(r.makespan[0] < other.makespan[0])
-                if r.smoothness[2] and other.smoothness[2]:
-                    both += 1
-                    smoother += int(r.smoothness[0] < other.smoothness[0])
-            d = newcombe_difference(pooled_rates[reference][1], pooled_rates[reference][2], pooled_rates[m][1],
-                                    pooled_rates[m][2])
-            text = (f"{reference} vs {m}: pooled difference {100 * d.rate:+.1f} points [{100 * d.low:+.1f}, "
-                    f"{100 * d.high:+.1f}] (Newcombe 95 %); per scenario, {reference}'s success rate is higher on "
-                    f"{len(higher)} scenario(s)"
-                    f"{' (' + ', '.join(higher) + ')' if higher else ''}, lower on {len(lower)}"
-                    f"{' (' + ', '.join(lower) + ')' if lower else ''}, and not distinguishable on {len(same)}")
-            if compared:
-                text += f"; where both succeeded, {m} had the shorter mean makespan on {faster} of {compared}"
-            if both:
-                text += (f"; where both succeeded, {m} moved more smoothly (lower mean velocity change) on "
-                         f"{smoother} of {both}")
-            out.append(text + ".")
-        n = int(np.median([r.cell.trials for r in rows]))
-        iv = wilson_interval(n / 2, n)
-        out.append(f"With a median of {n} trials per cell, a 50 % rate is known only to within "
-                   f"{100 * iv.low:.0f}-{100 * iv.high:.0f} %: differences smaller than that width go unnoticed "
-                   "under the non-overlap rule.")
-    return out
-
-
-# ---------------------------------------------------------------------------------------------
-# The report
 
 
 @dataclass(frozen=True)
@@ -457,16 +110,6 @@ class ReportResult:
     """Generated readings, in report order (also in ``report.md``)."""
 
 
-def _produced(command: str, source: str) -> str:
-    return f"*Produced by `{command}` {source}.*"
-
-
-def _md_table(header: list[str], rows: list[list[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return lines
-
-
 class _Report:
     """Collects the markdown, figures and readings of one report."""
 
@@ -489,7 +132,7 @@ class _Report:
 
     def figure(self, path: Path, alt: str, source: str) -> None:
         self.figures.append(path)
-        self.add("", f"![{alt}]({path.name})", "", _produced(self.command, source), "")
+        self.add("", f"![{alt}]({path.name})", "", produced(self.command, source), "")
 
     def absent(self, study: str, how: str) -> None:
         self.missing.append(study)
@@ -506,8 +149,9 @@ def _section_overview(rep: _Report, db_path: Path) -> None:
     rep.add("# nodnav: the paper's evaluation, reproduced", "",
             f"Generated by `{rep.command}` on {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC from the results "
             f"database `{db_path.name}` ({records_n} trials, code versions {', '.join(versions) or '-'}"
-            f"{f'; {store.stale_count()} older rows re-run under a newer version are kept apart' if store.stale_count() else ''}"
-            "). Every number below "
+            + (f"; {store.stale_count()} older rows re-run under a newer version are kept apart"
+               if store.stale_count() else "")
+            + "). Every number below "
             "is read from that database; only the Fig. 2a/2b heatmaps (an ODE) and the two snapshot trials "
             "(re-run from their stored seed) are recomputed, both deterministically. The paper is Alghamdi and Park, "
             "*Opinion-Driven Decision-Making for Multi-Robot Navigation through Narrow Corridors*.", "",
@@ -522,7 +166,7 @@ def _section_overview(rep: _Report, db_path: Path) -> None:
             n = store.count(p["study"])
             rows.append([p["title"], f"`{p['study']}`", p["target"], p["seeds"], n,
                          "complete" if p["seeds"] >= p["target"] else f"cut to {p['seeds']} of {p['target']} seeds"])
-        rep.add(*_md_table(["part", "study", "trials per cell asked", "trials per cell run", "trials stored", "status"],
+        rep.add(*md_table(["part", "study", "trials per cell asked", "trials per cell run", "trials stored", "status"],
                            rows))
         budget = meta.get("budget_s")
         rep.add("", f"`{meta.get('command', 'nodnav reproduce')}` ran with {meta.get('jobs', '?')} worker process(es)"
@@ -545,7 +189,6 @@ def _section_overview(rep: _Report, db_path: Path) -> None:
 
 
 def _section_success(rep: _Report) -> None:
-    from nodnav.viz.report import plot_rate_bars
 
     rep.add("## Success rates (Fig. 3)", "",
             "Every built-in scenario with every number of game players per robot, zero initial opinions, no "
@@ -581,7 +224,7 @@ def _section_success(rep: _Report) -> None:
                           rates, rep.out / "fig3-success-rates.png",
                           title=f"Success rate per scenario and game players (NOD, {planner} planner)")
     rep.figure(path, "success rates", f"from study `{STUDY_SUCCESS}`")
-    rep.add(*_md_table(["scenario"] + [f"k = {k}" for k in range(max_players + 1)], table))
+    rep.add(*md_table(["scenario"] + [f"k = {k}" for k in range(max_players + 1)], table))
     rep.add("", "*k: game players per robot (k = N_r - 1 is every other robot, the paper's first study).*")
     sentences = []
     some = [c for c in cells if c.key[2] >= 1]
@@ -622,7 +265,6 @@ def _section_success(rep: _Report) -> None:
 
 def _strategy_section(rep: _Report, title: str, study: str, scenario: str, column: str, paper: dict, labels: dict,
                       table: str, figure: str, intro: str) -> None:
-    from nodnav.viz.report import plot_strategy_frequencies
 
     rep.add(f"## {title}", "", intro)
     if not rep.has(study):
@@ -638,13 +280,13 @@ def _strategy_section(rep: _Report, title: str, study: str, scenario: str, colum
         lines.append([f"{labels[freq.label]} (paper)"] + [f"{v:.2f}" for v in paper[freq.label]] + ["", ""])
         sh = freq.share
         lines.append([f"{labels[freq.label]} (ours)"] + [
-            f"{100 * sh.rate[j]:.1f} [{100 * sh.low[j]:.0f}, {100 * sh.high[j]:.0f}]" if freq.realised else "-"
-            for j in range(len(orders))] + [freq.trials, freq.incomplete])
+            f"{100 * sh.rate[j]:.1f} [{100 * sh.low[j]:.0f}, {100 * sh.high[j]:.0f}]" if freq.realised else "-"  # type: ignore[index]
+            for j in range(len(orders))] + [freq.trials, freq.incomplete])  # type: ignore[list-item]
     path = plot_strategy_frequencies(rows, [paper[f.label] for f in rows],
                                      [f"{labels['header']} = {labels[f.label]}" for f in rows],
                                      rep.out / figure, title=f"{scenario}: realised passing orders")
     rep.figure(path, title, f"from study `{study}`")
-    rep.add(*_md_table(header, lines))
+    rep.add(*md_table(header, lines))
     rep.add("", "*Ours: share of the realised passing orders (the order in which the robots entered the corridor), "
             "with its 95 % interval; trials that ended before every robot entered count under 'no complete order'.*")
     sentences = []
@@ -670,9 +312,6 @@ def _strategy_section(rep: _Report, title: str, study: str, scenario: str, colum
 
 
 def _section_fig2(rep: _Report, heatmap_grid: int) -> None:
-    from nodnav.decision.heatmap import steady_state_selection, z_grid
-    from nodnav.viz.heatmap import plot_heatmap
-    from nodnav.viz.report import plot_closed_loop_grid
 
     rep.add("## Fig. 2: strategy selection of two robots over initial opinions", "",
             "Two robots, strategies S1 = (1,2) and S2 = (2,1), z_12(0) = z_22(0) = 0. (a) and (b): the steady-state "
@@ -733,7 +372,7 @@ def _section_snapshots(rep: _Report, rerun: bool) -> list[SnapshotResult]:
         results.append(snap_result := _snapshot(rep, snap, rerun))
         if snap_result.success:
             rep.add("", f"**{snap['paper']}** (seed {snap_result.seed}): {snap_result.reason}")
-            rep.figure(Path(snap_result.path), snap["paper"],
+            rep.figure(Path(snap_result.path), snap["paper"],  # type: ignore[arg-type]
                        f"by re-running seed {snap_result.seed} of study `{STUDY_SUCCESS}`")
         else:
             rep.add("", f"**{snap['paper']}**: {snap_result.reason}", "")
@@ -741,9 +380,6 @@ def _section_snapshots(rep: _Report, rerun: bool) -> list[SnapshotResult]:
 
 
 def _snapshot(rep: _Report, snap: dict, rerun: bool) -> SnapshotResult:
-    from nodnav.scenario.schema import scenario_from_dict
-    from nodnav.sim.simulator import run_trial
-    from nodnav.viz.trial import save_snapshots
 
     stored = rep.store.records(STUDY_SUCCESS, scenario=snap["scenario"], players=snap["players"], method="nod")
     stored = [r for r in stored if r.planner == "fast"] or stored
@@ -776,7 +412,6 @@ def _snapshot(rep: _Report, snap: dict, rerun: bool) -> SnapshotResult:
 
 
 def _section_planners(rep: _Report) -> None:
-    from nodnav.viz.report import plot_rate_bars
 
     rep.add("## Does the planner matter?", "",
             "The paper says the choice of planner has minimal impact and uses PRM*. The same success-rate study is "
@@ -805,14 +440,14 @@ def _section_planners(rep: _Report) -> None:
     path = plot_rate_bars([f"{s}\nk={k}" for s, k in keys], planners, rates, rep.out / "planners-success-rates.png",
                           title="Success rate per planner (NOD)")
     rep.figure(path, "planners", f"from study `{STUDY_PLANNERS}`")
-    rep.add(*_md_table(["scenario", "k"] + planners, table))
+    rep.add(*md_table(["scenario", "k"] + planners, table))
     records = {p: rep.store.records(STUDY_PLANNERS, method="nod", planner=p) for p in planners}
     cost_rows = []
     for p in planners:
-        ms = _mean_sd(r.summary.get("makespan_s") for r in records[p] if r.success)
-        wall = _mean_sd(r.summary.get("wall_time_s") for r in records[p])
-        cost_rows.append([p, len(records[p]), _fmt_mean_sd(*ms), _fmt_mean_sd(*wall, digits=2)])
-    rep.add("", *_md_table(["planner", "trials", "makespan of successes (s)", "wall time per trial (s)"], cost_rows))
+        ms = mean_sd(r.summary.get("makespan_s") for r in records[p] if r.success)
+        wall = mean_sd(r.summary.get("wall_time_s") for r in records[p])
+        cost_rows.append([p, len(records[p]), fmt_mean_sd(*ms), fmt_mean_sd(*wall, digits=2)])
+    rep.add("", *md_table(["planner", "trials", "makespan of successes (s)", "wall time per trial (s)"], cost_rows))
     sentences = []
     ref = "fast" if "fast" in planners else planners[0]
     for p in planners:
@@ -830,25 +465,7 @@ def _section_planners(rep: _Report) -> None:
     rep.read(sentences)
 
 
-def planner_verdict(d: Interval, margin: float = PLANNER_EQUIVALENCE) -> str:
-    """What a difference of success rates between two planners says about "the planner barely matters".
-
-    The claim holds when the whole interval of the difference lies within ``+-margin`` percentage
-    points, is contradicted when it lies wholly beyond them, and is left open otherwise.
-    """
-    eq = margin / 100
-    if d.low >= -eq and d.high <= eq:
-        return (f"the whole interval lies within ±{margin:.0f} points, so at this sample size the paper's claim "
-                "that the planner barely matters holds")
-    if d.low > eq or d.high < -eq:
-        return (f"the whole interval lies beyond ±{margin:.0f} points, so the planner does matter here, against "
-                "the paper")
-    return (f"the interval reaches beyond ±{margin:.0f} points, so these trials can neither confirm nor refute the "
-            "claim")
-
-
 def _section_methods(rep: _Report) -> None:
-    from nodnav.viz.report import plot_rate_bars
 
     rep.add("## Methods compared", "",
             "Every navigation method on every built-in scenario with the scenario's own settings (all game players, "
@@ -875,9 +492,9 @@ def _section_methods(rep: _Report) -> None:
     for r in rows:
         table.append([r.scenario, r.method, r.cell.trials] + [fmt_rate(r.cell.rate(o)) for o in
                                                                ("success", "collision", "deadlock", "timeout")]
-                     + [r.cell.counts.get("error", 0), _fmt_mean_sd(*r.makespan),
-                        _fmt_mean_sd(*r.smoothness, digits=3)])
-    rep.add(*_md_table(["scenario", "method", "trials", "success %", "collision %", "deadlock %", "timeout %", "errors",
+                     + [r.cell.counts.get("error", 0), fmt_mean_sd(*r.makespan),
+                        fmt_mean_sd(*r.smoothness, digits=3)])
+    rep.add(*md_table(["scenario", "method", "trials", "success %", "collision %", "deadlock %", "timeout %", "errors",
                         "makespan (s)", "smoothness (m/s/step)"], table))
     rep.read(methods_reading(rows))
 
@@ -899,7 +516,7 @@ def _section_cost(rep: _Report) -> None:
         v = np.asarray(w)
         rows.append([n, m, p, len(v), f"{np.median(v):.1f}", f"{v.mean():.1f}", f"{np.percentile(v, 90):.1f}",
                      f"{v.sum() / 60:.1f}"])
-    rep.add(*_md_table(["robots", "method", "planner", "trials", "median (s)", "mean (s)", "90th pct (s)",
+    rep.add(*md_table(["robots", "method", "planner", "trials", "median (s)", "mean (s)", "90th pct (s)",
                         "total (min)"], rows), "")
 
 

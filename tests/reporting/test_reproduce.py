@@ -14,15 +14,26 @@ import pytest  # noqa: E402
 from nodnav.cli import main  # noqa: E402
 from nodnav.decision.heatmap import z_grid  # noqa: E402
 from nodnav.errors import NodnavError  # noqa: E402
-from nodnav.experiments.report import (META_STUDY, STUDY_METHODS, STUDY_PLANNERS, STUDY_SUCCESS,  # noqa: E402
-                                       STUDY_TABLE1)
-from nodnav.experiments.reproduce import (CostModel, Part, ReproduceOptions, check_options,  # noqa: E402
-                                          fig2c_scenario_files, next_round, pending, plan_parts, reproduce, round_parts,
-                                          round_cost, seeds_at)
+from nodnav.experiments.paper import META_STUDY, STUDY_METHODS, STUDY_PLANNERS, STUDY_SUCCESS, STUDY_TABLE1  # noqa: E402
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import SweepSpec  # noqa: E402
 from nodnav.experiments.sweep import expand  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_to_dict  # noqa: E402
+from nodnav.reporting.reproduce import (  # noqa: E402
+    CostModel,
+    Part,
+    ReproduceOptions,
+    check_options,
+    fig2c_scenario_files,
+    next_round,
+    pending,
+    plan_parts,
+    reproduce,
+    round_cost,
+    round_parts,
+    seeds_at,
+)
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_to_dict
 
 
 def _part(name, target):
@@ -63,7 +74,9 @@ def test_plan_parts(tmp_path):
                                fig2c_grid=3, fig2c_trials=2)
     parts = {p.name: p for p in plan_parts(options)}
     # No planner besides the fast one: no planner comparison.
-    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods"]
+    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "reduction"]
+    # 3r-case2 with one game player as each of the four variants; 2r-case1 has no reduced game.
+    assert len(parts["reduction"].spec.scenarios) == 4
     assert parts["success"].spec.players == (0, 1, 2) and parts["success"].spec.planners == ("fast",)
     assert parts["table1"].spec.scenarios == ("3r-case2",) and parts["table1"].spec.init == ("zero", "distance")
     assert parts["table2"].spec.bias == ((), (("S3", 150.0), ("S5", 150.0)))
@@ -190,7 +203,7 @@ def slow_trial(scenario, method, seed):
 
 
 def test_no_sweep_starts_once_the_budget_is_spent(tmp_path, monkeypatch):
-    import nodnav.experiments.reproduce as module
+    import nodnav.reporting.reproduce as module
 
     # Budget 60 s with 58 s kept for the report: sweeps may start only in the first 2 s.
     monkeypatch.setattr(module, "REPORT_RESERVE", 58.0)

@@ -11,13 +11,36 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.image import imread  # noqa: E402
 
-from nodnav.experiments.report import (META_STUDY, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS,  # noqa: E402
-                                       STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, Interval, RateCell, build_report,
-                                       closed_loop_grid, intervals_separate, method_rows, methods_reading,
-                                       newcombe_difference, paper_inside, planner_verdict, sign_rule_agreement,
-                                       strategy_frequencies, table_rows, wilson_interval)
+from nodnav.experiments.analysis import (  # noqa: E402
+    RateCell,
+    closed_loop_grid,
+    method_rows,
+    methods_reading,
+    paper_inside,
+    sign_rule_agreement,
+    strategy_frequencies,
+    table_rows,
+)
+from nodnav.experiments.paper import (  # noqa: E402
+    META_STUDY,
+    STUDY_FIG2C,
+    STUDY_METHODS,
+    STUDY_PLANNERS,
+    STUDY_SUCCESS,
+    STUDY_TABLE1,
+    STUDY_TABLE2,
+)
+from nodnav.experiments.statistics import (  # noqa: E402
+    Interval,
+    intervals_separate,
+    newcombe_difference,
+    planner_verdict,
+    wilson_interval,
+)
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_to_dict  # noqa: E402
+from nodnav.reporting.report import build_report  # noqa: E402
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_to_dict
 from nodnav.viz.report import plot_rate_bars  # noqa: E402
 
 Z = 1.959963984540054
@@ -233,7 +256,7 @@ def test_methods_reading_follows_the_numbers():
 
 
 def _row(scenario, method, k, n):
-    from nodnav.experiments.report import MethodRow
+    from nodnav.experiments.analysis import MethodRow
 
     counts = {"success": k, "deadlock": n - k} if k < n else {"success": k}
     return MethodRow(scenario, method, RateCell((scenario, method), counts), (10.0, 1.0, k), (0.05, 0.01, n))

@@ -10,14 +10,16 @@ matplotlib.use("Agg")
 
 import pytest  # noqa: E402
 
-from nodnav.experiments.breakdown import breakdown_lines, fmt_success, wilson  # noqa: E402
-from nodnav.experiments.report import build_report, wilson_interval  # noqa: E402
+from nodnav.experiments.statistics import wilson_interval  #noqa: E402
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import StudyError, SweepSpec, study_from_dict  # noqa: E402
 from nodnav.experiments.sweep import expand, run_sweep  # noqa: E402
+from nodnav.reporting.breakdown import breakdown_lines, fmt_success  # noqa: E402
+from nodnav.reporting.report import build_report
 from nodnav.scenario.draws import draw  # noqa: E402
 from nodnav.scenario.families import load_family, redo_spec  # noqa: E402
-from nodnav.scenario.schema import load_scenario, scenario_from_dict, scenario_to_dict  # noqa: E402
+from nodnav.scenario.loading import load_scenario  #noqa: E402
+from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
 
 @dataclass
@@ -66,10 +68,13 @@ def test_study_files_take_families():
         study_from_dict({"families": ["mixd"]}, "t")
 
 
-def test_scipy_wilson_matches_the_reports_hand_checked_one():
+def test_the_reports_wilson_interval_matches_scipys():
+    from scipy.stats import binomtest
+
     for k, n in [(0, 40), (20, 40), (1, 2), (39, 40), (7, 9)]:
         iv = wilson_interval(k, n)
-        assert wilson(k, n) == pytest.approx((iv.low, iv.high), abs=1e-12)
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        assert (iv.low, iv.high) == pytest.approx((ci.low, ci.high), abs=1e-12)
     # 1 of 2: z sqrt(1/2 + z^2/4) / (2 + z^2) = 0.40547 about 1/2.
     assert fmt_success(1, 2) == "50.0 [9.5, 90.5] (2)"
 

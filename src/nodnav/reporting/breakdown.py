@@ -1,6 +1,6 @@
 """What any results database holds: success and failure classes by scenario or family, players and method.
 
-This is the first section of every report (:func:`nodnav.experiments.report.build_report`), for a
+This is the first section of every report (:func:`nodnav.reporting.report.build_report`), for a
 plain sweep, a family sweep or the paper's evaluation alike. Trials of a generated family
 (scenario ``FAMILY:SEED``) are grouped under their family; every failed one is listed with the
 command that redoes it. Rates carry 95 % Wilson score intervals (SciPy's ``binomtest``).
@@ -12,9 +12,9 @@ import re
 from collections import Counter, defaultdict
 from dataclasses import dataclass
 
-from scipy.stats import binomtest
-
+from nodnav.experiments.statistics import wilson_interval
 from nodnav.experiments.store import ResultStore, TrialRecord
+from nodnav.reporting.markdown import md_table
 from nodnav.scenario.families import redo_spec
 from nodnav.sim.failure import FAILURE_CLASSES, classify
 
@@ -83,21 +83,10 @@ def to_row(record: TrialRecord) -> Row:
                redo_command(record, spec) if spec else None)
 
 
-def wilson(k: int, n: int) -> tuple[float, float]:
-    """95 % Wilson score interval of ``k / n`` (fractions)."""
-    ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
-    return float(ci.low), float(ci.high)
-
-
 def fmt_success(k: int, n: int) -> str:
-    """``93.8 [85.0, 97.5] (64)``: percent, its Wilson interval, the number of trials."""
-    lo, hi = wilson(k, n)
-    return f"{100 * k / n:.1f} [{100 * lo:.1f}, {100 * hi:.1f}] ({n})"
-
-
-def _table(header: list[str], rows: list[list]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    """``93.8 [85.0, 97.5] (64)``: percent, its 95 % Wilson interval, the number of trials."""
+    iv = wilson_interval(k, n)
+    return f"{100 * k / n:.1f} [{100 * iv.low:.1f}, {100 * iv.high:.1f}] ({n})"
 
 
 def _classes_text(counts: Counter) -> str:
@@ -125,7 +114,7 @@ def breakdown_lines(store: ResultStore) -> list[str]:
         n = sum(counts.values())
         table.append([f"`{group}`" + (" (family)" if family else ""), players, method, planner,
                       fmt_success(counts["success"], n), _classes_text(counts)])
-    out += _table(["scenario or family", "players", "method", "planner", "success % [95 % CI] (trials)",
+    out += md_table(["scenario or family", "players", "method", "planner", "success % [95 % CI] (trials)",
                    "failures by class"], table)
     out += ["", "### Failure classes", "",
             "Why trials failed, from each trial's outcome (`nodnav.sim.failure`). A deadlock is no robot making "
@@ -136,10 +125,10 @@ def breakdown_lines(store: ResultStore) -> list[str]:
         by_group[r.group][r.failure_class] += 1
     present = [c for c in list(FAILURE_CLASSES) + sorted(set(totals) - set(FAILURE_CLASSES)) if totals.get(c)]
     meaning = {**FAILURE_CLASSES, "error": "the trial raised an exception (stored with its traceback)"}
-    out += _table(["class", "meaning", "trials", "share %"],
+    out += md_table(["class", "meaning", "trials", "share %"],
                   [[f"`{c}`", meaning.get(c, "-"), totals[c], f"{100 * totals[c] / len(rows):.1f}"] for c in present])
     out += [""]
-    out += _table(["scenario or family", *[f"`{c}`" for c in present]],
+    out += md_table(["scenario or family", *[f"`{c}`" for c in present]],
                   [[f"`{g}`", *[by_group[g].get(c, 0) for c in present]] for g in sorted(by_group)])
     failed = [r for r in rows if r.redo and r.failure_class != "success"]
     if failed:

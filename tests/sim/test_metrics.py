@@ -6,11 +6,19 @@ import math
 import numpy as np
 import pytest
 
-from nodnav.experiments.metrics import (compute_metrics, corridor_crossings, flow_rate, json_ready,
-                                        min_separation, opinion_switches, smoothness, time_to_consensus)
 from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.world import paper_world
 from nodnav.sim.history import History
+from nodnav.sim.metrics import (
+    compute_metrics,
+    corridor_crossings,
+    flow_rate,
+    json_ready,
+    min_separation,
+    opinion_switches,
+    smoothness,
+    time_to_consensus,
+)
 
 DT = 0.1
 
@@ -229,7 +237,7 @@ def test_json_ready_replaces_non_finite_values():
 
 
 def test_metrics_of_a_real_trial_agree_with_the_simulator():
-    from nodnav.scenario.schema import load_scenario
+    from nodnav.scenario.loading import load_scenario
     from nodnav.sim.simulator import CONTACT_SUBSTEPS, run_trial
 
     result = run_trial(load_scenario("2r-case1"), seed=2)

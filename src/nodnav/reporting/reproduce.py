@@ -34,16 +34,26 @@ from typing import Callable
 
 import yaml
 
-import nodnav
 from nodnav.errors import NodnavError, shown
-from nodnav.experiments.report import (META_STUDY, SNAPSHOTS, STUDY_FIG2C, STUDY_METHODS, STUDY_PLANNERS,
-                                       STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, ReportResult, build_report)
+from nodnav.experiments.paper import (
+    META_STUDY,
+    SNAPSHOTS,
+    STUDY_FIG2C,
+    STUDY_METHODS,
+    STUDY_PLANNERS,
+    STUDY_SUCCESS,
+    STUDY_TABLE1,
+    STUDY_TABLE2,
+)
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
 from nodnav.experiments.variants import STUDY_REDUCTION, variant_scenario_files
-from nodnav.provenance import code_version
-from nodnav.scenario.schema import builtin_names, load_scenario, scenario_to_dict
+from nodnav.provenance import PACKAGE_VERSION, code_version
+from nodnav.reporting.report import ReportResult, build_report
+from nodnav.scenario.files import builtin_names
+from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.schema import scenario_to_dict
 
 log = logging.getLogger(__name__)
 
@@ -431,7 +441,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
         if options.scenarios:
             notes.append(f"scenarios limited to {', '.join(options.scenarios)}.")
         store.save_study(META_STUDY, {
-            "kind": "reproduce", "command": options.command, "version": nodnav.__version__, "jobs": options.jobs,
+            "kind": "reproduce", "command": options.command, "version": PACKAGE_VERSION, "jobs": options.jobs,
             "trials": options.trials, "budget_s": budget, "trials_wall_s": sweep_wall, "levels": levels,
             "parts": [{"part": p.part, "study": p.study, "title": p.title, "target": p.target, "seeds": p.seeds}
                       for p in progress],

@@ -1,4 +1,4 @@
-"""Free-space geometry against hand computations, analytical shortest paths and dense sampling."""
+"""Visibility graphs and shortest paths against hand computations, analytical shortest paths and dense sampling."""
 
 import math
 
@@ -6,21 +6,16 @@ import numpy as np
 import pytest
 from scipy.sparse.csgraph import dijkstra
 
-from nodnav.planning.geometry import (
-    octagon_exits,
+from nodnav.geometry import segment_box_distance
+from nodnav.planning.visibility import (
     VisibilityGraph,
-    shortest_chain,
     arc_length_grid,
-    bounds_distance,
     chamfered_vertices,
     disc_violations,
-    point_box_distance,
+    octagon_exits,
     polyline_length,
     polyline_point_distance,
-    segment_box_distance,
-    segment_clearance,
-    segment_point_distance,
-    segments_hit_boxes,
+    shortest_chain,
 )
 from nodnav.scenario.world import Corridor, World, paper_world
 
@@ -37,75 +32,6 @@ def dense(a, b, n=4001):
     """Points densely along each segment, ``(S, n, 2)``."""
     t = np.linspace(0.0, 1.0, n)
     return a[:, None] + t[None, :, None] * (b - a)[:, None]
-
-
-def test_point_box_distance_hand_values():
-    pts = np.array([[0.0, 0.0], [3.0, 0.0], [2.0, 2.0], [0.5, -4.0]])
-    # inside; 2 m right of the right side; sqrt(2) from corner (1,1); 3 m below the bottom side.
-    assert point_box_distance(pts, UNIT_BOX)[:, 0] == pytest.approx([0.0, 2.0, math.sqrt(2.0), 3.0])
-
-
-def test_segment_point_distance_hand_values():
-    a, b = np.array([[0.0, 0.0], [1.0, 1.0]]), np.array([[2.0, 0.0], [1.0, 1.0]])
-    pts = np.array([[1.0, 1.0], [3.0, 0.0], [-1.0, -1.0], [1.0, 4.0]])
-    d = segment_point_distance(a, b, pts)
-    # Segment (0,0)-(2,0): foot inside, past the end, before the start, foot inside.
-    assert d[0] == pytest.approx([1.0, 1.0, math.sqrt(2.0), 4.0])
-    # A zero-length segment is the point (1,1).
-    assert d[1] == pytest.approx([0.0, math.sqrt(5.0), math.sqrt(8.0), 3.0])
-
-
-def test_segments_hit_boxes_cases():
-    a = np.array([[-2.0, 0.0], [-2.0, 2.0], [0.0, 3.0], [2.0, 0.0], [1.5, -3.0], [0.0, 0.0], [-3.0, 1.0]])
-    b = np.array([[2.0, 0.0], [2.0, 2.0], [0.0, 1.0], [0.0, 2.0], [1.5, 3.0], [0.1, 0.1], [-1.5, 1.0]])
-    # through; parallel above; vertical touching the top; diagonal touching corner (1,1);
-    # vertical beside; inside; horizontal stopping short.
-    assert segments_hit_boxes(a, b, UNIT_BOX)[:, 0].tolist() == [True, False, True, True, False, True, False]
-
-
-def test_segment_box_distance_hand_values():
-    a = np.array([[-2.0, 3.0], [3.0, 0.0], [2.0, 0.0], [0.0, 0.0], [4.0, -0.5]])
-    b = np.array([[2.0, 3.0], [0.0, 3.0], [0.0, 2.0], [0.5, 0.5], [4.0, 0.5]])
-    # 2 above the top; line x + y = 3 is (3 - 2)/sqrt(2) from corner (1,1); touching; inside;
-    # vertical segment 3 to the right of the right side.
-    d = segment_box_distance(a, b, UNIT_BOX)[:, 0]
-    assert d == pytest.approx([2.0, 1.0 / math.sqrt(2.0), 0.0, 0.0, 3.0])
-
-
-def test_segment_box_distance_matches_dense_sampling():
-    rng = np.random.default_rng(1)
-    a = rng.uniform(-4, 4, (400, 2))
-    b = a + rng.normal(0.0, 1.5, (400, 2))
-    a[:50, 0] = b[:50, 0]  # vertical
-    a[50:70] = b[50:70]  # points
-    boxes = np.array([[-1.0, -1.0, 1.0, 1.0], [1.5, -3.0, 2.5, 0.0]])
-    exact = segment_box_distance(a, b, boxes)
-    sampled = point_box_distance(dense(a, b).reshape(-1, 2), boxes).reshape(len(a), -1, 2).min(axis=1)
-    step = np.linalg.norm(b - a, axis=1)[:, None] / 4000
-    # The exact minimum is never above a sampled value and at most half a step below it.
-    assert np.all(exact <= sampled + 1e-12)
-    assert np.all(exact >= sampled - step / 2 - 1e-12)
-
-
-def test_segment_clearance_matches_world_clearance():
-    world = paper_world()
-    rng = np.random.default_rng(2)
-    a = rng.uniform([-6.8, -2.3], [6.8, 2.3], (300, 2))
-    b = a + rng.normal(0.0, 1.0, (300, 2))
-    b = np.clip(b, [-6.9, -2.4], [6.9, 2.4])
-    exact = segment_clearance(world, a, b)
-    sampled = world.clearance(dense(a, b)).min(axis=1)
-    step = np.linalg.norm(b - a, axis=1) / 4000
-    free = sampled > 0
-    assert np.all(exact[free] <= sampled[free] + 1e-12)
-    assert np.all(exact[free] >= sampled[free] - step[free] / 2 - 1e-12)
-    # Touching or crossing a wall gives zero.
-    assert np.all(exact[~free] <= 1e-12)
-
-
-def test_bounds_distance():
-    d = bounds_distance(np.array([[0.0, 0.0], [6.5, 2.0], [8.0, 0.0]]), (-7.0, -2.5, 7.0, 2.5))
-    assert d == pytest.approx([2.5, 0.5, -1.0])
 
 
 def test_chamfered_octagon_of_a_point_is_regular():
@@ -284,7 +210,8 @@ def test_disc_violations_by_hand():
     # Coming back into disc 0 after leaving it (a middle segment 0.6 from its centre) is not either.
     back = np.array([[-0.5, 0.0], [-2.0, 0.0], [-0.6, 0.6], [-0.6, 3.0]])
     d = np.linalg.norm(centres - back[0], axis=1)
-    assert disc_violations(back, centres, radii, d, np.linalg.norm(centres - back[-1], axis=1)).tolist() == [True, False]
+    assert disc_violations(back, centres, radii, d, np.linalg.norm(centres - back[-1], axis=1)).tolist() == [True,
+                                                                                                             False]
 
 
 def test_start_inside_a_disc_does_not_pass_around_it_closely():
@@ -329,12 +256,12 @@ def test_goal_inside_a_disc_is_entered_along_the_last_segment():
 
 
 def test_batched_paths_survive_a_full_memo(monkeypatch):
-    import nodnav.planning.geometry as geometry
+    import nodnav.planning.memo as memo
 
     world = paper_world()
     starts = np.array([[-5.0, 0.0], [-5.0, 1.0], [-5.0, -1.0], [-6.0, 0.0]])
     goals = np.array([[5.0, 0.0], [5.0, 1.0], [5.0, -1.0], [6.0, 0.0]])
-    monkeypatch.setattr(geometry, "MEMO_SIZE", 2)
+    monkeypatch.setattr(memo, "MEMO_SIZE", 2)
     g = VisibilityGraph(world, 0.2, 0.025)
     g.shortest_paths(starts[:2], goals[:2])
     # One remembered query and three new ones: storing the new ones evicts the remembered one.

@@ -1,5 +1,5 @@
-"""Free-space geometry for disc robots among axis-aligned walls: exact distances, visibility
-graphs, shortest paths, and arc-length grids.
+"""Shortest paths of a disc robot among axis-aligned walls: visibility graphs, polylines and
+arc-length grids (the distances they are built on are :mod:`nodnav.geometry`'s).
 
 A disc robot of radius ``r`` fits at a point when the point is at least ``r`` from every wall
 and from the world's boundary, i.e. when it lies outside every wall grown by ``r`` (a rounded
@@ -28,180 +28,12 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
+from nodnav.geometry import TOL, segment_clearance, segment_point_distance
+from nodnav.planning.memo import remember
 from nodnav.scenario.world import World
 
-#: Numerical slack of every distance comparison (m).
-TOL = 1e-9
-#: How many recent shortest paths a :class:`VisibilityGraph` keeps (of each kind).
-MEMO_SIZE = 1024
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
-
-
-
-def point_box_distance(points: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Euclidean distance from each point to each closed box (0 inside), shape ``(P, B)``.
-
-    ``boxes`` are rows ``(x_min, y_min, x_max, y_max)``.
-    """
-    p = np.asarray(points, dtype=float).reshape(-1, 2)
-    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    return np.sqrt(_point_box_d2(p, b[:, :2], b[:, 2:]))
-
-
-def _point_box_d2(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    px, py = p[:, 0:1], p[:, 1:2]
-    gx = np.maximum(np.maximum(lo[:, 0] - px, px - hi[:, 0]), 0.0)
-    gy = np.maximum(np.maximum(lo[:, 1] - py, py - hi[:, 1]), 0.0)
-    return gx * gx + gy * gy
-
-
-def segment_point_distance(a: np.ndarray, b: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Distance from each segment ``a[s] -> b[s]`` to each point, shape ``(S, P)``.
-
-    The closest point of a segment is the projection clamped to the segment; a segment of zero
-    length is a point.
-    """
-    a = np.asarray(a, dtype=float).reshape(-1, 2)
-    b = np.asarray(b, dtype=float).reshape(-1, 2)
-    p = np.asarray(points, dtype=float).reshape(-1, 2)
-    return np.sqrt(_segment_point_d2(a, b - a, p))
-
-
-def _segment_point_d2(a: np.ndarray, d: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """Squared distance from each segment ``a[s] -> a[s] + d[s]`` to each point, ``(S, P)``."""
-    return _segment_point_d2_kernel(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(d, dtype=float),
-                                    np.ascontiguousarray(p, dtype=float))
-
-
-@_compiled
-def _segment_point_d2_kernel(a, d, p):
-    """The loops of :func:`_segment_point_d2`."""
-    out = np.empty((a.shape[0], p.shape[0]))
-    for s in range(a.shape[0]):
-        for q in range(p.shape[0]):
-            out[s, q] = _segment_point_d2_one(a[s, 0], a[s, 1], d[s, 0], d[s, 1], p[q, 0], p[q, 1])
-    return out
-
-
-@_compiled
-def _segment_point_d2_one(ax, ay, dx, dy, px, py):
-    """Squared distance from the segment ``(ax, ay) -> (ax + dx, ay + dy)`` to ``(px, py)``: the
-    projection's fraction along the segment, clamped to it, gives the closest point."""
-    rx, ry = px - ax, py - ay
-    t = min(max((rx * dx + ry * dy) / max(dx * dx + dy * dy, 1e-300), 0.0), 1.0)
-    ex, ey = rx - t * dx, ry - t * dy
-    return ex * ex + ey * ey
-
-
-def segments_hit_boxes(a: np.ndarray, b: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Whether each closed segment meets each closed box, shape ``(S, B)`` (slab clipping)."""
-    a = np.asarray(a, dtype=float).reshape(-1, 2)
-    b = np.asarray(b, dtype=float).reshape(-1, 2)
-    bx = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    return _hit(a, b - a, bx[:, :2], bx[:, 2:])
-
-
-def _hit(a: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    # A zero step becomes a tiny one: the slab then spans (-huge, huge) when the segment lies
-    # inside it and sits entirely beyond [0, 1] when it does not, which is the right answer.
-    d = d.copy()
-    d[d == 0.0] = 1e-300
-    inv = 1.0 / d
-    ax, ay, ix, iy = a[:, 0:1], a[:, 1:2], inv[:, 0:1], inv[:, 1:2]
-    x1, x2 = (lo[:, 0] - ax) * ix, (hi[:, 0] - ax) * ix
-    y1, y2 = (lo[:, 1] - ay) * iy, (hi[:, 1] - ay) * iy
-    t_in = np.maximum(np.minimum(x1, x2), np.minimum(y1, y2))
-    t_out = np.minimum(np.maximum(x1, x2), np.maximum(y1, y2))
-    return (t_in <= t_out) & (t_in <= 1.0) & (t_out >= 0.0)
-
-
-def segment_box_distance(a: np.ndarray, b: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """Exact distance from each segment to each closed box (0 when they meet), shape ``(S, B)``.
-
-    Between two disjoint convex polygons the distance is attained at a vertex of one of them,
-    so it is the least of the segment's endpoints to the box and the box's corners to the segment.
-    """
-    a = np.asarray(a, dtype=float).reshape(-1, 2)
-    b = np.asarray(b, dtype=float).reshape(-1, 2)
-    bx = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    return np.sqrt(_segment_box_d2(a, b, bx))
-
-
-def _segment_box_d2(a: np.ndarray, b: np.ndarray, bx: np.ndarray) -> np.ndarray:
-    lo, hi = bx[:, :2], bx[:, 2:]
-    d = b - a
-    ends = _point_box_d2(np.vstack([a, b]), lo, hi)
-    corners = bx[:, [[0, 1], [2, 1], [2, 3], [0, 3]]].reshape(-1, 2)
-    to_corners = _segment_point_d2(a, d, corners).reshape(len(a), len(bx), 4).min(axis=2)
-    d2 = np.minimum(np.minimum(ends[:len(a)], ends[len(a):]), to_corners)
-    d2[_hit(a, d, lo, hi)] = 0.0
-    return d2
-
-
-def bounds_distance(points: np.ndarray, bounds: tuple[float, float, float, float]) -> np.ndarray:
-    """Distance from each point to the world's outer boundary (negative outside), shape ``(P,)``."""
-    p = np.asarray(points, dtype=float).reshape(-1, 2)
-    x0, y0, x1, y1 = bounds
-    return np.minimum(np.minimum(p[:, 0] - x0, x1 - p[:, 0]), np.minimum(p[:, 1] - y0, y1 - p[:, 1]))
-
-
-def segment_clearance(world: World, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Least clearance along each segment ``a[s] -> b[s]``: distance to the nearest wall or to the
-    boundary, exactly (0 when the segment touches a wall), shape ``(S,)``.
-
-    The distance to the (convex) boundary is a concave function along a segment, so its least
-    value is at an endpoint.
-    """
-    a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
-    b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
-    return _segment_clearance_kernel(a, b, world.obstacle_array, world.bounds_array)
-
-
-@_compiled
-def _segment_clearance_kernel(a, b, walls, bounds):
-    """The loops of :func:`segment_clearance`; each wall's distance as in :func:`segment_box_distance`."""
-    x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
-    out = np.empty(a.shape[0])
-    for s in range(a.shape[0]):
-        ax, ay, bx, by = a[s, 0], a[s, 1], b[s, 0], b[s, 1]
-        d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
-        if walls.shape[0]:
-            dx, dy = bx - ax, by - ay
-            nearest = np.inf
-            for w in range(walls.shape[0]):
-                lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
-                d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
-                d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
-                                     _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
-                                 min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
-                                     _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
-                if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
-                    d2 = 0.0
-                nearest = min(nearest, d2)
-            d = min(d, math.sqrt(nearest))
-        out[s] = d
-    return out
-
-
-@_compiled
-def _point_box_d2_one(px, py, lx, ly, hx, hy):
-    """Squared distance from a point to the closed box ``[lx, hx] x [ly, hy]`` (0 inside)."""
-    gx = max(max(lx - px, px - hx), 0.0)
-    gy = max(max(ly - py, py - hy), 0.0)
-    return gx * gx + gy * gy
-
-
-@_compiled
-def _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
-    """Whether the segment ``(ax, ay) -> (ax + dx, ay + dy)`` meets the closed box (as :func:`_hit`)."""
-    ix = 1.0 / (dx if dx != 0.0 else 1e-300)
-    iy = 1.0 / (dy if dy != 0.0 else 1e-300)
-    x1, x2 = (lx - ax) * ix, (hx - ax) * ix
-    y1, y2 = (ly - ay) * iy, (hy - ay) * iy
-    t_in = max(min(x1, x2), min(y1, y2))
-    t_out = min(max(x1, x2), max(y1, y2))
-    return t_in <= t_out and t_in <= 1.0 and t_out >= 0.0
 
 
 def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.ndarray:
@@ -393,13 +225,13 @@ class VisibilityGraph:
                 return path
             active |= crossed
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
-            path = self._around.get(key)
+            path = self._around.get(key)  # type: ignore[assignment]
             if path is None:
                 if limits is None:
                     limits = np.minimum(self.clearance, self.world.clearance(np.array([start, goal]))) - TOL
                 path = self._search_with_discs(start, goal, limits[0], limits[1], centres[active], radii[active],
                                                d_start[active], d_goal[active])
-                _remember(self._around, key, path)
+                remember(self._around, key, path)
             if not path.success:
                 return path
 
@@ -417,8 +249,8 @@ class VisibilityGraph:
         if missing:
             for i, path in zip(missing, self._walls_only(starts[missing], goals[missing])):
                 paths[i] = path
-                _remember(self._plain, keys[i], path)
-        return paths
+                remember(self._plain, keys[i], path)
+        return paths  # type: ignore[return-value]
 
     # -----------------------------------------------------------------------------------------
 
@@ -482,7 +314,8 @@ class VisibilityGraph:
         rest = np.flatnonzero(~known)
         thr = np.full(len(nodes), self.clearance - TOL)
         thr[0], thr[1] = thr_start, thr_goal
-        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]], thr[j[rest]])
+        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]],
+                                                                                               thr[j[rest]])
         e = np.flatnonzero(ok)
         limit = np.repeat(radii[None], len(e), axis=0)
         first = i[e] == 0
@@ -515,10 +348,11 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit = np.repeat(np.asarray(radii, dtype=float).reshape(1, -1), len(d), axis=0)
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
-    return (d < limit - TOL).any(axis=0)
+    return (d < limit - TOL).any(axis=0)  # type: ignore[return-value]
 
 
-def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int, target: int) -> list[int]:
+def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int,
+                   target: int) -> list[int]:
     """Nodes of a shortest path from ``source`` to ``target`` in an undirected graph with edges
     ``(i[e], j[e])`` of ``length[e]`` (Dijkstra with a binary heap); empty if unreachable.
 
@@ -550,13 +384,6 @@ def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarra
     while chain[-1] != source:
         chain.append(prev[chain[-1]])
     return chain[::-1]
-
-
-def _remember(memo: dict, key, value) -> None:
-    """Store in a bounded memo, forgetting the oldest entry when full."""
-    if len(memo) >= MEMO_SIZE:
-        del memo[next(iter(memo))]
-    memo[key] = value
 
 
 def _path(points: np.ndarray) -> GeometricPath:

@@ -1,0 +1,241 @@
+"""The parameters of a scenario: frozen dataclasses, one per part, each field with its unit and paper value.
+
+Planners and controllers each have their own parameter class, derived from
+:class:`PlannerParams` or :class:`ControllerParams` and chosen by ``name`` in the scenario file;
+the built-in ones are declared here, in the registries of :mod:`nodnav.registry`, so that a
+scenario is validated when it is loaded without importing any planner or controller. Every
+number's accepted range is in :mod:`nodnav.scenario.limits`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from nodnav.registry import CONTROLLERS, PLANNERS
+from nodnav.scenario.fields import strategy_number
+
+
+@dataclass(frozen=True)
+class OpinionParams:
+    """Parameters of the opinion layer (Sections II-B and III)."""
+
+    u: float = 100.0
+    """Attention u_i to the social term (dimensionless); paper: 100 (10 for Fig. 2b/2c)."""
+    d: float = 1.0
+    """Resistance d_i, the inverse time constant of the opinion (1/s); paper: 1."""
+    eta: float = 1.0
+    """Softmax temperature eta of eq. (3) (dimensionless); paper: 1."""
+    K1: float = 5.0
+    """Scaling K_1 of the observed-versus-planned deviation in eq. (4) (1/(m^2 s)); paper: 5."""
+    T: float = 1.0
+    """Opinion period T: decisions and the estimation window of eq. (4) (s); paper: 1."""
+    alpha_min: float = 0.05
+    """Lower bound h of the step size alpha(t) = max(1/(t+1), h) of eq. (8); paper: 0.05."""
+    init: Literal["zero", "distance", "given"] = "zero"
+    """Initial opinions: ``zero`` (z_ij(0) = 0), ``distance`` (eqs. (10)-(11)) or ``given`` (``z0``); paper: zero."""
+    z0: tuple[tuple[float, ...], ...] = ()
+    """With ``init: given``, the initial opinions z_i(0) of every robot, one row per robot (dimensionless)."""
+    K2: float = 10.0
+    """Scaling K_2 of the distance-based initial opinions, eq. (11) (dimensionless); paper: 10."""
+    delta: float = 1.0
+    """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
+    bias: dict[str, float] = field(default_factory=dict)
+    """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
+    conflict: Literal["paper", "undecided"] = "paper"
+    """Game-player selection, eqs. (6)-(7): ``paper`` (every other robot a candidate) or
+    ``undecided`` (robots seen in the corridor only when too few others are left)."""
+    standoff_patience: float = 2.0
+    """After how long a standoff with a game player (neither progressing, although the robot's
+    plan has one of them progress) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
+    nonplayers: Literal["static", "entered"] = "entered"
+    """How robots outside N_i(t) enter the robot's planning: ``static`` (the paper: not planned,
+    held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the
+    front of the order, where history has put them)."""
+
+    def bias_indices(self) -> dict[int, float]:
+        """The bias b_ij as a mapping from strategy index (0-based: S1 is 0) to value."""
+        return {strategy_number(name) - 1: float(value) for name, value in self.bias.items()}  # type: ignore[operator]
+
+    def bias_vector(self, n_strategies: int) -> np.ndarray:
+        """The bias b_i as an array over strategies S1..S_{N_s}."""
+        b = np.zeros(n_strategies)
+        for name, value in self.bias.items():
+            b[strategy_number(name) - 1] = value  # type: ignore[operator]
+        return b
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot: where it starts, where it goes, and its body."""
+
+    origin: tuple[float, float]
+    """Origin O_i (m)."""
+    destination: tuple[float, float]
+    """Destination D_i (m)."""
+    radius: float = 0.2
+    """Body radius r_robot (m); paper: not given, 0.2 chosen (see README)."""
+    max_speed: float = 1.0
+    """Speed limit (m/s); paper: 1."""
+    max_accel: float = 2.0
+    """Acceleration limit used by the MPC (m/s^2); paper: not given."""
+    opinion: OpinionParams | None = None
+    """This robot's own opinion parameters; ``None`` means the scenario's ``opinion``."""
+
+
+@dataclass(frozen=True)
+class PlannerParams:
+    """What every multi-robot path planner is given: its name and the settings all planners share.
+
+    Each planner derives its own parameters from this class and registers them under its name
+    (:data:`~nodnav.registry.PLANNERS`); ``planner.name`` in a scenario chooses the class.
+    """
+
+    name: str = "fast"
+    """Planner name, one of :data:`~nodnav.registry.PLANNERS` (``fast``, ``prm``, or a plugin's)."""
+    dt: float = 0.1
+    """Time step of the planned joint trajectory (s)."""
+    margin: float = 0.05
+    """Extra separation kept by the planner beyond 2 r_robot (m)."""
+
+
+@PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")
+@dataclass(frozen=True)
+class FastPlannerParams(PlannerParams):
+    """The fast planner's settings (:mod:`nodnav.planning.prioritized`)."""
+
+    waiting: Literal["early", "late"] = "early"
+    """A yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
+    door_clearance: float = 1.0
+    """Radius of the zone around a corridor entrance kept clear while a robot comes out of it (m)."""
+    retreat_radii: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)
+    """Radii of the rings of candidate spots a cornered robot may back out to (m); the largest
+    reaches a room from anywhere in a corridor of the paper's length."""
+    retreat_angles: int = 16
+    """Directions per ring of candidate spots."""
+    retreat_tries: int = 8
+    """How many of the nearest candidate spots are tried before giving up."""
+    cascade: int = 2
+    """How many robots deep a robot that must get out of the way may first move others out of its way."""
+
+
+@PLANNERS.declare("prm", help="PRM* roadmaps in the joint space, the paper's planner (roadmaps cached on disk)")
+@dataclass(frozen=True)
+class PRMParams(PlannerParams):
+    """PRM*'s settings (:mod:`nodnav.planning.prm`, appendix)."""
+
+    w1: float = 0.4
+    """Weight w_1 of the proximity penalty in the PRM* path cost (1/m); paper: 0.4."""
+    varsigma: float = 0.1
+    """Safety margin varsigma of Phi_proximity (m); paper: 0.1."""
+    roadmap_vertices: int = 2000
+    """Roadmap size is this times the number of robots (vertices); 500 already answers every built-in query."""
+    cache_dir: str = ""
+    """Roadmap cache directory; empty means ``$NODNAV_CACHE`` or ``~/.cache/nodnav``."""
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """What every motion controller is given: its name and the settings the simulation shares with it.
+
+    Each controller derives its own parameters from this class and registers them under its
+    name (:data:`~nodnav.registry.CONTROLLERS`); ``controller.name`` chooses the class.
+    """
+
+    name: str = "mpc"
+    """Controller name, one of :data:`~nodnav.registry.CONTROLLERS` (``mpc``, or a plugin's)."""
+    dt: float = 0.1
+    """Control and physics step (s)."""
+    horizon: float = 0.8
+    """Horizon over which the controller is given the others' predicted motion, T_MPC (s); paper: 0.8."""
+    samples: int = 8
+    """Instants over the horizon at which the others' predicted motion is given (evenly spaced, the
+    last at the horizon); the MPC keeps clear of the predictions there and between them."""
+
+
+@CONTROLLERS.declare("mpc", help="the B-spline model predictive controller of the appendix (default)")
+@dataclass(frozen=True)
+class MPCParams(ControllerParams):
+    """The B-spline MPC (:mod:`nodnav.control.mpc`, appendix): the paper's weights, then its
+    numerical choices (not in the paper; the defaults are the tested ones)."""
+
+    w2: float = 1e-6
+    """Velocity weight w_2 of the MPC cost (s^2); paper: 1e-6."""
+    safety_margin: float = 0.02
+    """Separation kept by the MPC beyond 2 r_robot (m); below the planner's ``margin`` so that the
+    MPC can track plans that keep exactly that (not in the paper)."""
+    segments: int = 8
+    """Knot spans of the cubic B-spline over the horizon (one per 0.1 s for T_MPC = 0.8 s)."""
+    max_interval: float = 0.05
+    """Longest time between separation / wall constraint samples (s)."""
+    speed_polygon_sides: int = 16
+    """Sides of the inscribed polygon bounding the velocity (98 % of the limit across a face)."""
+    accel_polygon_sides: int = 8
+    """Sides of the inscribed polygon bounding the acceleration (92 % of the limit across a face)."""
+    terminal_pieces: int = 4
+    """Secants approximating the stopping-distance parabola of the terminal constraint."""
+    terminal_decel: float = 0.7
+    """Fraction of the available deceleration assumed by the terminal constraint (headroom for
+    the approximations of the next step)."""
+    sqp_iterations: int = 2
+    """QPs solved per step at most after a cold start (each re-linearised about the previous
+    QP's solution); one otherwise."""
+    sqp_tolerance: float = 0.02
+    """A further QP is solved when the solution moved farther than this from its linearisation (m)."""
+    qp_tolerance: float = 1e-9
+    """Largest row violation the QP solver accepts (DAQP's primal tolerance, m); every inequality
+    is tightened by it. DAQP's default (1e-6) left rows violated by up to 1e-6 m."""
+    evasive: bool = True
+    """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
+    the controller's earlier behaviour, kept for comparison)."""
+    evasive_penalty: float = 1e3
+    """Cost of the evasive QP per metre of intrusion into another robot's required separation
+    at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above
+    the tracking cost's sensitivity (below about 10 per metre), so the penalty is exact: no
+    intrusion that can be avoided is made."""
+    evasive_curvature: float = 1e3
+    """Quadratic cost of an intrusion (per m^2), which keeps the evasive QP strictly convex."""
+    check_tolerance: float = 1e-4
+    """Violation of a constraint, checked exactly, that makes a solution unacceptable (m, m/s, m/s^2)."""
+    contact_tolerance: float = 1e-3
+    """Penetration of the current state into a wall (the robot then brakes at once) or into another
+    robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
+
+
+@dataclass(frozen=True)
+class ExecutionParams:
+    """How a robot follows its selected joint plan between decisions (not in the paper)."""
+
+    mode: Literal["gated", "timed"] = "gated"
+    """``gated``: by the plan's precedences, waiting for the robots it depends on to move on
+    (:mod:`nodnav.sim.execution`); ``timed``: by the clock, as the appendix."""
+    lag: float = 0.3
+    """Least time between the two samples of a precedence (s); rules out waiting cycles between
+    robots that pass each other closely."""
+    tolerance: float = 0.05
+    """Distance within which an observed robot counts as still at the earliest of its nearest
+    planned samples (m): how far it must move before it counts as having moved on."""
+    reaction_margin: Literal["always", "conflict", "off"] = "conflict"
+    """When the MPC keeps clear of every other robot's braking trajectory by how far that can move
+    in one control step (``nodnav.sim.methods.reaction_margin``): ``always``, ``conflict`` (from
+    a step at which the robot could not follow its plan until it can again: two robots that both
+    cannot never squeeze each other) or ``off``."""
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """How a trial is simulated and judged."""
+
+    goal_tolerance: float = 0.15
+    """A robot has arrived when it is this close to its destination (m)."""
+    collision_tolerance: float = 1e-3
+    """Penetration beyond which a contact counts as a collision (m)."""
+    deadlock_time: float = 10.0
+    """A trial is a deadlock when no robot has progressed for this long (s)."""
+    progress_epsilon: float = 0.2
+    """Decrease of a robot's distance-to-go below its best so far that counts as progress (m); a
+    robot radius, so that robots creeping a few centimetres at a time in a jam do not count."""
+    observation_noise: float = 0.0
+    """Standard deviation of the position noise in what each robot observes of the others (m)."""

@@ -20,6 +20,8 @@ CASES = [
     ("start-inside-behind-another.yaml", (308,)),
     ("standoff-abreast-at-the-mouth.yaml", (473, 1, 3)),
     ("destination-in-the-mouth.yaml", (22,)),
+    ("squeeze-abreast-at-the-mouth.yaml", (134,)),
+    ("squeeze-backing-out-of-the-mouth.yaml", (165,)),
 ]
 
 

@@ -41,6 +41,10 @@ def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: 
     return out
 
 
+#: How much of the present gap to another robot the reaction margin leaves free (m).
+REACTION_SLACK = 1e-3
+
+
 def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
     """How far (m) a robot's braking trajectory can move within one control step: the others
     predict it braking from where it is now, but it chooses its next step at the same time.
@@ -191,8 +195,12 @@ class PlannedMethod:
             if self._braking_margin == "always" or (self._braking_margin == "conflict" and self._conflicted[i]):
                 others = self._others[i]
                 radii = radii.copy()
-                radii[2 * len(others):] += reaction_margin(np.linalg.norm(view.velocities[others], axis=1),
-                                                           self._accel[others], self.dt)
+                margin = reaction_margin(np.linalg.norm(view.velocities[others], axis=1), self._accel[others], self.dt)
+                # Where the other robot is now is known: never more margin than the present gap
+                # leaves, so that the robot is not "inside" the other's braking disc at once.
+                gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
+                       - self.scenario.radii[others] - self.scenario.controller.safety_margin)
+                radii[2 * len(others):] += np.clip(np.minimum(margin, gap - REACTION_SLACK), 0.0, None)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=self._firm)

@@ -99,6 +99,9 @@ class PlannerParams:
     """Time step of the planned joint trajectory (s)."""
     margin: float = 0.05
     """Extra separation kept by the planner beyond 2 r_robot (m)."""
+    door_clearance: float = 1.0
+    """Radius of the zone around a corridor entrance kept clear while a robot comes out of it,
+    and that a robot with no plan gets out of (:mod:`nodnav.planning.clearing`) (m)."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")
@@ -108,8 +111,6 @@ class FastPlannerParams(PlannerParams):
 
     waiting: Literal["early", "late"] = "early"
     """A yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
-    door_clearance: float = 1.0
-    """Radius of the zone around a corridor entrance kept clear while a robot comes out of it (m)."""
     retreat_radii: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)
     """Radii of the rings of candidate spots a cornered robot may back out to (m); the largest
     reaches a room from anywhere in a corridor of the paper's length."""

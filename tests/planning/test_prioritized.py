@@ -8,14 +8,12 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions
-from nodnav.planning.prioritized import (
+from nodnav.planning.occupancy import (
     SLACK,
     Motion,
-    PrioritizedPlanner,
     blocked_bits,
     conflict_intervals,
     corridor_passage,
-    earliest_arrival,
     entry_cell,
     free_cells,
     join_motions,
@@ -23,6 +21,8 @@ from nodnav.planning.prioritized import (
     relaxed_separation,
     separation_requirements,
 )
+from nodnav.planning.prioritized import PrioritizedPlanner
+from nodnav.planning.timing import earliest_arrival
 from nodnav.planning.visibility import arc_length_grid
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import paper_world

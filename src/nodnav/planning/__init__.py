@@ -9,13 +9,9 @@ from __future__ import annotations
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult
 from nodnav.planning.prioritized import PrioritizedPlanner
 from nodnav.planning.prm import PRMStarPlanner
-from nodnav.registry import PLANNERS, register_planner
+from nodnav.registry import PLANNERS
 from nodnav.scenario.params import PlannerParams
 from nodnav.scenario.world import World
-
-# The fast planner's module belongs to its own rework; until it carries the decorator itself,
-# it is registered here.
-register_planner("fast")(PrioritizedPlanner)
 
 
 def make_planner(params: PlannerParams, world: World) -> Planner:

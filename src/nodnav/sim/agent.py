@@ -144,11 +144,12 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
     shows; the queries share their state arrays."""
     local_of = {k: m for m, k in enumerate(robots)}
     rows = list(robots)
-    state = dict(world=scenario.world, positions=view.positions[rows].copy(), velocities=view.velocities[rows].copy(),
-                 destinations=scenario.destinations[rows], radii=scenario.radii[rows],
-                 max_speeds=scenario.max_speeds[rows],
-                 entered=tuple(local_of[k] for k in view.entered if k in local_of), t0=view.t)
-    return [PlanRequest(order=order, **state) for order in orders]
+    positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
+    entered = tuple(local_of[k] for k in view.entered if k in local_of)
+    return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
+                        destinations=scenario.destinations[rows], radii=scenario.radii[rows],
+                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t)
+            for order in orders]
 
 
 def clearing_plan(scenario: Scenario, view: RobotView, planning: tuple[int, ...], robot: int, failed: PlanResult,
@@ -236,6 +237,7 @@ class NODAgent:
 
     def _update_opinion(self, view: RobotView) -> None:
         """Eqs. (4), (9), (8): compare the players' observed motion with last period's plans."""
+        assert self.previous is not None  # called from the second decision on
         planning, players, game, plans = self.previous
         social = np.zeros(len(plans))
         if players and self.social:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -102,7 +103,8 @@ class History:
                 "outcome": self.outcome, "code_version": code_version()}
         path = Path(path)
         with open(path, "wb") as fh:
-            np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **self.arrays())
+            arrays: dict[str, Any] = {"meta": np.array(json.dumps(meta)), **self.arrays()}
+            np.savez_compressed(fh, **arrays)
         return path
 
     @staticmethod

@@ -199,7 +199,7 @@ class PlannedMethod:
                 # Where the other robot is now is known: never more margin than the present gap
                 # leaves, so that the robot is not "inside" the other's braking disc at once.
                 gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
-                       - self.scenario.radii[others] - self.scenario.controller.safety_margin)
+                       - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
                 radii[2 * len(others):] += np.clip(np.minimum(margin, gap - REACTION_SLACK), 0.0, None)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,

@@ -163,7 +163,7 @@ class Simulation:
         self.velocities = np.zeros_like(self.positions)
         # Each robot's own record of what it observed (noisy for the others), newest last.
         self.observed = [[self._observe(i)] for i in range(n)]
-        self.entered_seen = [[] for _ in range(n)]
+        self.entered_seen: list[list[int]] = [[] for _ in range(n)]
         self.entered_true: list[int] = []
         self._update_entries()
         self.arrival = np.full(n, np.nan)

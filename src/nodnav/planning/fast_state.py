@@ -1,0 +1,186 @@
+"""The fast planner's working data: a request's order-independent state, each robot's path cut
+into cells, each robot's plan, and the layout of everybody while one robot is planned."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from nodnav.geometry import TOL
+from nodnav.planning.base import JointTrajectory
+from nodnav.planning.occupancy import Motion, corridor_passage
+from nodnav.planning.visibility import GeometricPath
+from nodnav.scenario.world import World
+
+
+@dataclass(frozen=True)
+class Route:
+    """One robot's geometric path and the standing robots (discs) it keeps clear of."""
+
+    path: GeometricPath
+    centres: np.ndarray
+    radii: np.ndarray
+    detour: bool = False
+    """Whether the path had to ignore the robots standing in the way (it may cross them)."""
+
+
+@dataclass(frozen=True)
+class Track:
+    """A robot's geometric path cut into cells, ready for timing."""
+
+    route: Route
+    cells: np.ndarray
+    """Cells ``(N, 2)`` along the path, at most ``v_max dt / 2`` apart (m)."""
+    arc: np.ndarray
+    """Arc length of each cell ``(N,)`` (m)."""
+    ok2: np.ndarray
+    """Whether the full-speed move ``c -> c+2`` is allowed ``(N,)``."""
+    inside: np.ndarray
+    """Which cells are in the corridor ``(N,)``."""
+    entry: int
+    """First cell entering the corridor from outside, or -1 (:func:`entry_cell`)."""
+    doors: tuple[int, int]
+    """First cell entering the door zone of the left and of the right entrance from outside, or -1."""
+    segments: tuple
+    """The path's segments, :func:`polyline_segments`."""
+
+
+@dataclass(frozen=True)
+class Cut:
+    """A path cut into cells, before any standing robot is considered (see :class:`Track`)."""
+
+    cells: np.ndarray
+    arc: np.ndarray
+    ok2: np.ndarray
+    corners: np.ndarray
+    """Cells ``c`` whose full-speed move ``c -> c+2`` cuts a corner of the path."""
+    inside: np.ndarray
+    entry: int
+    doors: tuple[int, int]
+    segments: tuple
+
+
+@dataclass(frozen=True)
+class RobotPlan:
+    """One robot's planned motion."""
+
+    motion: Motion
+    """Its polyline and where it is along it at steps ``0..arrival``."""
+    world: World = field(repr=False)
+    door_clearance: float = 1.0
+    """Radius of the door zones (m)."""
+    retreat: bool = False
+    """Whether it backs out of the way first."""
+
+    @property
+    def arrival(self) -> int:
+        return self.motion.last_step
+
+    @cached_property
+    def passage(self) -> tuple[int, int]:
+        """``(entry, exit)`` samples of its last stay in the corridor, see :func:`corridor_passage`."""
+        return corridor_passage(self.world.in_corridor(self.motion.samples))
+
+    @cached_property
+    def doors(self) -> tuple[tuple[int, int], tuple[int, int]]:
+        """``(entry, exit)`` samples of its last stay in the door zone of the left and of the right entrance."""
+        s = self.motion.samples
+        left, right = (corridor_passage(np.hypot(s[:, 0] - e[0], s[:, 1] - e[1]) < self.door_clearance)
+                       for e in self.world.entrances)
+        return left, right
+
+
+@dataclass(frozen=True)
+class State:
+    """Everything about a request that does not depend on the order."""
+
+    key: tuple
+    positions: np.ndarray
+    destinations: np.ndarray
+    radii: np.ndarray
+    max_speeds: np.ndarray
+    required: np.ndarray
+    """Pairwise separation, :func:`separation_requirements`."""
+    directions: np.ndarray
+    """Crossing directions, :func:`crossing_directions`."""
+    inside: np.ndarray
+    """Which robots stand in the corridor."""
+    door: np.ndarray
+    """Index of the entrance each robot crosses through first (0 left, 1 right), -1 if it does not cross."""
+    in_door: np.ndarray
+    """Which crossing robots stand in the door zone of that entrance."""
+    natural: tuple
+    """Each robot's shortest path among the walls alone, from its position to its destination."""
+    problem: str
+    """Why no order can be planned (a destination outside free space, overlapping ones), or empty."""
+
+
+def reject_request(order: tuple, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray):
+    """Raise the error for a malformed request."""
+    raise ValueError(f"malformed request: order {order} for {len(pos)} robots, positions {pos.shape}, destinations "
+                     f"{dest.shape}, radii {radii.tolist()}, max_speeds {vmax.tolist()}")
+
+
+def state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str:
+    for k in np.flatnonzero(clear < radii - TOL):
+        return (f"robot {k}: destination ({dest[k, 0]:.3f}, {dest[k, 1]:.3f}) is not in free space "
+                f"(clearance {clear[k]:.3f} m < radius {radii[k]:.3f} m)")
+    gaps = np.linalg.norm(dest[:, None] - dest[None], axis=2)
+    for a, b in zip(*np.triu_indices(len(dest), 1)):
+        if gaps[a, b] < radii[a] + radii[b] - TOL:
+            return (f"robots {a} and {b}: destinations overlap ({gaps[a, b]:.3f} m apart, "
+                    f"need {radii[a] + radii[b]:.3f} m)")
+    return ""
+
+
+@dataclass(frozen=True)
+class Attempt:
+    success: bool
+    reason: str
+    plan: RobotPlan | None = None
+    trapped: bool = False
+    evasions: tuple = ()
+    """``(robot, motion)`` of the robots after it that get out of its way first."""
+
+
+@dataclass(frozen=True)
+class Joint:
+    """Every robot planned in one order: what all results for that order share."""
+
+    success: bool
+    reason: str
+    cost: float = math.inf
+    """Sum of the arrival times (s)."""
+    trajectory: JointTrajectory | None = None
+    arrival: np.ndarray | None = None
+    """Each robot's arrival time after the request's time (s)."""
+    lengths: np.ndarray | None = None
+    """Each robot's path length (m)."""
+    paths: tuple = ()
+    """Each robot's polyline."""
+    retreats: tuple = ()
+    """The robots that back out of the way of robots before them."""
+    deferred: tuple = ()
+    """The robots that wait aside before they park, so as not to block the robots after them."""
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Where everybody is while one robot is planned: the robots before it (their plans), and
+    the robots after it, standing where they are or where they get out of the way to."""
+
+    plans: dict
+    """Planned robot -> :class:`RobotPlan`."""
+    heads: dict
+    """Robot still to plan -> the motion by which it gets out of the way first (it then stands
+    at its end)."""
+    later: tuple[int, ...]
+    """The robots still to plan, in index order (other than the one being planned)."""
+
+    def fixed(self, but: int) -> list[tuple[int, Motion]]:
+        """Every known motion, except robot ``but``'s own: the plans, then the heads."""
+        return ([(i, p.motion) for i, p in self.plans.items()]
+                + [(j, m) for j, m in sorted(self.heads.items()) if j != but])

@@ -1,0 +1,350 @@
+"""Where a robot may be when: cells along a path, motions along polylines, and the steps at which
+cells are too close to another robot's motion, as bitsets (the fast planner's occupancy tables).
+
+A robot's path is cut into cells; :func:`conflict_intervals` finds, in closed form, the steps at
+which each cell is closer than the required separation to another robot moving along its own
+polyline (:class:`Motion`); :func:`blocked_bits` turns those into one bitset per step, which
+:mod:`nodnav.planning.timing` searches. :func:`separation_requirements` is the distance kept
+between every pair, relaxed for pairs that start too close (:func:`relaxed_separation`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from nodnav.compiled import compiled as _compiled
+from nodnav.geometry import TOL
+
+#: How far below their present distance the separation of a pair that starts too close is set
+#: (m): the geometric paths keep that distance within :data:`TOL`, the timing then never fails by
+#: a rounding error.
+SLACK = 1e-6
+#: A step beyond every horizon: "for good".
+FOREVER = np.iinfo(np.int64).max // 2
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure pieces
+
+
+def separation_requirements(destinations: np.ndarray, radii: np.ndarray, max_speeds: np.ndarray, dt: float,
+                            margin: float) -> np.ndarray:
+    """Least centre distance kept between every pair at every sample, shape ``(n, n)`` (m).
+
+    The appendix's validity condition is ``||p_i - p_j|| >= 2 r_robot``; the planner keeps
+    ``r_i + r_j + margin``, raised where needed to ``sqrt((r_i + r_j)^2 + ((v_i + v_j) dt / 2)^2)``
+    so that the condition also holds between samples: two relative positions at least ``s``
+    apart whose difference is at most ``d`` are joined by a segment that stays at least
+    ``sqrt(s^2 - d^2 / 4)`` from the origin. A pair whose destinations are closer than that is
+    held to their distance (never below ``r_i + r_j``), so that both can park. A pair that is
+    closer than this now is relaxed for a while, see :func:`relaxed_separation`. Diagonal: 0.
+    """
+    d = np.asarray(destinations, dtype=float).reshape(-1, 2)
+    r = np.asarray(radii, dtype=float).reshape(-1)
+    v = np.asarray(max_speeds, dtype=float).reshape(-1)
+    contact = r[:, None] + r[None, :]
+    between = np.sqrt(contact**2 + ((v[:, None] + v[None, :]) * dt / 2.0) ** 2)
+    wanted = np.maximum(contact + margin, between)
+    parked = np.linalg.norm(d[:, None] - d[None], axis=2)
+    req = np.minimum(wanted, np.maximum(contact, parked))
+    np.fill_diagonal(req, 0.0)
+    return req
+
+
+def relaxed_separation(required: np.ndarray | float, distance: np.ndarray | float) -> np.ndarray:
+    """The separation held between a pair that starts ``distance`` apart, closer than ``required``:
+    a hair below that distance (:data:`SLACK`), so that both may stay where they are or move
+    apart. It applies until the pair has grown back to ``required``; pairs already that far
+    apart keep ``required``.
+    """
+    required = np.asarray(required, dtype=float)
+    distance = np.asarray(distance, dtype=float)
+    return np.where(distance < required, np.maximum(distance - SLACK, 0.0), required)
+
+
+def corridor_passage(inside: np.ndarray) -> tuple[int, int]:
+    """The last stay in the corridor along a sampled trajectory: ``(entry, exit)`` samples.
+
+    ``entry`` is the first sample of the last run of samples inside, ``exit`` the first sample
+    after it (``len(inside)`` if the trajectory ends inside); ``(-1, -1)`` if never inside.
+    """
+    entry, exit_ = _passage_kernel(np.ascontiguousarray(inside, dtype=bool))
+    return int(entry), int(exit_)
+
+
+@_compiled
+def _passage_kernel(inside):
+    """The scan of :func:`corridor_passage`: back to the last sample inside, then to the start of its run."""
+    last = len(inside) - 1
+    while last >= 0 and not inside[last]:
+        last -= 1
+    if last < 0:
+        return -1, -1
+    entry = last
+    while entry > 0 and inside[entry - 1]:
+        entry -= 1
+    return entry, last + 1
+
+
+def entry_cell(inside: np.ndarray) -> int:
+    """The first cell at which a path enters the corridor from outside, or -1.
+
+    A path that starts inside has already entered; only a re-entry after leaving counts.
+    """
+    return int(_entry_kernel(np.ascontiguousarray(inside, dtype=bool)))
+
+
+@_compiled
+def _entry_kernel(inside):
+    """The scan of :func:`entry_cell`: past the cells inside at the start, then to the next one inside."""
+    n, c = len(inside), 0
+    while c < n and inside[c]:
+        c += 1
+    while c < n and not inside[c]:
+        c += 1
+    return c if c < n else -1
+
+
+def polyline_segments(path: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Start points, unit directions, lengths and start arc lengths of a polyline's non-empty segments."""
+    return _segments_kernel(np.ascontiguousarray(path, dtype=float).reshape(-1, 2))
+
+
+@_compiled
+def _segments_kernel(path):
+    """The loop of :func:`polyline_segments`; the arc length runs on over empty segments (adding 0)."""
+    n = max(path.shape[0] - 1, 0)
+    start, unit = np.empty((n, 2)), np.empty((n, 2))
+    length, arc0 = np.empty(n), np.empty(n)
+    k, s = 0, 0.0
+    for i in range(n):
+        dx, dy = path[i + 1, 0] - path[i, 0], path[i + 1, 1] - path[i, 1]
+        h = math.hypot(dx, dy)
+        if h > 0:
+            start[k, 0], start[k, 1] = path[i, 0], path[i, 1]
+            unit[k, 0], unit[k, 1] = dx / h, dy / h
+            length[k], arc0[k] = h, s
+            k += 1
+        s += h
+    return start[:k], unit[:k], length[:k], arc0[:k]
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A robot moving along a polyline: where it is at every step; afterwards it stays there."""
+
+    path: np.ndarray
+    """The polyline ``(V, 2)`` (m)."""
+    samples: np.ndarray
+    """Positions at steps ``0..T-1`` ``(T, 2)``, on the polyline (m)."""
+    arc: np.ndarray
+    """Arc length along the polyline at each step ``(T,)``, non-decreasing (m)."""
+    segments: tuple = field(default=None, repr=False, compare=False)  # type: ignore[arg-type]  # set in __post_init__
+    """Start points, unit directions, lengths and start arc lengths of the non-empty segments
+    (:func:`polyline_segments`; computed when not given)."""
+
+    def __post_init__(self):
+        if self.segments is None:
+            object.__setattr__(self, "segments", polyline_segments(self.path))
+
+    @property
+    def last_step(self) -> int:
+        """The step from which the robot stands still."""
+        return len(self.samples) - 1
+
+    @cached_property
+    def sweep(self) -> tuple:
+        """What :func:`conflict_intervals` needs of this motion whatever the cells: the matrix
+        and offsets that give a point's coordinates along and across every segment, the
+        segments' start arc lengths and lengths, and the steps whose move cuts a corner of the
+        polyline, with the chords they follow."""
+        q0, unit, length, s0 = self.segments
+        basis, offset, step = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
+                                            np.ascontiguousarray(self.arc), self.last_step)
+        return basis, offset, s0, length, step, self.samples[step], self.samples[step + 1]
+
+
+@_compiled
+def _sweep_kernel(q0, unit, s0, arc, last_step):
+    """The loops of :attr:`Motion.sweep`: the frames of the segments (along ``unit``, across
+    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, and the steps
+    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly)."""
+    n_seg = unit.shape[0]
+    basis = np.empty((2, 2 * n_seg))
+    offset = np.empty(2 * n_seg)
+    for j in range(n_seg):
+        ux, uy = unit[j, 0], unit[j, 1]
+        basis[0, j], basis[1, j] = ux, uy
+        basis[0, n_seg + j], basis[1, n_seg + j] = -uy, ux
+        offset[j] = q0[j, 0] * ux + q0[j, 1] * uy
+        offset[n_seg + j] = q0[j, 0] * -uy + q0[j, 1] * ux
+    step = np.empty(max(n_seg - 1, 0), dtype=np.int64)
+    k = 0
+    for j in range(1, n_seg):
+        t = np.searchsorted(arc, s0[j], side="left") - 1
+        if 0 <= t < last_step and arc[t + 1] > s0[j]:
+            step[k] = t
+            k += 1
+    return basis, offset, step[:k]
+
+
+def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Steps at which cells are too close to other robots: intervals ``(cell, first, last)``.
+
+    Cell ``c`` conflicts with the robot of ``motions[i]`` at step ``t`` when it is closer than
+    ``required[i]`` to where that robot is during ``[t, t+1]``: the stretch of its polyline
+    between ``arc[t]`` and ``arc[t+1]`` and, where that stretch turns a corner, also the
+    straight chord it follows in between. For each cell and each segment of a polyline the arc
+    lengths within ``required`` form one interval, found in closed form (half-chord
+    ``sqrt(required^2 - d_perp^2)`` about the foot of the perpendicular); the steps whose
+    stretch meets it follow by binary search. ``last`` may exceed any horizon (parked for good).
+    ``windows``, a pair of integer arrays ``(since, until)`` over the motions, keeps only the
+    steps ``since[i] <= t <= until[i]`` of each motion. Returns three integer arrays of equal length.
+    """
+    cells = np.ascontiguousarray(cells, dtype=float).reshape(-1, 2)
+    required = np.asarray(required, dtype=float).reshape(-1)
+    parts = [_conflicts_with(cells, m, float(r)) for m, r in zip(motions, required)]
+    if not parts:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty, empty
+    cols, firsts, lasts = (np.concatenate(x) for x in zip(*parts))
+    if windows is not None:
+        owners = np.repeat(np.arange(len(parts)), [len(p[0]) for p in parts])
+        since, until = (np.asarray(w, dtype=np.int64).reshape(-1) for w in windows)
+        firsts = np.maximum(firsts, since[owners])
+        lasts = np.minimum(lasts, until[owners])
+        keep = firsts <= lasts
+        cols, firsts, lasts = cols[keep], firsts[keep], lasts[keep]
+    return cols, firsts, lasts
+
+
+def _conflicts_with(cells: np.ndarray, motion: Motion, required: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`conflict_intervals` for one motion (``cells`` contiguous ``(N, 2)``)."""
+    basis, offset, s0, length, step, chord_a, chord_b = motion.sweep
+    # The projections onto the segments' frames are taken with NumPy's matrix product, whose
+    # rounding (fused multiply-adds in BLAS) the compiled loops could not reproduce exactly.
+    frame = cells @ basis - offset if motion.last_step > 0 and len(length) else np.zeros((len(cells), 0))
+    return _intervals_kernel(cells, frame, motion.samples[-1], motion.arc, s0, length, step, chord_a, chord_b,
+                             motion.last_step, required, (required - TOL) ** 2)
+
+
+@_compiled
+def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
+    """The loops of :func:`_conflicts_with`: ``frame`` holds each cell's coordinates along
+    (first half of the columns) and across (second half) every segment, ``parked2`` is the
+    squared distance within which the parked robot blocks a cell for good."""
+    n_cells, n_seg, n_chord = cells.shape[0], length.shape[0], step.shape[0]
+    moving = last_step > 0 and n_seg > 0
+    cap = n_cells * (1 + n_seg + n_chord) if moving else n_cells
+    cols = np.empty(cap, dtype=np.int64)
+    firsts = np.empty(cap, dtype=np.int64)
+    lasts = np.empty(cap, dtype=np.int64)
+    k = 0
+    for c in range(n_cells):
+        dx, dy = cells[c, 0] - end[0], cells[c, 1] - end[1]
+        if dx * dx + dy * dy < parked2:
+            cols[k], firsts[k], lasts[k] = c, last_step, FOREVER
+            k += 1
+    if moving:
+        r2, floor = required * required, TOL * required
+        for c in range(n_cells):
+            for j in range(n_seg):
+                along, perp = frame[c, j], frame[c, n_seg + j]
+                half2 = r2 - perp * perp
+                if not half2 > floor:
+                    continue
+                half = math.sqrt(max(half2, 0.0))
+                lo, hi = max(along - half, 0.0), min(along + half, length[j])
+                if not lo <= hi:
+                    continue
+                first = max(np.searchsorted(arc, lo + s0[j], side="left") - 1, 0)
+                last = min(np.searchsorted(arc, hi + s0[j], side="right") - 1, last_step - 1)
+                if first <= last:
+                    cols[k], firsts[k], lasts[k] = c, first, last
+                    k += 1
+        # Steps whose move cuts a corner of the polyline: the chord itself as well.
+        for t in range(n_chord):
+            ax, ay = chord_a[t, 0], chord_a[t, 1]
+            dx, dy = chord_b[t, 0] - ax, chord_b[t, 1] - ay
+            norm2 = max(dx * dx + dy * dy, 1e-300)
+            for c in range(n_cells):
+                rx, ry = cells[c, 0] - ax, cells[c, 1] - ay
+                u = min(max((rx * dx + ry * dy) / norm2, 0.0), 1.0)
+                ex, ey = rx - u * dx, ry - u * dy
+                if math.sqrt(ex * ex + ey * ey) < required - TOL:
+                    cols[k], firsts[k], lasts[k] = c, step[t], step[t]
+                    k += 1
+    return cols[:k], firsts[:k], lasts[:k]
+
+
+def blocked_bits(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
+    """The cells that may not be occupied at each step, as bitsets: ``(n_rows, W)`` little-endian
+    64-bit words, bit ``c`` of row ``t`` set when cell ``c`` is closed at step ``t``.
+
+    ``intervals`` is an iterable of ``(cell, first, last)`` arrays (see
+    :func:`conflict_intervals`; steps outside ``0..n_rows-1`` are ignored). Each gate ``(cell,
+    allowed)`` also closes the cells at and past ``cell`` before step ``allowed`` (the corridor
+    and door rules).
+    """
+    bits = np.zeros((n_rows, (n_cells + 63) // 64), dtype=np.uint64)
+    for cols, first, last in intervals:
+        _close_kernel(bits, np.asarray(cols, dtype=np.int64), np.asarray(first, dtype=np.int64),
+                      np.asarray(last, dtype=np.int64))
+    close_gates(bits, n_cells, 0, gates)
+    return bits
+
+
+@_compiled
+def _close_kernel(bits, cols, first, last):
+    """Set bit ``cols[i]`` in rows ``first[i]..last[i]`` of ``bits`` (clipped to its rows)."""
+    n_rows = bits.shape[0]
+    for i in range(cols.shape[0]):
+        word, bit = cols[i] // 64, np.uint64(1) << np.uint64(cols[i] % 64)
+        for t in range(max(first[i], 0), min(last[i], n_rows - 1) + 1):
+            bits[t, word] |= bit
+
+
+def close_gates(bits: np.ndarray, n_cells: int, t0: int, gates) -> None:
+    """Close, in rows ``0..allowed-t0-1`` of ``bits`` (step ``t0`` onwards), the cells at and past
+    ``cell`` of every gate ``(cell, allowed)``."""
+    for cell, allowed in gates:
+        if cell >= 0 and allowed > t0:
+            bits[:allowed - t0] |= mask_words(n_cells, int(cell))
+
+
+def mask_words(n_cells: int, since: int) -> np.ndarray:
+    """The cells ``since..n_cells-1`` as a row of 64-bit words."""
+    words = (n_cells + 63) // 64
+    mask = ((1 << n_cells) - 1) ^ ((1 << since) - 1)
+    return np.frombuffer(mask.to_bytes(8 * words, "little"), dtype="<u8").astype(np.uint64)
+
+
+def relaxed_bits(cells: np.ndarray, motion: Motion, required: float, gap: float) -> np.ndarray:
+    """:func:`blocked_bits` against ``motion`` (one row per step of it) for a robot whose first
+    cell is only ``gap < required`` away from it: the relaxed separation holds until the step
+    after which the motion keeps ``required`` from that cell for good, the full one from then on."""
+    _, _, last = conflict_intervals(cells[:1], [motion], [required])
+    since = int(last.max()) + 1 if len(last) else 0
+    parts = [conflict_intervals(cells, [motion], [required], ([since], [FOREVER])),
+             conflict_intervals(cells, [motion], [relaxed_separation(required, gap)], ([0], [since - 1]))]
+    return blocked_bits(len(cells), motion.last_step + 1, parts)
+
+
+def free_cells(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
+    """The cells free at each step as a boolean array ``(n_rows, n_cells)`` (see :func:`blocked_bits`)."""
+    bits = blocked_bits(n_cells, n_rows, intervals, gates)
+    closed = np.unpackbits(bits.view(np.uint8), axis=1, bitorder="little")[:, :n_cells]
+    return closed == 0
+
+
+
+
+def join_motions(head: Motion, tail: Motion) -> Motion:
+    """``head`` up to its last step, then ``tail``, which starts where ``head`` ends."""
+    length = float(head.segments[2].sum())
+    return Motion(np.vstack([head.path, tail.path[1:]]), np.vstack([head.samples[:-1], tail.samples]),
+                  np.concatenate([head.arc[:-1], tail.arc + length]))

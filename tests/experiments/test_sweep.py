@@ -86,7 +86,12 @@ def test_study_file_round_trip(tmp_path):
                           "command line")
     assert (cli.name, cli.players, cli.bias, cli.trials) == ("sweep", (1, "all"), ((("S1", 2.0),),), 5)
     every = study_from_dict({"scenarios": ["all"]}, "command line").scenarios
-    assert len(every) == 10 and {"2r-case1", "4r-case4"} <= set(every)
+    assert len(every) == 17 and {"2r-case1", "4r-case4", "8r-head-on"} <= set(every)
+    # The paper's ten, and the crowds (5 to 8 robots, which refuse all players above 6 robots).
+    paper = study_from_dict({"scenarios": "paper"}, "command line").scenarios
+    crowds = study_from_dict({"scenarios": "crowds"}, "command line").scenarios
+    assert len(paper) == 10 and {"2r-case1", "4r-case4"} <= set(paper)
+    assert len(crowds) == 7 and sorted(paper + crowds) == sorted(every)
 
 
 @pytest.mark.parametrize("text, message", [

@@ -63,7 +63,7 @@ def test_plan_parts(tmp_path):
                                fig2c_grid=3, fig2c_trials=2)
     parts = {p.name: p for p in plan_parts(options)}
     # No planner besides the fast one: no planner comparison.
-    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods"]
+    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "scaling"]
     assert parts["success"].spec.players == (0, 1, 2) and parts["success"].spec.planners == ("fast",)
     assert parts["table1"].spec.scenarios == ("3r-case2",) and parts["table1"].spec.init == ("zero", "distance")
     assert parts["table2"].spec.bias == ((), (("S3", 150.0), ("S5", 150.0)))

@@ -27,6 +27,7 @@ import numpy as np
 
 from nodnav.decision.strategies import order_label, passing_orders
 from nodnav.experiments.breakdown import breakdown_lines
+from nodnav.experiments.scaling_report import section_scaling
 from nodnav.experiments.store import OUTCOMES, ResultStore, TrialRecord
 
 log = logging.getLogger(__name__)
@@ -937,6 +938,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
         snapshots = _section_snapshots(rep, rerun_snapshots)
         _section_planners(rep)
         _section_methods(rep)
+        section_scaling(rep, wilson_interval)  # beyond the paper: 5-8 robots (nodnav.experiments.scaling_report)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")
     reason = (f"wrote {report_path} with {len(rep.figures)} figures"

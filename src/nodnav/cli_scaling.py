@@ -16,7 +16,7 @@ from nodnav.errors import NodnavError, shown
 from nodnav.paths import output_file
 from nodnav.terminal import real
 
-#: What ``bench scaling`` runs without options: about 4 minutes on one core (README).
+#: What ``bench scaling`` runs without options: a minute or two on one core (README).
 DEFAULT_ROBOTS = "2..8"
 DEFAULT_PLAYERS = "1,2,3,all"
 DEFAULT_TRIALS = 1
@@ -78,7 +78,7 @@ def cmd_bench_scaling(args: argparse.Namespace) -> int:
     if not args.json:
         print(f"measuring scaling: N_r {', '.join(map(str, robots))} x players {', '.join(players)}, "
              f"{args.trials or DEFAULT_TRIALS} trial(s) per cell, one worker process per cell on one core "
-             "(about 4 minutes with the defaults)...", file=sys.stderr)
+             "(a minute or two with the defaults)...", file=sys.stderr)
 
     def progress(done: int, total: int, label: str) -> None:
         if not args.json:

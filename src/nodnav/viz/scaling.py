@@ -23,6 +23,11 @@ def _save(fig, path: str | Path) -> Path:
     return path
 
 
+def _ordered(labels) -> list[str]:
+    """Numbers of game players in increasing order, ``all`` last."""
+    return sorted(labels, key=lambda p: (p == "all", int(p) if p != "all" else 0))
+
+
 def _lines(ax, series: dict[str, tuple[np.ndarray, np.ndarray]], *, log: bool, ylabel: str, title: str,
            errors: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> None:
     """One line per series ``label -> (robot counts, values)``, NaN values left out; ``errors``
@@ -55,7 +60,7 @@ def plot_scaling_benchmark(bench: dict, path: str | Path) -> Path:
     """The four figures of ``nodnav bench scaling`` (``bench`` is its ``to_dict()``): CPU time
     and planner calls per decision, peak memory and real-time factor, against ``N_r``."""
     cells = [c for c in bench["cells"] if "cpu_mean_s" in c]
-    labels = list(dict.fromkeys(c["players"] for c in bench["cells"]))
+    labels = _ordered({c["players"] for c in bench["cells"]})
 
     def series(value) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         out = {}
@@ -69,7 +74,7 @@ def plot_scaling_benchmark(bench: dict, path: str | Path) -> Path:
         (lambda c: 1e3 * c["cpu_mean_s"], True, "CPU time [ms]", "CPU time per decision (every robot deciding)"),
         (lambda c: c["planner_calls_mean"], True, "planner calls", "plan queries per decision (planner calls)"),
         (lambda c: c["peak_rss_bytes"] / 2**20, False, "peak memory [MiB]", "peak memory of a trial's worker"),
-        (lambda c: c["realtime_factor"], True, "simulated / wall time", "real-time factor"),
+        (lambda c: c["realtime_factor"], False, "simulated / wall time", "real-time factor"),
     ]
     for k, (value, log, ylabel, title) in enumerate(panels):
         _lines(fig.add_subplot(2, 2, k + 1), series(value), log=log, ylabel=ylabel, title=title)
@@ -86,7 +91,7 @@ def plot_scaling_study(rows: list[dict], path: str | Path) -> Path:
     ``rows`` hold ``n_robots``, ``players`` (label), ``rate``, ``low``, ``high`` (fractions),
     ``makespan`` (mean over successful trials, s) and ``wall`` (mean wall time of a trial, s).
     """
-    labels = list(dict.fromkeys(str(r["players"]) for r in rows))
+    labels = _ordered({str(r["players"]) for r in rows})
 
     def series(key: str, scale: float = 1.0):
         out = {}

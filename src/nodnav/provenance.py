@@ -24,7 +24,10 @@ import nodnav
 #: change a trial's result and are left out of the hash.
 PRESENTATION = ("cli.py", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "experiments/report.py", "experiments/reproduce.py",
                 "experiments/study.py", "experiments/sweep.py", "experiments/store.py", "control/bench.py",
-                "planning/bench.py", "sim/bench.py")
+                "planning/bench.py", "sim/bench.py",
+                # the scaling benchmark, part and report section, and which built-ins are the paper's
+                "cli_scaling.py", "sim/bench_scaling.py", "experiments/scaling.py", "experiments/scaling_report.py",
+                "scenario/catalogue.py")
 
 #: What stored rows written before code versions were recorded hold instead of one.
 UNKNOWN = "unknown"

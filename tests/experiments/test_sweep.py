@@ -144,6 +144,15 @@ def test_expansion_is_the_cross_product_less_what_does_not_apply():
     assert [t.seed for t in ex.trials[:2]] == [1, 2]
 
 
+def test_expansion_leaves_out_games_above_the_size_limit():
+    # 7 robots: 'all' and 6 players are games of 7 robots, 7! = 5040 orders: left out; 5 players
+    # (6! = 720 orders) and the scenario's own 2 are kept.
+    ex = expand(SweepSpec(name="x", scenarios=("7r-mixed",), players=("all", 6, 5, None), trials=1))
+    assert sorted(t.scenario.n_players for t in ex.trials) == [2, 5]
+    assert ex.notes == ("7r-mixed: players all skipped (7! orders per robot, more than 720)",
+                        "7r-mixed: players 6 skipped (7! orders per robot, more than 720)")
+
+
 def test_axes_left_out_keep_the_scenario_settings():
     [t] = expand(SweepSpec(name="x", scenarios=("3r-case3",))).trials
     assert t.scenario == load_scenario("3r-case3") and t.method == "nod" and t.seed == 1

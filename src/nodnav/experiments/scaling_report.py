@@ -91,13 +91,14 @@ def readings(by_robots: list[ScalingGroup], records: list[TrialRecord], interval
         collisions = sum(g.count("collision") for g in mine)
         text = (f"k = {k}: {s} of {n} trials succeeded, {_pct(interval(s, n))} % pooled over "
                 f"{', '.join(str(g.key[0]) for g in mine)} robots; {collisions} collision(s)")
-        timed = [g for g in mine if g.wall.size]
+        timed = [g for g in mine if g.wall.size and math.isfinite(g.realtime_factor)]
         if len(timed) >= 2:
             first, last = timed[0], timed[-1]
-            growth = last.wall.mean() / first.wall.mean()
-            text += (f"; a trial's mean wall time went from {first.wall.mean():.1f} s at {first.key[0]} robots to "
-                     f"{last.wall.mean():.1f} s at {last.key[0]} ({growth:.2f}x for {last.key[0] / first.key[0]:.2f}x "
-                     "the robots)")
+            # Per simulated second, so that longer trials with more robots do not count as slower code.
+            growth = first.realtime_factor / last.realtime_factor
+            text += (f"; a simulated second took {growth:.2f}x the wall time at {last.key[0]} robots as at "
+                     f"{first.key[0]} ({first.realtime_factor:.1f}x real time, then {last.realtime_factor:.1f}x) "
+                     f"for {last.key[0] / first.key[0]:.2f}x the robots")
         out.append(text + ".")
     failed = [r for r in records if r.outcome != "success"]
     if failed:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nodnav.cli_scaling import add_scaling_options, check_scaling_only, cmd_bench_scaling
 from nodnav.errors import NodnavError, one_line, shown, shown_path
 from nodnav.paths import output_dir, output_file, safe_filename
 from nodnav.terminal import (
@@ -415,6 +416,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from nodnav.planning import PLANNERS
     from nodnav.scenario.loading import load_scenario
 
+    # -- bench scaling (nodnav.cli_scaling) --
+    check_scaling_only(args)
+    if args.target == "scaling":
+        return cmd_bench_scaling(args)
+    # --
     for p in args.planner or ():
         if p not in PLANNERS:
             raise NodnavError(f"--planner: unknown planner {shown(p)}{nearest_hint(p, PLANNERS, 'planners')}")
@@ -427,8 +433,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
               file=sys.stderr)
     if args.target == "planners":
         from nodnav.planning.bench import main_bench_planners
+        from nodnav.scenario.catalogue import PAPER_SCENARIOS
 
-        print(main_bench_planners(args.json, planners=tuple(args.planner or ("fast", "prm"))))
+        print(main_bench_planners(args.json, planners=tuple(args.planner or ("fast", "prm")),
+                                  scenarios=PAPER_SCENARIOS))  # every order of 5-8 robots would be too many
     elif args.target == "mpc":
         import dataclasses
 
@@ -447,7 +455,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     else:
         from nodnav.sim.bench import benchmark_closed_loop
 
-        results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, args.trials + 1)))
+        results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)))
                    for planner in (args.planner or ("fast",))]
         if args.json:
             print(json.dumps([r.to_dict() for r in results]))
@@ -524,9 +532,9 @@ def _add_report_parsers(sub) -> None:
                    help="trials per cell of the methods comparison, at most --trials (default 20)")
     p.add_argument("--db", help="results database (default DIR/results.sqlite, DIR the --out directory)")
     p.add_argument("--parts", help="parts to run, e.g. success,table1 (default all: success, table1, table2, "
-                   "fig2c, methods, planners)")
+                   "fig2c, methods, planners, scaling)")
     p.add_argument("--scenarios", help="scenarios of the success rates and comparisons, e.g. 3r-case1,4r-case4 "
-                   "(default every built-in scenario)")
+                   "(default the paper's ten)")
     p.add_argument("--allow-mixed", action="store_true",
                    help="keep trials stored by another code version as results instead of running them again")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -609,7 +617,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--study", help="YAML study file (the options below override its keys)")
     p.add_argument("--name", help="study name (default: the study file's stem, else 'sweep')")
     p.add_argument("--scenario", action="append", dest="scenarios",
-                   help="built-in name, YAML path, FAMILY:SEED, or 'all' for every built-in scenario (repeatable)")
+                   help="built-in name, YAML path, FAMILY:SEED, or a group of built-ins: 'all', 'paper' (the "
+                   "paper's ten), 'crowds' (5-8 robots) (repeatable)")
     p.add_argument("--family", action="append", dest="families",
                    help="generated family (built-in name or YAML path): trial seed s runs draw s (repeatable)")
     p.add_argument("--players", action="append",
@@ -632,13 +641,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_sweep)
 
-    p = sub.add_parser("bench", help="measure speed: planners, the MPC, or whole trials (one core)")
-    p.add_argument("target", choices=("planners", "mpc", "sim"), help="what to measure")
+    p = sub.add_parser("bench", help="measure speed: planners, the MPC, whole trials, or scaling in N_r (one core)")
+    p.add_argument("target", choices=("planners", "mpc", "sim", "scaling"), help="what to measure")
+    add_scaling_options(p)  # bench scaling (nodnav.cli_scaling)
     p.add_argument("--planner", action="append", help="planner(s) to measure (repeatable; default fast and prm, "
                    "fast for sim)")
     p.add_argument("--scenario", default="4r-case2", help="scenario of the 'sim' benchmark (default 4r-case2)")
-    p.add_argument("--trials", type=whole(1, 100), default=3, help="trials (seeds 1..N) of the 'sim' benchmark "
-                   "(default 3)")
+    p.add_argument("--trials", type=whole(1, 100), help="trials (seeds 1..N) of the 'sim' benchmark "
+                   "(default 3) and per cell of 'scaling' (default 1)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_bench)
 

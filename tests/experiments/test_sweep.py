@@ -87,7 +87,12 @@ def test_study_file_round_trip(tmp_path):
                           "command line")
     assert (cli.name, cli.players, cli.bias, cli.trials) == ("sweep", (1, "all"), ((("S1", 2.0),),), 5)
     every = study_from_dict({"scenarios": ["all"]}, "command line").scenarios
-    assert len(every) == 10 and {"2r-case1", "4r-case4"} <= set(every)
+    assert len(every) == 17 and {"2r-case1", "4r-case4", "8r-head-on"} <= set(every)
+    # The paper's ten, and the crowds (5 to 8 robots, which refuse all players above 6 robots).
+    paper = study_from_dict({"scenarios": "paper"}, "command line").scenarios
+    crowds = study_from_dict({"scenarios": "crowds"}, "command line").scenarios
+    assert len(paper) == 10 and {"2r-case1", "4r-case4"} <= set(paper)
+    assert len(crowds) == 7 and sorted(paper + crowds) == sorted(every)
 
 
 @pytest.mark.parametrize("text, message", [
@@ -139,6 +144,15 @@ def test_expansion_is_the_cross_product_less_what_does_not_apply():
     assert {t.scenario.n_players for t in three} == {0, 2}
     assert {tuple(t.scenario.opinion.bias.items()) for t in three} == {(), (("S3", 150.0),)}
     assert [t.seed for t in ex.trials[:2]] == [1, 2]
+
+
+def test_expansion_leaves_out_games_above_the_size_limit():
+    # 7 robots: 'all' and 6 players are games of 7 robots, 7! = 5040 orders: left out; 5 players
+    # (6! = 720 orders) and the scenario's own 2 are kept.
+    ex = expand(SweepSpec(name="x", scenarios=("7r-mixed",), players=("all", 6, 5, None), trials=1))
+    assert sorted(t.scenario.n_players for t in ex.trials) == [2, 5]
+    assert ex.notes == ("7r-mixed: players all skipped (7! orders per robot, more than 720)",
+                        "7r-mixed: players 6 skipped (7! orders per robot, more than 720)")
 
 
 def test_axes_left_out_keep_the_scenario_settings():

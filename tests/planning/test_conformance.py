@@ -1,7 +1,8 @@
 """The conformance suite every planner in ``nodnav.planning.PLANNERS`` must pass.
 
-Every built-in scenario is planned from its origins in every passing order (the PRM* planner,
-with a small roadmap in a temporary cache, in a handful of orders for four robots) and the joint
+Every scenario of the paper is planned from its origins in every passing order (the PRM* planner,
+with a small roadmap in a temporary cache, in a handful of orders for four robots), every crowd
+built-in (5 to 8 robots) by the fast planner in a handful of orders, and the joint
 trajectory is checked independently of the planner: separation and free space at a step five
 times finer than the plan's, speed limits, start and end points, the corridor entry order and
 the single-file rule. Requests with robots that have entered the corridor, an unreachable
@@ -16,7 +17,7 @@ import pytest
 
 from nodnav.planning import PLANNERS, make_planner
 from nodnav.planning.base import PlanRequest, corridor_entry_order, crossing_directions, feasible_order
-from nodnav.scenario.files import builtin_names
+from nodnav.scenario.catalogue import PAPER_SCENARIOS, crowd_scenarios
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import FastPlannerParams, PRMParams
 from nodnav.scenario.world import paper_world
@@ -88,10 +89,25 @@ def orders_for(planner, n):
     return orders[::PRM_ORDER_STRIDE] if planner.name == "prm" and n >= 4 else orders
 
 
-@pytest.mark.parametrize("name", builtin_names())
+@pytest.mark.parametrize("name", PAPER_SCENARIOS)
 def test_builtin_scenario_every_order(planner, name):
     sc = load_scenario(name)
     for order in orders_for(planner, sc.n_robots):
+        req = PlanRequest(sc.world, sc.origins, np.zeros_like(sc.origins), sc.destinations, sc.radii,
+                          sc.max_speeds, order)
+        assert_conforms(planner, planner.plan(req), req)
+
+
+@pytest.mark.parametrize("name", crowd_scenarios())
+def test_crowd_scenario_some_orders(name):
+    """5 to 8 robots have 120 to 40,320 orders: the fast planner (the one their trials use; the
+    PRM* roadmaps are built for up to 4 robots) plans the identity, its reverse and three drawn ones."""
+    sc = load_scenario(name)
+    planner = make_planner(FastPlannerParams(), sc.world)
+    rng = np.random.default_rng(12)
+    orders = [tuple(range(sc.n_robots)), tuple(reversed(range(sc.n_robots)))]
+    orders += [tuple(int(k) for k in rng.permutation(sc.n_robots)) for _ in range(3)]
+    for order in orders:
         req = PlanRequest(sc.world, sc.origins, np.zeros_like(sc.origins), sc.destinations, sc.radii,
                           sc.max_speeds, order)
         assert_conforms(planner, planner.plan(req), req)

@@ -14,8 +14,9 @@ from nodnav.scenario.world import LEFT, RIGHT
 
 
 def test_builtin_names():
-    expected = ["2r-case1", "2r-case2"] + [f"{n}r-case{k}" for n in (3, 4) for k in range(1, 5)]
-    assert builtin_names() == sorted(expected)
+    paper = ["2r-case1", "2r-case2"] + [f"{n}r-case{k}" for n in (3, 4) for k in range(1, 5)]
+    crowds = ["5r-mixed", "5r-one-sided", "6r-head-on", "6r-one-sided", "7r-mixed", "8r-head-on", "8r-mixed"]
+    assert builtin_names() == sorted(paper + crowds)
 
 
 @pytest.mark.parametrize("name", builtin_names())

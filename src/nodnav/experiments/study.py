@@ -3,7 +3,7 @@
 A study file::
 
     name: game-reduction          # optional; default: the file's stem ('sweep' on the command line)
-    scenarios: [3r-case1, 4r-case4]   # or all: every built-in scenario
+    scenarios: [3r-case1, 4r-case4]   # or all (every built-in), paper (the paper's ten), crowds (5-8 robots)
     players: [0, 1, all]          # optional; default: each scenario's own setting
     init: [zero, distance]        # optional; default: each scenario's own setting
     bias: [none, {S3: 150, S5: 150}]   # optional; 'none', a mapping or "S3=150,S5=150"
@@ -157,8 +157,11 @@ def _names(value: Any, where: str) -> tuple[str, ...]:
 
 
 def _scenario_names(value: Any, where: str) -> tuple[str, ...]:
+    from nodnav.scenario.catalogue import PAPER_SCENARIOS, crowd_scenarios
+
     names = _names(value, where)
-    return tuple(builtin_names()) if names == ("all",) else names
+    groups = {("all",): builtin_names, ("paper",): lambda: PAPER_SCENARIOS, ("crowds",): crowd_scenarios}
+    return tuple(groups[names]()) if names in groups else names
 
 
 def _family_names(value: Any, where: str) -> tuple[str, ...]:

@@ -41,6 +41,7 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import PACKAGE_VERSION, code_version
+from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import Scenario, scenario_to_dict
 from nodnav.sim.metrics import json_ready
@@ -137,8 +138,9 @@ def expand(spec: SweepSpec) -> Expansion:
     A family (``spec.families``) contributes its draws 1..trials, draw s with seed s only, so that
     ``nodnav run FAMILY:s --seed s`` redoes any of its trials.
 
-    A game-player count outside 0..N_r - 1, or a bias naming a strategy beyond N_r!, does not
-    apply to a scenario: that combination is left out with a note (and logged). ``all`` is
+    A game-player count outside 0..N_r - 1 or giving games of more than ``MAX_STRATEGIES`` orders
+    (``all`` above 6 robots), or a bias naming a strategy beyond N_r!, does not apply to a
+    scenario: that combination is left out with a note (and logged). ``all`` is
     N_r - 1 players; combinations that give the same trial are kept once.
     """
     trials: dict[str, TrialSpec] = {}
@@ -147,8 +149,12 @@ def expand(spec: SweepSpec) -> Expansion:
         n, n_s = base.n_robots, math.factorial(base.n_robots)
         players_axis = []
         for players in spec.players:
+            game = n if not isinstance(players, int) else players + 1  # "all", or None: the scenario's own
             if isinstance(players, int) and players > n - 1:
                 notes[f"{label}: players {players} skipped ({n} robots allow 0..{n - 1})"] += 1
+            elif players is not None and math.factorial(game) > MAX_STRATEGIES:
+                notes[f"{label}: players {players} skipped ({game}! orders per robot, more than "
+                      f"{MAX_STRATEGIES})"] += 1
             else:
                 players_axis.append(players)
         bias_axis = []

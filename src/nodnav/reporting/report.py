@@ -60,6 +60,7 @@ from nodnav.experiments.variants import STUDY_REDUCTION
 from nodnav.reporting.breakdown import breakdown_lines
 from nodnav.reporting.markdown import md_table, produced
 from nodnav.reporting.reduction import section_reduction
+from nodnav.reporting.scaling import section_scaling
 from nodnav.scenario.schema import scenario_from_dict
 from nodnav.sim.simulator import run_trial
 from nodnav.viz.heatmap import plot_heatmap
@@ -556,6 +557,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
         _section_planners(rep)
         _section_methods(rep)
         section_reduction(rep)
+        section_scaling(rep, wilson_interval)  # beyond the paper: 5-8 robots (nodnav.reporting.scaling)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")
     reason = (f"wrote {report_path} with {len(rep.figures)} figures"

@@ -45,20 +45,21 @@ from nodnav.experiments.paper import (
     STUDY_TABLE1,
     STUDY_TABLE2,
 )
+from nodnav.experiments.scaling import SCALING_TITLE, scaling_spec
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
 from nodnav.experiments.variants import STUDY_REDUCTION, variant_scenario_files
 from nodnav.provenance import PACKAGE_VERSION, code_version
 from nodnav.reporting.report import ReportResult, build_report
-from nodnav.scenario.files import builtin_names
+from nodnav.scenario.catalogue import PAPER_SCENARIOS
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_to_dict
 
 log = logging.getLogger(__name__)
 
 #: The parts of the evaluation, in the order they run within a round and get a seed the budget cannot give to all.
-PARTS = ("success", "table1", "table2", "fig2c", "methods", "reduction", "planners")
+PARTS = ("success", "table1", "table2", "fig2c", "methods", "reduction", "planners", "scaling")
 #: The parts that reproduce the paper; the budget brings them to their targets before the comparisons.
 PAPER_PARTS = ("success", "table1", "table2", "fig2c")
 
@@ -102,7 +103,7 @@ class ReproduceOptions:
     """Trials per cell of the methods comparison, at most :attr:`trials` (six methods on every
     scenario: at 20 trials a cell it alone costs as much as the success rates at 40)."""
     scenarios: tuple[str, ...] = ()
-    """Scenarios of the success rates, methods and planners; empty means every built-in one."""
+    """Scenarios of the success rates, methods and planners; empty means the paper's ten."""
     parts: tuple[str, ...] = PARTS
     """Which parts to run (all of :data:`PARTS` by default; fewer for quick checks)."""
     heatmap_grid: int = 41
@@ -242,7 +243,7 @@ def fig2c_scenario_files(directory: Path, grid: int) -> list[Path]:
 
 def plan_parts(options: ReproduceOptions) -> tuple[Part, ...]:
     """The studies of the evaluation for ``options``, in :data:`PARTS` order."""
-    scenarios = tuple(options.scenarios) or tuple(builtin_names())
+    scenarios = tuple(options.scenarios) or PAPER_SCENARIOS
     max_players = max(load_scenario(s).n_robots for s in scenarios) - 1
     methods = tuple(options.methods) or known_methods()
     t = options.trials
@@ -266,6 +267,7 @@ def plan_parts(options: ReproduceOptions) -> tuple[Part, ...]:
                 tuple(s for s in scenarios if load_scenario(s).n_robots <= 4))), planners=("fast",), trials=t)),
         "planners": lambda: Part("planners", f"planners compared ({', '.join(planners)})", SweepSpec(
             STUDY_PLANNERS, scenarios, players=tuple(range(max_players + 1)), planners=planners, trials=t)),
+        "scaling": lambda: Part("scaling", SCALING_TITLE, scaling_spec(t)),  # nodnav.experiments.scaling
     }
     # The planner comparison needs a planner besides the fast one, which the other parts use.
     wanted = [p for p in PARTS if p in options.parts and (p != "planners" or len(planners) > 1)]

@@ -470,7 +470,7 @@ def _robot_counts(text: str) -> tuple[int, ...]:
 def _cmd_roadmaps(args: argparse.Namespace) -> int:
     import time
 
-    from nodnav.planning.roadmap import build_all_roadmaps, format_build_reports, resolve_cache_dir
+    from nodnav.planning.roadmap_cache import build_all_roadmaps, format_build_reports, resolve_cache_dir
     from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)

@@ -285,9 +285,9 @@ def test_reproduce_help_shows_parts_and_defaults(capsys):
 
 
 def test_summaries_in_plain_words(capsys):
+    from nodnav.cli.terminal import trial_summary_lines
     from nodnav.scenario.loading import load_scenario as load
     from nodnav.sim.simulator import run_trial
-    from nodnav.terminal import trial_summary_lines
 
     scenario = load("2r-case1").with_overrides(game_players=1)
     text = "\n".join(trial_summary_lines(run_trial(scenario, "nod", 1), scenario, "nod", 1))

@@ -27,7 +27,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 
 #: Files (relative to the package, ``/``-separated) and folders (ending in ``/``) that cannot
 #: change a trial's result and are left out of the hash.
-PRESENTATION = ("cli.py", "cli/", "terminal.py", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
+PRESENTATION = ("cli/", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
                 "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
                 "experiments/sweep.py", "experiments/store.py", "control/bench.py", "planning/bench.py", "sim/bench.py")
 

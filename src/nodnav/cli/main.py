@@ -20,7 +20,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
     try:
         args = parser.parse_args(argv)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
         return 2
     except SystemExit as exc:  # --help, printed by argparse
         return exc.code if isinstance(exc.code, int) else 0
@@ -31,7 +31,7 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
         with compile_notice():
             return args.func(args)
     except NodnavError as exc:
-        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)  # type: ignore[arg-type]
+        print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("nodnav: interrupted", file=sys.stderr)

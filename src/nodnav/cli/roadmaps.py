@@ -26,11 +26,13 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
 
     from nodnav.planning.roadmap_cache import build_all_roadmaps, format_build_reports, resolve_cache_dir
     from nodnav.scenario.loading import load_scenario
+    from nodnav.scenario.params import PRMParams
 
     scenario = load_scenario(args.scenario)
     prm = scenario.with_overrides(**{"planner.name": "prm"}).planner  # the scenario's PRM* settings
+    assert isinstance(prm, PRMParams)  # the planner named prm reads its settings into PRMParams
     counts = _robot_counts(args.robots)
-    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")  # type: ignore[attr-defined]
+    cache = output_dir(resolve_cache_dir(args.cache_dir or prm.cache_dir), "--cache-dir")
     if not args.execute:
         return 0
     from tqdm import tqdm
@@ -50,7 +52,7 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
             bar.update(vertices)
 
         reports = build_all_roadmaps(scenario.world, radius=float(scenario.radii[0]), robot_counts=counts,
-                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,  # type: ignore[attr-defined]
+                                     vertices_per_robot=args.vertices or prm.roadmap_vertices,
                                      cache_dir=str(cache), n_jobs=args.jobs, progress=progress)
     print(format_build_reports(reports))
     print(f"{plural(len(reports), 'roadmap')} ready in {time.perf_counter() - start:.1f} s (cache {cache})")

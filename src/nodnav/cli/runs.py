@@ -7,6 +7,7 @@ import json
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,13 +64,13 @@ def scenario_with_options(args: argparse.Namespace):
     from nodnav.scenario.loading import load_scenario
 
     scenario = load_scenario(args.scenario)
-    changes = {}
+    changes: dict[str, Any] = {}
     if getattr(args, "players", None) is not None:
         changes["game_players"] = parse_players(args.players, "--players")
     if getattr(args, "init", None):
         changes["opinion.init"] = args.init
     if getattr(args, "bias", None) is not None:
-        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))  # type: ignore[assignment]
+        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))
     if getattr(args, "u", None) is not None:
         changes["opinion.u"] = args.u
     if getattr(args, "planner", None):

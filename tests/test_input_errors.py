@@ -226,7 +226,8 @@ def test_replay_of_a_text_file_gives_no_numpy_advice(tmp_path, capsys):
 
 
 def test_cached_roadmap_with_nan_vertices_is_rebuilt_not_trusted(tmp_path):
-    from nodnav.planning.roadmap import Roadmap, load_roadmap, make_key, save_roadmap
+    from nodnav.planning.roadmap import Roadmap, make_key
+    from nodnav.planning.roadmap_cache import load_roadmap, save_roadmap
     from nodnav.scenario.world import paper_world
 
     key = make_key(paper_world(), [0.2], (1,), 0.05, 0.1, 10)
@@ -238,7 +239,7 @@ def test_cached_roadmap_with_nan_vertices_is_rebuilt_not_trusted(tmp_path):
 
 
 def test_stale_temporary_roadmap_files_are_removed(tmp_path):
-    from nodnav.planning.roadmap import STALE_TEMPORARY_AGE, clean_stale_temporaries
+    from nodnav.planning.roadmap_cache import STALE_TEMPORARY_AGE, clean_stale_temporaries
 
     old, fresh = tmp_path / ".tmp-old.npz", tmp_path / ".tmp-fresh.npz"
     old.write_bytes(b"partial")
@@ -284,9 +285,9 @@ def test_reproduce_help_shows_parts_and_defaults(capsys):
 
 
 def test_summaries_in_plain_words(capsys):
+    from nodnav.cli.terminal import trial_summary_lines
     from nodnav.scenario.loading import load_scenario as load
     from nodnav.sim.simulator import run_trial
-    from nodnav.terminal import trial_summary_lines
 
     scenario = load("2r-case1").with_overrides(game_players=1)
     text = "\n".join(trial_summary_lines(run_trial(scenario, "nod", 1), scenario, "nod", 1))

@@ -51,8 +51,9 @@ def shown(value) -> str:
         return f"<{type(value).__name__}>"
 
 
-def one_line(text: str, limit: int = MAX_MESSAGE) -> str:
-    """``text`` with every run of whitespace (line breaks included) made one space, cut to ``limit``."""
+def one_line(text: object, limit: int = MAX_MESSAGE) -> str:
+    """``text`` (or an exception's message) with every run of whitespace (line breaks included)
+    made one space, cut to ``limit``."""
     flat = " ".join(str(text).split())
     return flat if len(flat) <= limit else flat[: limit - 3] + "..."
 

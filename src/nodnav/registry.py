@@ -37,7 +37,8 @@ from nodnav.errors import NodnavError, nearest_hint, shown
 
 log = logging.getLogger(__name__)
 
-T = TypeVar("T")
+T = TypeVar("T", bound=Callable[..., Any])
+C = TypeVar("C", bound=type)
 
 _NAME = re.compile(r"[a-z0-9][a-z0-9_.-]{0,39}")
 
@@ -104,17 +105,17 @@ class Registry:
                 raise RegistryError(f"{self.kind} {name!r}: its parameters are declared already as "
                                     f"{known.params.__name__}")
             text = help or (known.help if known else "") or _first_line(factory)
-            self._put(Entry(name, factory, params or (known.params if known else None), text))  # type: ignore[arg-type]
+            self._put(Entry(name, factory, params or (known.params if known else None), text))
             return factory
 
         return decorate
 
-    def declare(self, name: str, *, params: type | None = None, help: str = "") -> Callable[[T], T]:
+    def declare(self, name: str, *, params: type | None = None, help: str = "") -> Callable[[C], C]:
         """A decorator declaring a built-in name and its parameter dataclass before its
         implementation registers (which happens in a higher layer). Use it on the dataclass."""
-        def decorate(cls: T) -> T:
+        def decorate(cls: C) -> C:
             known = self._entries.get(name)
-            self._put(Entry(name, known.factory if known else None, params or cls, help))  # type: ignore[arg-type]
+            self._put(Entry(name, known.factory if known else None, params or cls, help))
             return cls
 
         return decorate
@@ -196,7 +197,8 @@ class Registry:
         if not isinstance(entry.name, str) or not _NAME.fullmatch(entry.name):
             raise RegistryError(f"{self.kind} name {entry.name!r}: use lower-case letters, digits, '-', '_' and '.' "
                                 "(at most 40 characters)")
-        if entry.params is not None and not (is_dataclass(entry.params) and entry.params.__dataclass_params__.frozen):  # type: ignore[attr-defined]
+        settings = getattr(entry.params, "__dataclass_params__", None)  # how @dataclass was applied
+        if entry.params is not None and not (is_dataclass(entry.params) and settings is not None and settings.frozen):
             raise RegistryError(f"{self.kind} {entry.name!r}: its parameters must be a frozen dataclass, "
                                 f"got {entry.params!r}")
         self._entries[entry.name] = entry

@@ -8,20 +8,10 @@ from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
 from nodnav.control.bench import benchmark_mpc, queue_references
-from nodnav.control.mpc import (
-    BSplineMPC,
-    braking_profile,
-    chord_inflation,
-    constraint_grid,
-    infeasibility_certificate,
-    initial_state_nullspace,
-    interpolation_matrix,
-    plan_extremes,
-    polygon_normals,
-    slope_matrix,
-    solve_qp,
-    stopping_rows,
-)
+from nodnav.control.mpc import BSplineMPC, braking_profile
+from nodnav.control.mpc_problem import initial_state_nullspace, interpolation_matrix, slope_matrix
+from nodnav.control.mpc_rows import chord_inflation, constraint_grid, plan_extremes, polygon_normals, stopping_rows
+from nodnav.control.qp import infeasibility_certificate, solve_qp
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
@@ -207,15 +197,15 @@ def test_infeasibility_certificate_is_an_infeasible_subsystem():
 
 def test_infeasibility_certificate_without_daqp_falls_back_to_highs(monkeypatch):
     """Should DAQP not converge, the HiGHS dual LP gives the same hand-checked certificate."""
-    import nodnav.control.mpc as mpc
+    import nodnav.control.qp as qp
 
     def not_converged(*args, **kwargs):
         return np.zeros(3), 0.0, -4, {"lam": np.zeros(6), "iterations": 0}
 
-    monkeypatch.setattr(mpc.daqp, "solve", not_converged)
+    monkeypatch.setattr(qp.daqp, "solve", not_converged)
     rows = np.array([[0.0, 1.0], [1.0, 0.0], [-1.0, -1.0], [0.0, 1.0], [-1.0, 0.0]])
     lower = np.array([-5.0, 1.0, 0.0, 0.0, -np.inf])
-    np.testing.assert_array_equal(mpc.infeasibility_certificate(rows, lower), [1, 2, 3])
+    np.testing.assert_array_equal(qp.infeasibility_certificate(rows, lower), [1, 2, 3])
 
 
 def test_softened_rows_are_the_soft_groups_rows_only():

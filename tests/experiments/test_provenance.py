@@ -33,7 +33,7 @@ def test_code_version_is_the_package_version_and_a_hash_of_the_installed_source(
     assert code_version() == f"{nodnav.__version__}+{source_hash(root)[:12]}"
     names = {p.relative_to(root).as_posix() for p in result_files(root)}
     assert {"sim/simulator.py", "control/mpc.py", "scenario/builtin/3r-case4.yaml"} <= names
-    assert not names & {"cli.py", "viz/trial.py", "reporting/report.py"}
+    assert not names & {"cli/main.py", "cli/runs.py", "viz/trial.py", "reporting/report.py"}
 
 
 def test_the_hash_follows_what_determines_a_result_and_nothing_else(tmp_path):
@@ -41,7 +41,7 @@ def test_the_hash_follows_what_determines_a_result_and_nothing_else(tmp_path):
     copy = tmp_path / "nodnav"
     shutil.copytree(root, copy, ignore=shutil.ignore_patterns("__pycache__"))
     before = source_hash(copy)
-    (copy / "cli.py").write_text((copy / "cli.py").read_text() + "\n# a comment\n")
+    (copy / "cli" / "runs.py").write_text((copy / "cli" / "runs.py").read_text() + "\n# a comment\n")
     (copy / "viz" / "trial.py").write_text("")
     assert source_hash(copy) == before  # presentation only
     (copy / "sim" / "simulator.py").write_text((copy / "sim" / "simulator.py").read_text() + "\n")

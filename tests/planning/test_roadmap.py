@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from nodnav.geometry import segment_clearance
+from nodnav.planning import joint_validity as jv
 from nodnav.planning import roadmap as rm
+from nodnav.planning import roadmap_cache as rc
 from nodnav.scenario.world import paper_world
 
 R = 0.2
@@ -29,7 +31,7 @@ def cache(tmp_path_factory):
 def built(world, cache):
     """A small two-robot head-on roadmap, built once into the module's cache."""
     key = rm.make_key(world, [R, R], (1, -1), MARGIN, 0.1, TINY)
-    return key, rm.get_roadmap(key, cache)
+    return key, rc.get_roadmap(key, cache)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -71,20 +73,20 @@ def test_proximity_penalty_hand_computation():
     ((-5.0, 3.0), (1, -1), False),
 ])
 def test_order_rule_hand_cases(world, xs, dirs, expected):
-    assert bool(rm.order_holds(np.array(xs), np.array(dirs), world)) is expected
+    assert bool(jv.order_holds(np.array(xs), np.array(dirs), world)) is expected
     # The compiled kernel gives the same verdict.
     x = np.array([[xs[0], 1.5], [xs[1], -1.5]]).ravel()
     x[1::2] = np.where(np.abs(np.array(xs)) <= 3.0, 0.0, x[1::2])  # inside robots on the axis
-    rules = rm.CompiledRules.of(world, [R, R], dirs, [0.45])
+    rules = jv.CompiledRules.of(world, [R, R], dirs, [0.45])
     assert rules.state_ok(x) is expected
 
 
 def test_three_robot_chain_rule(world):
     # Ranks 0 and 2 go right, rank 1 goes left: rank 2 may only enter once rank 1 has left.
     dirs = np.array([1, -1, 1])
-    assert rm.order_holds(np.array([4.0, 0.0, -5.0]), dirs, world)
-    assert not rm.order_holds(np.array([4.0, 0.0, -2.0]), dirs, world)
-    assert rm.order_holds(np.array([4.5, -4.0, -2.0]), dirs, world)
+    assert jv.order_holds(np.array([4.0, 0.0, -5.0]), dirs, world)
+    assert not jv.order_holds(np.array([4.0, 0.0, -2.0]), dirs, world)
+    assert jv.order_holds(np.array([4.5, -4.0, -2.0]), dirs, world)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -117,7 +119,7 @@ def test_segment_geometry_matches_dense_sampling(world):
     pa = xs.reshape(4001, 200, 3, 2)
     dist = np.stack([np.linalg.norm(pa[:, :, i] - pa[:, :, j], axis=-1).min(axis=0)
                      for i, j in [(0, 1), (0, 2), (1, 2)]], axis=1)
-    exact_pairs = rm.segment_pair_distance(a, b, 3)
+    exact_pairs = jv.segment_pair_distance(a, b, 3)
     assert np.all(exact_pairs <= dist + 1e-12)
     assert np.all(dist - exact_pairs <= 2 * np.linalg.norm(b - a, axis=1)[:, None] / 4000 + 1e-12)
 
@@ -126,7 +128,7 @@ def test_head_on_pair_distance_is_analytical():
     # Robots at (-1, 0.1) and (1, -0.1) swap places: they pass at t = 1/2, 0.2 m apart.
     a = np.array([[-1.0, 0.1, 1.0, -0.1]])
     b = np.array([[1.0, 0.1, -1.0, -0.1]])
-    assert rm.segment_pair_distance(a, b, 2)[0, 0] == pytest.approx(0.2)
+    assert jv.segment_pair_distance(a, b, 2)[0, 0] == pytest.approx(0.2)
 
 
 def _fine_edge_valid(world, a, b, radii, dirs, sep, spacing=0.002, chunk=64):
@@ -143,7 +145,7 @@ def _fine_edge_valid(world, a, b, radii, dirs, sep, spacing=0.002, chunk=64):
         ok = np.all(world.clearance(p) >= np.asarray(radii) - 1e-9, axis=(0, 2))
         for k, (i, j) in enumerate(pairs):
             ok &= np.all(np.linalg.norm(p[..., i, :] - p[..., j, :], axis=-1) >= sep[k] - 1e-9, axis=0)
-        out.append(ok & np.all(rm.order_holds(p[..., 0], dirs, world), axis=0))
+        out.append(ok & np.all(jv.order_holds(p[..., 0], dirs, world), axis=0))
     return np.concatenate(out)
 
 
@@ -151,21 +153,21 @@ def test_exact_edge_check_against_fine_sampling(world):
     rng = np.random.default_rng(5)
     dirs = np.array([1, -1, 1])
     radii = np.full(3, R)
-    sep = rm.separation_thresholds(radii, MARGIN)
+    sep = jv.separation_thresholds(radii, MARGIN)
     key = rm.make_key(world, radii, dirs, MARGIN, 0.1, 100)
     cand = rm.sample_candidates(rng, key, 20000)
-    cand = cand[rm.configurations_valid(world, cand, radii, dirs, sep)]
+    cand = cand[jv.configurations_valid(world, cand, radii, dirs, sep)]
     pick = rng.permutation(len(cand))
     a, b = cand[pick[:400]], cand[pick[400:800]]
     b = a + rng.uniform(0.05, 0.6, size=(400, 1)) * (b - a)  # shorter edges: valid and invalid ones
-    exact = rm.edges_valid(world, a, b, radii, dirs, sep)
+    exact = jv.edges_valid(world, a, b, radii, dirs, sep)
     fine = _fine_edge_valid(world, a, b, radii, dirs, sep)
     assert 50 < exact.sum() < len(exact) - 50
     assert not np.any(exact & ~fine), "an edge accepted exactly fails at a fine step"
     # The sampled check can miss a brief violation, never invent one.
     assert np.mean(fine == exact) > 0.97
     # The compiled kernel agrees with the vectorised check edge by edge.
-    assert np.array_equal(rm.CompiledRules.of(world, radii, dirs, sep).motions_ok(a, b), exact)
+    assert np.array_equal(jv.CompiledRules.of(world, radii, dirs, sep).motions_ok(a, b), exact)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -178,8 +180,8 @@ def test_built_roadmap_has_only_valid_vertices_and_edges(world, built):
     road = got.roadmap
     assert road.vertices.shape == (2 * TINY, 4)
     radii, dirs = np.full(2, R), np.array(key.directions)
-    sep = rm.separation_thresholds(radii, MARGIN)
-    assert np.all(rm.configurations_valid(world, road.vertices, radii, dirs, sep))
+    sep = jv.separation_thresholds(radii, MARGIN)
+    assert np.all(jv.configurations_valid(world, road.vertices, radii, dirs, sep))
     a, b = road.vertices[road.edges[:, 0]], road.vertices[road.edges[:, 1]]
     assert len(road.edges) > 2 * len(road.vertices)
     assert np.all(_fine_edge_valid(world, a, b, radii, dirs, sep))
@@ -213,7 +215,7 @@ def test_roadmap_reaches_through_the_corridor(world, built):
 
 def test_second_load_comes_from_the_cache_and_is_faster(world, built, cache):
     key, first = built
-    second = rm.get_roadmap(key, cache)
+    second = rc.get_roadmap(key, cache)
     assert second.report.from_cache and second.success and second.report.reason == ""
     assert np.array_equal(second.roadmap.vertices, first.roadmap.vertices)
     assert np.array_equal(second.roadmap.edges, first.roadmap.edges)
@@ -255,18 +257,18 @@ def _damage_vertices(path):
                                             (_damage_key, "stored key"), (_damage_vertices, "checksum")])
 def test_damaged_file_is_detected_and_rebuilt(world, tmp_path, caplog, damage, expect):
     key = rm.make_key(world, [R], (1,), MARGIN, 0.1, 60)
-    first = rm.get_roadmap(key, tmp_path)
+    first = rc.get_roadmap(key, tmp_path)
     path = tmp_path / key.filename()
     damage(path)
-    assert not rm.load_roadmap(path, key).success
-    with caplog.at_level(logging.WARNING, logger="nodnav.planning.roadmap"):
-        again = rm.get_roadmap(key, tmp_path)
+    assert not rc.load_roadmap(path, key).success
+    with caplog.at_level(logging.WARNING, logger="nodnav.planning.roadmap_cache"):
+        again = rc.get_roadmap(key, tmp_path)
     assert again.success and not again.report.from_cache
     assert "rejected" in again.report.reason and expect in again.report.reason
     assert any("rejected" in r.getMessage() for r in caplog.records)
     assert np.array_equal(again.roadmap.vertices, first.roadmap.vertices)
     # The rebuilt file is sound again.
-    assert rm.load_roadmap(path, key).success
+    assert rc.load_roadmap(path, key).success
     with zipfile.ZipFile(path) as z:
         assert z.testzip() is None
 
@@ -274,7 +276,7 @@ def test_damaged_file_is_detected_and_rebuilt(world, tmp_path, caplog, damage, e
 def test_stale_key_is_not_trusted(world, built, cache):
     key, _ = built
     other = rm.make_key(world, [R, R], (1, -1), MARGIN, 0.2, TINY)  # another varsigma
-    got = rm.load_roadmap(cache / key.filename(), other)
+    got = rc.load_roadmap(cache / key.filename(), other)
     assert not got.success and "stored key" in got.reason
 
 
@@ -287,10 +289,10 @@ def test_keys_name_patterns_not_scenarios(world):
 
 def test_cache_dir_precedence(monkeypatch, tmp_path):
     monkeypatch.setenv("NODNAV_CACHE", str(tmp_path / "env"))
-    assert rm.resolve_cache_dir(str(tmp_path / "explicit")) == tmp_path / "explicit"
-    assert rm.resolve_cache_dir("") == tmp_path / "env"
+    assert rc.resolve_cache_dir(str(tmp_path / "explicit")) == tmp_path / "explicit"
+    assert rc.resolve_cache_dir("") == tmp_path / "env"
     monkeypatch.delenv("NODNAV_CACHE")
-    assert rm.resolve_cache_dir("").parts[-2:] == (".cache", "nodnav")
+    assert rc.resolve_cache_dir("").parts[-2:] == (".cache", "nodnav")
 
 
 def test_direction_patterns_counts():
@@ -303,11 +305,11 @@ def test_direction_patterns_counts():
 
 
 def test_build_all_roadmaps_reports_every_pattern(world, tmp_path):
-    reports = rm.build_all_roadmaps(world, R, robot_counts=(1,), vertices_per_robot=40, cache_dir=str(tmp_path),
+    reports = rc.build_all_roadmaps(world, R, robot_counts=(1,), vertices_per_robot=40, cache_dir=str(tmp_path),
                                     n_jobs=1)
     assert [r.pattern for r in reports] == ["+", "-", "0"]
     assert all(r.success and not r.from_cache for r in reports)
-    again = rm.build_all_roadmaps(world, R, robot_counts=(1,), vertices_per_robot=40, cache_dir=str(tmp_path),
+    again = rc.build_all_roadmaps(world, R, robot_counts=(1,), vertices_per_robot=40, cache_dir=str(tmp_path),
                                   n_jobs=1)
     assert all(r.from_cache for r in again)
-    assert "robots" in rm.format_build_reports(again)
+    assert "robots" in rc.format_build_reports(again)

@@ -86,22 +86,24 @@ def benchmark_mpc(duration: float = 25.0, speed: float = 0.8, headway: float = 1
     (``params``: the MPC's settings, by default the scenario's)."""
     scenario = load_scenario("4r-case1")
     world = scenario.world
-    params = params or scenario.controller  # type: ignore[assignment]
+    mpc = params or scenario.controller
+    if not isinstance(mpc, MPCParams):
+        raise ValueError(f"the benchmark measures the MPC; 4r-case1 names the controller {mpc.name!r}")
     destinations = scenario.destinations[[2, 3, 0, 1]]
-    dt = params.dt  # type: ignore[union-attr]
-    n_h = int(round(params.horizon / dt))  # type: ignore[union-attr]
+    dt = mpc.dt
+    n_h = int(round(mpc.horizon / dt))
     sample_offsets = dt * np.arange(1, n_h + 1)
     steps = int(round(duration / dt))
     grid = dt * np.arange(steps + n_h + 1)
     refs = queue_references(world, scenario.origins, destinations, speed, headway, grid)
     robots = scenario.robots
     n = len(robots)
-    ctls = [BSplineMPC(world, r, params) for r in robots]  # type: ignore[arg-type]
+    ctls = [BSplineMPC(world, r, mpc) for r in robots]
     radii = scenario.radii
     pos = scenario.origins.copy()
     vel = np.zeros_like(pos)
     # Load (or, once per machine, compile) the solver's kernels outside the timing.
-    BSplineMPC(world, robots[0], params).control(ControlRequest(  # type: ignore[arg-type]
+    BSplineMPC(world, robots[0], mpc).control(ControlRequest(
         position=pos[0], velocity=vel[0], reference=refs[1:1 + n_h, 0], sample_times=sample_offsets,
         others=np.transpose(refs[1:1 + n_h, 1:], (1, 0, 2)), other_radii=radii[1:]))
     times, qp_times, steps_taken = [], [], []

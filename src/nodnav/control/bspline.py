@@ -18,6 +18,7 @@ Facts used by the controller (standard; see Piegl and Tiller, *The NURBS Book*, 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 def uniform_knots(duration: float, n_segments: int, degree: int = 3) -> np.ndarray:
@@ -43,7 +44,7 @@ def domain(knots: np.ndarray, degree: int) -> tuple[float, float]:
     return float(knots[degree]), float(knots[n])
 
 
-def basis(t: np.ndarray, knots: np.ndarray, degree: int) -> np.ndarray:
+def basis(t: ArrayLike, knots: np.ndarray, degree: int) -> np.ndarray:
     """Basis functions ``N_{k,p}(t)`` as a ``(len(t), n)`` matrix (Cox-de Boor recursion).
 
     Evaluated span by span (The NURBS Book, algorithm A2.2), vectorised over ``t``. A parameter
@@ -132,10 +133,10 @@ def velocity_hull_operator(knots: np.ndarray) -> np.ndarray:
         raise ValueError("velocity_hull_operator needs uniform knots")
     lo, hi = domain(knots, 3)
     d1 = derivative_operator(knots, 3)
-    return np.vstack([basis_derivative([lo], knots, 3, 1), d1[1:-1], basis_derivative([hi], knots, 3, 1)])  # type: ignore[arg-type]
+    return np.vstack([basis_derivative([lo], knots, 3, 1), d1[1:-1], basis_derivative([hi], knots, 3, 1)])
 
 
-def basis_derivative(t: np.ndarray, knots: np.ndarray, degree: int, order: int = 0) -> np.ndarray:
+def basis_derivative(t: ArrayLike, knots: np.ndarray, degree: int, order: int = 0) -> np.ndarray:
     """Matrix ``M`` (``(len(t), n)``) with ``M @ c`` the ``order``-th derivative of the curve at ``t``."""
     if order > degree:
         return np.zeros((np.atleast_1d(t).size, n_control_points(knots, degree)))
@@ -144,7 +145,7 @@ def basis_derivative(t: np.ndarray, knots: np.ndarray, degree: int, order: int =
     return basis(t, sub, degree - order) @ derivative_control_operator(knots, degree, order)
 
 
-def evaluate(control_points: np.ndarray, t: np.ndarray, knots: np.ndarray, degree: int,
+def evaluate(control_points: np.ndarray, t: ArrayLike, knots: np.ndarray, degree: int,
              order: int = 0) -> np.ndarray:
     """The curve (or its ``order``-th derivative) at ``t``, shape ``(len(t), dim)``."""
     return basis_derivative(t, knots, degree, order) @ np.asarray(control_points, dtype=float)

@@ -226,7 +226,7 @@ def methods_reading(rows: list[MethodRow], reference: str = "nod") -> list[str]:
     for m in methods:
         cells = [r.cell for r in rows if r.method == m]
         failures = {o: pooled(cells, o)[0] for o in OUTCOMES if o != "success"}
-        worst = max(failures, key=failures.get)  # type: ignore[arg-type]
+        worst = max(failures, key=lambda outcome: failures[outcome])
         if failures[worst]:
             out.append(f"{m}: most failures are {worst}s ({failures[worst]} of {pooled(cells)[1]} trials).")
     if reference in methods:
@@ -234,7 +234,10 @@ def methods_reading(rows: list[MethodRow], reference: str = "nod") -> list[str]:
         for m in methods:
             if m == reference:
                 continue
-            higher, lower, same, faster, compared, smoother, both = [], [], [], 0, 0, 0, 0  # type: ignore[var-annotated]
+            higher: list[str] = []
+            lower: list[str] = []
+            same: list[str] = []
+            faster = compared = smoother = both = 0
             for r in rows:
                 if r.method != m or r.scenario not in ref:
                     continue

@@ -6,6 +6,8 @@
 
 from __future__ import annotations
 
+from typing import TypedDict
+
 STUDY_SUCCESS = "paper-success-rates"
 """Every built-in scenario x every game-player count, NOD with the fast planner (Fig. 3)."""
 STUDY_TABLE1 = "paper-table1"
@@ -35,7 +37,25 @@ NEAR_ALL_MARGIN = 10.0
 #: A planner difference inside +-this many percentage points counts as "barely matters".
 PLANNER_EQUIVALENCE = 10.0
 
-SNAPSHOTS = (
+
+
+class Snapshot(TypedDict):
+    """A snapshot figure of the paper: the stored trials it shows and where it goes."""
+
+    scenario: str
+    """Built-in scenario."""
+    players: int
+    """Game players per robot."""
+    count: int
+    """Instants shown."""
+    figure: str
+    """File name of the figure."""
+    paper: str
+    """The paper's figure and caption."""
+
+
+#: The paper's snapshot figures (Figs. 4 and 5).
+SNAPSHOTS: tuple[Snapshot, ...] = (
     {"scenario": "3r-case4", "players": 2, "count": 4, "figure": "fig4-3r-case4-snapshots.png",
      "paper": "Fig. 4: 3-Robot Case-4, every robot plays with all others"},
     {"scenario": "4r-case4", "players": 1, "count": 5, "figure": "fig5-4r-case4-snapshots.png",

@@ -331,7 +331,7 @@ class ResultStore:
     def stored_versions(self, keys) -> dict[str, tuple[str, str]]:
         """``(outcome, code_version)`` of each of ``keys`` that is stored."""
         keys = list(keys)
-        out = {}  # type: ignore[var-annotated]
+        out: dict[str, tuple[str, str]] = {}
         for start in range(0, len(keys), 500):  # keep below SQLite's limit on parameters
             chunk = keys[start:start + 500]
             rows = self._db.execute(f"SELECT key, outcome, code_version FROM trials WHERE key IN "

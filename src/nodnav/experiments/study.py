@@ -129,7 +129,7 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
     if not isinstance(value, dict):
         raise StudyError(f"{where}: expected 'none', a mapping like {{S3: 150}} or text like S3=150,S5=150, "
                          f"got {shown(value)}")
-    out = []
+    out: list[tuple[int, str, float]] = []
     for name, number in value.items():
         j = strategy_number(name)
         if j is None or j > math.factorial(MAX_ROBOTS):
@@ -145,8 +145,8 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
         low, high, _ = RANGES["opinion.bias"]
         if not low <= v <= high:  # also refuses nan and inf
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
-        out.append((name, v))
-    return tuple(sorted(out, key=lambda e: strategy_number(e[0])))  # type: ignore[arg-type, return-value]
+        out.append((j, name, v))
+    return tuple((name, v) for _, name, v in sorted(out, key=lambda e: e[0]))
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -224,7 +224,7 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
         trials=trials,
         methods=_choices(data.get("methods", "nod"), known_methods(), at("methods"), "method"),
     )
-    changes: dict[str, tuple] = {}
+    changes: dict[str, Any] = {}
     if "players" in data:
         changes["players"] = tuple(parse_players(v, at("players")) for v in _listed(data["players"]))
     if "init" in data:
@@ -238,7 +238,7 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
     for key, values in changes.items():
         if not values:
             raise StudyError(f"{at(key)}: expected at least one value")
-    spec = dataclasses.replace(spec, **changes)  # type: ignore[arg-type]
+    spec = dataclasses.replace(spec, **changes)
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
                                             spec.methods)) * spec.trials
     if size > MAX_SWEEP_TRIALS:

@@ -51,19 +51,17 @@ from scipy.spatial import cKDTree
 
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
+from nodnav.planning.joint_validity import CompiledRules, pair_indices, separation_thresholds
 from nodnav.planning.roadmap import (
     BuildReport,
-    CompiledRules,
     Roadmap,
     RoadmapKey,
     RoadmapResult,
-    get_roadmap,
     make_key,
-    pair_indices,
     prm_star_k,
     proximity_penalty,
-    separation_thresholds,
 )
+from nodnav.planning.roadmap_cache import get_roadmap
 from nodnav.registry import register_planner
 from nodnav.scenario.params import PRMParams
 from nodnav.scenario.world import World

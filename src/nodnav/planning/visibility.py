@@ -225,13 +225,14 @@ class VisibilityGraph:
                 return path
             active |= crossed
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
-            path = self._around.get(key)  # type: ignore[assignment]
-            if path is None:
+            known = self._around.get(key)
+            if known is None:
                 if limits is None:
                     limits = np.minimum(self.clearance, self.world.clearance(np.array([start, goal]))) - TOL
-                path = self._search_with_discs(start, goal, limits[0], limits[1], centres[active], radii[active],
-                                               d_start[active], d_goal[active])
-                remember(self._around, key, path)
+                known = self._search_with_discs(start, goal, limits[0], limits[1], centres[active], radii[active],
+                                                d_start[active], d_goal[active])
+                remember(self._around, key, known)
+            path = known
             if not path.success:
                 return path
 
@@ -244,13 +245,12 @@ class VisibilityGraph:
         starts = np.asarray(starts, dtype=float).reshape(-1, 2)
         goals = np.asarray(goals, dtype=float).reshape(-1, 2)
         keys = [(s.tobytes(), g.tobytes()) for s, g in zip(starts, goals)]
-        paths = [self._plain.get(key) for key in keys]
-        missing = [i for i, path in enumerate(paths) if path is None]
-        if missing:
-            for i, path in zip(missing, self._walls_only(starts[missing], goals[missing])):
-                paths[i] = path
-                remember(self._plain, keys[i], path)
-        return paths  # type: ignore[return-value]
+        missing = [i for i, key in enumerate(keys) if key not in self._plain]
+        found = dict(zip(missing, self._walls_only(starts[missing], goals[missing]))) if missing else {}
+        paths = [found[i] if i in found else self._plain[key] for i, key in enumerate(keys)]
+        for i, path in found.items():
+            remember(self._plain, keys[i], path)
+        return paths
 
     # -----------------------------------------------------------------------------------------
 
@@ -348,7 +348,7 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit = np.repeat(np.asarray(radii, dtype=float).reshape(1, -1), len(d), axis=0)
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
-    return (d < limit - TOL).any(axis=0)  # type: ignore[return-value]
+    return np.asarray((d < limit - TOL).any(axis=0))
 
 
 def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int,

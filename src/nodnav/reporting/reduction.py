@@ -5,10 +5,11 @@ from __future__ import annotations
 from nodnav.experiments.analysis import rate_cells
 from nodnav.experiments.statistics import fmt_rate, newcombe_difference, wilson_interval
 from nodnav.experiments.variants import STUDY_REDUCTION, VARIANTS, reduction_rows
+from nodnav.reporting.document import ReportDocument
 from nodnav.reporting.markdown import md_table
 
 
-def section_reduction(rep) -> None:
+def section_reduction(rep: ReportDocument) -> None:
     """The report section: success per scenario and k for every variant, side by side."""
     rep.add("## Game reduction: variants side by side", "",
             "Every built-in scenario of three or four robots with every number of game players "

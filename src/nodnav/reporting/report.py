@@ -11,7 +11,6 @@ stored configuration and seed. Rates carry 95 % Wilson intervals, differences Ne
 
 from __future__ import annotations
 
-import logging
 from collections import defaultdict
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -19,26 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from nodnav.decision.heatmap import steady_state_selection, z_grid
-from nodnav.decision.strategies import order_label, passing_orders
-from nodnav.experiments.analysis import (
-    closed_loop_grid,
-    method_rows,
-    methods_reading,
-    paper_inside,
-    pooled,
-    rate_cells,
-    sign_rule_agreement,
-    table_rows,
-)
 from nodnav.experiments.paper import (
     META_STUDY,
-    NEAR_ALL_MARGIN,
-    PAPER_CLAIMED_SETS,
-    PAPER_NEAR_ALL,
     PAPER_TABLE1,
     PAPER_TABLE2,
-    SNAPSHOTS,
     STUDY_FIG2C,
     STUDY_METHODS,
     STUDY_PLANNERS,
@@ -46,49 +29,16 @@ from nodnav.experiments.paper import (
     STUDY_TABLE1,
     STUDY_TABLE2,
 )
-from nodnav.experiments.statistics import (
-    fmt_mean_sd,
-    fmt_rate,
-    intervals_separate,
-    mean_sd,
-    newcombe_difference,
-    planner_verdict,
-    wilson_interval,
-)
-from nodnav.experiments.store import OUTCOMES, ResultStore
+from nodnav.experiments.store import ResultStore
 from nodnav.experiments.variants import STUDY_REDUCTION
 from nodnav.reporting.breakdown import breakdown_lines
-from nodnav.reporting.markdown import md_table, produced
+from nodnav.reporting.comparisons import section_methods, section_planners
+from nodnav.reporting.document import ReportDocument
+from nodnav.reporting.markdown import md_table
+from nodnav.reporting.paper_sections import section_fig2, section_strategies, section_success
 from nodnav.reporting.reduction import section_reduction
 from nodnav.reporting.scaling import section_scaling
-from nodnav.scenario.schema import scenario_from_dict
-from nodnav.sim.simulator import run_trial
-from nodnav.viz.heatmap import plot_heatmap
-from nodnav.viz.report import plot_closed_loop_grid, plot_rate_bars, plot_strategy_frequencies
-from nodnav.viz.trial import save_snapshots
-
-log = logging.getLogger(__name__)
-
-
-
-@dataclass(frozen=True)
-class SnapshotResult:
-    """One snapshot figure: which stored trial was re-run and whether it came out the same."""
-
-    scenario: str
-    """Scenario name."""
-    players: int
-    """Game players per robot."""
-    success: bool
-    """Whether a figure was written."""
-    reason: str
-    """Why not, or what was re-run."""
-    path: Path | str = ""
-    """The figure."""
-    seed: int = 0
-    """Seed of the re-run trial."""
-    reproduced: bool = False
-    """Whether the re-run gave the stored outcome and simulated time."""
+from nodnav.reporting.snapshots import SnapshotResult, section_snapshots
 
 
 @dataclass(frozen=True)
@@ -111,39 +61,7 @@ class ReportResult:
     """Generated readings, in report order (also in ``report.md``)."""
 
 
-class _Report:
-    """Collects the markdown, figures and readings of one report."""
-
-    def __init__(self, store: ResultStore, out: Path, command: str):
-        self.store, self.out, self.command = store, out, command
-        self.lines: list[str] = []
-        self.figures: list[Path] = []
-        self.missing: list[str] = []
-        self.notes: list[str] = []
-        self.studies = store.studies()
-
-    def add(self, *lines: str) -> None:
-        self.lines.extend(lines)
-
-    def read(self, sentences: list[str]) -> None:
-        self.notes.extend(sentences)
-        self.add("", "**Reading (generated from the numbers above).**", "")
-        self.add(*(f"- {s}" for s in sentences))
-        self.add("")
-
-    def figure(self, path: Path, alt: str, source: str) -> None:
-        self.figures.append(path)
-        self.add("", f"![{alt}]({path.name})", "", produced(self.command, source), "")
-
-    def absent(self, study: str, how: str) -> None:
-        self.missing.append(study)
-        self.add("", f"Not in this database: no trials of study `{study}`. {how}", "")
-
-    def has(self, study: str) -> bool:
-        return self.store.count(study) > 0
-
-
-def _section_overview(rep: _Report, db_path: Path) -> None:
+def _section_overview(rep: ReportDocument, db_path: Path) -> None:
     store = rep.store
     records_n = store.count()
     versions = sorted(store.code_versions()) if records_n else []
@@ -189,318 +107,7 @@ def _section_overview(rep: _Report, db_path: Path) -> None:
     rep.add(f"Studies in the database: {listed or 'none'}.", "")
 
 
-def _section_success(rep: _Report) -> None:
-
-    rep.add("## Success rates (Fig. 3)", "",
-            "Every built-in scenario with every number of game players per robot, zero initial opinions, no "
-            "bias, NOD with the fast planner. The paper reports 0 % without game players and success \"close to "
-            "100 %\" with any number of them (it gives no per-cell numbers).")
-    if not rep.has(STUDY_SUCCESS):
-        rep.absent(STUDY_SUCCESS, "Run `nodnav reproduce` to add it.")
-        return
-    planners = sorted({r for (r,) in rep.store.outcome_counts(by=("planner",), study=STUDY_SUCCESS)})
-    planner = "fast" if "fast" in planners else planners[0]
-    cells = rate_cells(rep.store, STUDY_SUCCESS, by=("n_robots", "scenario", "players"), method="nod", planner=planner)
-    if not cells:
-        rep.absent(STUDY_SUCCESS, "It holds no trial of the nod method.")
-        return
-    scenarios = sorted({c.key[:2] for c in cells})
-    max_players = max(c.key[2] for c in cells)
-    by = {c.key: c for c in cells}
-    rates = np.full((len(scenarios), max_players + 1, 3), np.nan)
-    table = []
-    for a, (n_r, s) in enumerate(scenarios):
-        row = [s]
-        for k in range(max_players + 1):
-            cell = by.get((n_r, s, k))
-            if cell is None:
-                row.append("")
-                continue
-            iv = cell.rate()
-            rates[a, k] = (iv.rate, iv.low, iv.high)
-            row.append(fmt_rate(iv, cell.trials))
-        table.append(row)
-    path = plot_rate_bars([s for _, s in scenarios],
-                          [f"{k} game player{'s' if k != 1 else ''}" for k in range(max_players + 1)],
-                          rates, rep.out / "fig3-success-rates.png",
-                          title=f"Success rate per scenario and game players (NOD, {planner} planner)")
-    rep.figure(path, "success rates", f"from study `{STUDY_SUCCESS}`")
-    rep.add(*md_table(["scenario"] + [f"k = {k}" for k in range(max_players + 1)], table))
-    rep.add("", "*k: game players per robot (k = N_r - 1 is every other robot, the paper's first study).*")
-    sentences = []
-    some = [c for c in cells if c.key[2] >= 1]
-    none = [c for c in cells if c.key[2] == 0]
-    if some:
-        k, n = pooled(some)
-        iv = wilson_interval(k, n)
-        worst = min(some, key=lambda c: c.rate().rate)
-        below = [c for c in some if c.rate().high < (PAPER_NEAR_ALL - NEAR_ALL_MARGIN) / 100]
-        verdict = ("consistent with" if iv.high * 100 >= PAPER_NEAR_ALL - NEAR_ALL_MARGIN and not below
-                   else "below")
-        sentences.append(f"With at least one game player, {k} of {n} trials succeeded: {fmt_rate(iv)} % pooled "
-                         f"(paper: close to 100 %), lowest cell {worst.key[1]} k = {worst.key[2]} at "
-                         f"{fmt_rate(worst.rate(), worst.trials)}. Read against 'close to 100 %' taken as "
-                         f"at least {PAPER_NEAR_ALL - NEAR_ALL_MARGIN:.0f} %, this is {verdict} the paper"
-                         + (f"; {len(below)} cell(s) have their whole interval below that: "
-                            + ", ".join(f"{c.key[1]} k = {c.key[2]}" for c in below) if below else "") + ".")
-        full = [c for c in some if c.key[2] == c.key[0] - 1]
-        reduced = [c for c in some if c.key[2] < c.key[0] - 1]
-        if full and reduced:
-            kf, nf = pooled(full)
-            kr, nr = pooled(reduced)
-            d = newcombe_difference(kr, nr, kf, nf)
-            sentences.append(f"Game reduction (1 <= k < N_r - 1, {nr} trials) against all players (k = N_r - 1, "
-                             f"{nf} trials): {fmt_rate(wilson_interval(kr, nr))} vs "
-                             f"{fmt_rate(wilson_interval(kf, nf))} %, difference {100 * d.rate:+.1f} points "
-                             f"[{100 * d.low:+.1f}, {100 * d.high:+.1f}] (Newcombe 95 %).")
-    if none:
-        k, n = pooled(none)
-        iv = wilson_interval(k, n)
-        sentences.append(f"Without game players, {k} of {n} trials succeeded: {fmt_rate(iv)} % (paper: 0 %). "
-                         + ("Every one of them failed, as in the paper." if k == 0 else
-                            "Unlike the paper, some succeeded; see the outcomes below."))
-        failures = {o: pooled(none, o)[0] for o in OUTCOMES if o != "success"}
-        sentences.append("Their outcomes: " + ", ".join(f"{o} {v}" for o, v in failures.items() if v) + ".")
-    rep.read(sentences)
-
-
-def _strategy_section(rep: _Report, title: str, study: str, scenario: str, column: str, paper: dict, labels: dict,
-                      table: str, figure: str, intro: str) -> None:
-
-    rep.add(f"## {title}", "", intro)
-    if not rep.has(study):
-        rep.absent(study, "Run `nodnav reproduce` to add it.")
-        return
-    n_r = rep.store.records(study)[0].n_robots
-    orders = passing_orders(n_r)
-    rows = table_rows(rep.store, study, column, list(paper), n_r)
-    header = ([labels["header"]] + [f"S{j + 1} {order_label(o)}" for j, o in enumerate(orders)]
-              + ["trials", "no complete order"])
-    lines = []
-    for freq in rows:
-        lines.append([f"{labels[freq.label]} (paper)"] + [f"{v:.2f}" for v in paper[freq.label]] + ["", ""])
-        sh = freq.share
-        lines.append([f"{labels[freq.label]} (ours)"] + [
-            f"{100 * sh.rate[j]:.1f} [{100 * sh.low[j]:.0f}, {100 * sh.high[j]:.0f}]" if freq.realised else "-"  # type: ignore[index]
-            for j in range(len(orders))] + [freq.trials, freq.incomplete])  # type: ignore[list-item]
-    path = plot_strategy_frequencies(rows, [paper[f.label] for f in rows],
-                                     [f"{labels['header']} = {labels[f.label]}" for f in rows],
-                                     rep.out / figure, title=f"{scenario}: realised passing orders")
-    rep.figure(path, title, f"from study `{study}`")
-    rep.add(*md_table(header, lines))
-    rep.add("", "*Ours: share of the realised passing orders (the order in which the robots entered the corridor), "
-            "with its 95 % interval; trials that ended before every robot entered count under 'no complete order'.*")
-    sentences = []
-    for freq in rows:
-        name = f"{labels['header']} = {labels[freq.label]}"
-        if not freq.realised:
-            sentences.append(f"{name}: no trial realised a complete order.")
-            continue
-        inside = paper_inside(freq, paper[freq.label])
-        used = int(np.sum(freq.counts > 0))
-        text = (f"{name}: {freq.realised} trials realised an order; {used} of {len(orders)} strategies occurred "
-                f"(paper: {int(np.sum(np.asarray(paper[freq.label]) > 0))}); the paper's percentage lies inside our "
-                f"interval for {inside} of {len(orders)} strategies")
-        claimed = PAPER_CLAIMED_SETS.get((table, freq.label))
-        if claimed:
-            iv = freq.set_share(claimed)
-            names = " or ".join(f"S{j}" for j in claimed)
-            text += (f"; {names} (the paper's only choices) took {fmt_rate(iv)} % of ours (paper: 100 %), "
-                     + ("consistent with the paper" if iv.high >= 0.999 else
-                        "so other orders also occurred, unlike the paper"))
-        sentences.append(text + ".")
-    rep.read(sentences)
-
-
-def _section_fig2(rep: _Report, heatmap_grid: int) -> None:
-
-    rep.add("## Fig. 2: strategy selection of two robots over initial opinions", "",
-            "Two robots, strategies S1 = (1,2) and S2 = (2,1), z_12(0) = z_22(0) = 0. (a) and (b): the steady-state "
-            "limit of x_11 under the pure NOD, eqs. (1) and (3), for u = 1 and u = 10, integrated to convergence "
-            f"on a {heatmap_grid} x {heatmap_grid} grid (recomputed, deterministic). The pure NOD predicts x_11 = 1/2 "
-            "everywhere for u < 2 and, for u > 2, agreement on S1 when z_11(0) + z_21(0) > 0 and on S2 when it is "
-            "negative.")
-    sentences = []
-    for u, tag in ((1.0, "a"), (10.0, "b")):
-        result = steady_state_selection(u, z_grid(heatmap_grid))
-        path = plot_heatmap(result, rep.out / f"fig2{tag}-nod-u{u:g}.png")
-        rep.figure(path, f"Fig. 2{tag}", f"(recomputed from eqs. (1) and (3), u = {u:g})")
-        x = result.x11
-        z = result.z_values
-        total = z[:, None] + z[None, :]
-        if u < 2:
-            sentences.append(f"Fig. 2{tag} (u = {u:g}): lim x_11 lies in [{x.min():.4f}, {x.max():.4f}]"
-                             f"{'' if result.converged else ' (not converged: ' + result.reason + ')'}; "
-                             "no strategy is preferred, as predicted.")
-        else:
-            pos, neg = total > 1e-12, total < -1e-12
-            sentences.append(f"Fig. 2{tag} (u = {u:g}): lim x_11 > 0.99 on {int((x[pos] > 0.99).sum())} of "
-                             f"{int(pos.sum())} cells with z_11(0) + z_21(0) > 0 and < 0.01 on "
-                             f"{int((x[neg] < 0.01).sum())} of {int(neg.sum())} with it negative; on the anti-diagonal "
-                             f"it is {np.diag(x[:, ::-1]).min():.3f}..{np.diag(x[:, ::-1]).max():.3f}"
-                             f"{'' if result.converged else ' (not converged: ' + result.reason + ')'}.")
-    rep.add("### Fig. 2c: the closed loop", "")
-    if not rep.has(STUDY_FIG2C):
-        rep.absent(STUDY_FIG2C, "Run `nodnav reproduce` to add it.")
-        rep.read(sentences)
-        return
-    grid = closed_loop_grid(rep.store.records(STUDY_FIG2C, method="nod"))
-    n = len(grid.z_values)
-    per_cell = sorted(set(grid.trials.ravel().tolist()))
-    rep.add(f"2-Robot Case-2 with u = {grid.u:g}, the initial opinions z_11(0), z_21(0) set on a {n} x {n} grid over "
-            f"[{grid.z_values.min():g}, {grid.z_values.max():g}] and {'/'.join(map(str, per_cell))} trial(s) per "
-            "cell (a grid and trial count sized to the time budget; the paper does not give its own). Each cell is "
-            "the share of trials whose robots entered the corridor in the order S1 = (1,2); grey cells realised no "
-            "order.")
-    path = plot_closed_loop_grid(grid, rep.out / "fig2c-closed-loop.png")
-    rep.figure(path, "Fig. 2c", f"from study `{STUDY_FIG2C}`")
-    agree, decided = sign_rule_agreement(grid)
-    sentences.append(f"Fig. 2c: {int(grid.trials.sum())} trials, {int(grid.realised.sum())} realised an order. In "
-                     f"{agree} of {decided} cells off the anti-diagonal with a majority, the majority order is the one "
-                     "the pure NOD selects (S1 when z_11(0) + z_21(0) > 0).")
-    rep.read(sentences)
-
-
-def _section_snapshots(rep: _Report, rerun: bool) -> list[SnapshotResult]:
-    rep.add("## Snapshots (Figs. 4 and 5)", "",
-            "A successful stored trial (the lowest such seed; the lowest seed if none succeeded) is re-run from "
-            "its stored configuration and seed; "
-            "trials are reproducible from their seed, and the report checks that the re-run ends with the stored "
-            "outcome at the stored time. Top row: robots, trails and game players (arrows to each robot's players); "
-            "bottom: each robot's chosen passing order at every decision and its probability.")
-    results = []
-    for snap in SNAPSHOTS:
-        results.append(snap_result := _snapshot(rep, snap, rerun))
-        if snap_result.success:
-            rep.add("", f"**{snap['paper']}** (seed {snap_result.seed}): {snap_result.reason}")
-            rep.figure(Path(snap_result.path), snap["paper"],  # type: ignore[arg-type]
-                       f"by re-running seed {snap_result.seed} of study `{STUDY_SUCCESS}`")
-        else:
-            rep.add("", f"**{snap['paper']}**: {snap_result.reason}", "")
-    return results
-
-
-def _snapshot(rep: _Report, snap: dict, rerun: bool) -> SnapshotResult:
-
-    stored = rep.store.records(STUDY_SUCCESS, scenario=snap["scenario"], players=snap["players"], method="nod")
-    stored = [r for r in stored if r.planner == "fast"] or stored
-    if not stored:
-        return SnapshotResult(snap["scenario"], snap["players"], False,
-                              f"no trial of {snap['scenario']} with {snap['players']} game player(s) is stored.")
-    successes = [r for r in stored if r.success]
-    # Without a stored success, the lowest seed shows how the method fails here instead.
-    record = successes[0] if successes else stored[0]
-    caveat = "" if successes else (f"none of the {len(stored)} stored trials succeeded, so this one shows how they "
-                                   "fail; ")
-    if not rerun:
-        return SnapshotResult(snap["scenario"], snap["players"], False,
-                              f"{caveat}seed {record.seed} would be re-run; re-runs were switched off for this report.",
-                              seed=record.seed)
-    scenario = scenario_from_dict(record.config["scenario"])
-    result = run_trial(scenario, record.method, record.seed)
-    stored_time = record.summary.get("sim_time_s")
-    same = result.outcome == record.outcome and stored_time is not None and abs(result.sim_time - stored_time) < 1e-6
-    if not same:
-        log.warning("%s seed %d re-ran to %s at t = %.1f s, stored: %s at t = %s s", record.scenario, record.seed,
-                    result.outcome, result.sim_time, record.outcome, stored_time)
-    path = save_snapshots(result.history, rep.out / snap["figure"], count=snap["count"])
-    order = ",".join(str(k + 1) for k in result.entry_order)
-    reason = (f"{caveat}re-run: {result.outcome} at t = {result.sim_time:.1f} s, corridor entry order ({order}); "
-              + ("identical to the stored trial." if same else
-                 f"DIFFERS from the stored trial ({record.outcome} at t = {stored_time} s): the trial is not "
-                 "reproducible from its seed with this version."))
-    return SnapshotResult(snap["scenario"], snap["players"], True, reason, path, record.seed, same)
-
-
-def _section_planners(rep: _Report) -> None:
-
-    rep.add("## Does the planner matter?", "",
-            "The paper says the choice of planner has minimal impact and uses PRM*. The same success-rate study is "
-            "run with each planner; trials with the fast planner are shared with the study above.")
-    counts = rep.store.outcome_counts(by=("planner",), study=STUDY_PLANNERS) if rep.has(STUDY_PLANNERS) else {}
-    planners = sorted(p for (p,) in counts)
-    if len(planners) < 2:
-        rep.absent(STUDY_PLANNERS, "Run `nodnav reproduce --planners fast,prm` to add it (the prm planner builds "
-                   "roadmaps on first use and caches them on disk).")
-        return
-    cells = {p: {c.key: c for c in rate_cells(rep.store, STUDY_PLANNERS, method="nod", planner=p)} for p in planners}
-    keys = sorted(set.intersection(*(set(c) for c in cells.values())))
-    if not keys:
-        rep.add("", f"The planners {', '.join(planners)} share no scenario and game-player count in study "
-                f"`{STUDY_PLANNERS}`: nothing to compare.", "")
-        return
-    rates = np.full((len(keys), len(planners), 3), np.nan)
-    table = []
-    for a, key in enumerate(keys):
-        row = [key[0], key[1]]
-        for b, p in enumerate(planners):
-            iv = cells[p][key].rate()
-            rates[a, b] = (iv.rate, iv.low, iv.high)
-            row.append(fmt_rate(iv, cells[p][key].trials))
-        table.append(row)
-    path = plot_rate_bars([f"{s}\nk={k}" for s, k in keys], planners, rates, rep.out / "planners-success-rates.png",
-                          title="Success rate per planner (NOD)")
-    rep.figure(path, "planners", f"from study `{STUDY_PLANNERS}`")
-    rep.add(*md_table(["scenario", "k"] + planners, table))
-    records = {p: rep.store.records(STUDY_PLANNERS, method="nod", planner=p) for p in planners}
-    cost_rows = []
-    for p in planners:
-        ms = mean_sd(r.summary.get("makespan_s") for r in records[p] if r.success)
-        wall = mean_sd(r.summary.get("wall_time_s") for r in records[p])
-        cost_rows.append([p, len(records[p]), fmt_mean_sd(*ms), fmt_mean_sd(*wall, digits=2)])
-    rep.add("", *md_table(["planner", "trials", "makespan of successes (s)", "wall time per trial (s)"], cost_rows))
-    sentences = []
-    ref = "fast" if "fast" in planners else planners[0]
-    for p in planners:
-        if p == ref:
-            continue
-        k1, n1 = pooled([cells[p][k] for k in keys])
-        k2, n2 = pooled([cells[ref][k] for k in keys])
-        d = newcombe_difference(k1, n1, k2, n2)
-        split = [intervals_separate(cells[p][k].rate(), cells[ref][k].rate()) for k in keys]
-        verdict = planner_verdict(d)
-        sentences.append(f"{p} vs {ref} over {len(keys)} cells: {fmt_rate(wilson_interval(k1, n1))} vs "
-                         f"{fmt_rate(wilson_interval(k2, n2))} % pooled, difference {100 * d.rate:+.1f} points "
-                         f"[{100 * d.low:+.1f}, {100 * d.high:+.1f}] (Newcombe 95 %); {verdict}. Cells with "
-                         f"non-overlapping intervals: {sum(s != 0 for s in split)} of {len(keys)}.")
-    rep.read(sentences)
-
-
-def _section_methods(rep: _Report) -> None:
-
-    rep.add("## Methods compared", "",
-            "Every navigation method on every built-in scenario with the scenario's own settings (all game players, "
-            "zero initial opinions, no bias, fast planner). Makespan and smoothness (the mean change of velocity per "
-            "control step, docs/metrics.md): mean ± standard deviation over the successful trials, since a robot "
-            "stuck in a deadlock stands still and would look smooth.")
-    if not rep.has(STUDY_METHODS):
-        rep.absent(STUDY_METHODS, "Run `nodnav reproduce` to add it.")
-        return
-    rows = method_rows(rep.store.records(STUDY_METHODS))
-    scenarios = sorted({r.scenario for r in rows})
-    methods = sorted({r.method for r in rows})
-    by = {(r.scenario, r.method): r for r in rows}
-    rates = np.full((len(scenarios), len(methods), 3), np.nan)
-    for a, s in enumerate(scenarios):
-        for b, m in enumerate(methods):
-            if (s, m) in by:
-                iv = by[(s, m)].cell.rate()
-                rates[a, b] = (iv.rate, iv.low, iv.high)
-    path = plot_rate_bars(scenarios, methods, rates, rep.out / "methods-success-rates.png",
-                          title="Success rate per method")
-    rep.figure(path, "methods", f"from study `{STUDY_METHODS}`")
-    table = []
-    for r in rows:
-        table.append([r.scenario, r.method, r.cell.trials] + [fmt_rate(r.cell.rate(o)) for o in
-                                                               ("success", "collision", "deadlock", "timeout")]
-                     + [r.cell.counts.get("error", 0), fmt_mean_sd(*r.makespan),
-                        fmt_mean_sd(*r.smoothness, digits=3)])
-    rep.add(*md_table(["scenario", "method", "trials", "success %", "collision %", "deadlock %", "timeout %", "errors",
-                        "makespan (s)", "smoothness (m/s/step)"], table))
-    rep.read(methods_reading(rows))
-
-
-def _section_cost(rep: _Report) -> None:
+def _section_cost(rep: ReportDocument) -> None:
     rep.add("## Cost of a trial", "",
             "Wall-clock time of one trial in a worker process, as stored with each trial (one core per trial).", "")
     records = rep.store.records()
@@ -535,29 +142,29 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
         return ReportResult(False, f"{db_path}: no such results database", report_path)
     out.mkdir(parents=True, exist_ok=True)
     with ResultStore(db_path) as store:
-        rep = _Report(store, out, command)
+        rep = ReportDocument(store, out, command)
         _section_overview(rep, db_path)
         rep.add(*breakdown_lines(store))
-        _section_success(rep)
-        _strategy_section(
+        section_success(rep)
+        section_strategies(
             rep, "Table I: initial opinions (3-Robot Case-2)", STUDY_TABLE1, "3r-case2", "init", PAPER_TABLE1,
             {"header": "z_ij(0)", "zero": "0", "distance": "Eq. (11)"}, "table1", "table1-3r-case2.png",
             "Robot 2 is alone on the right and closest to the corridor; robots 1 and 3 are on the left at equal "
             "distance. With the distance-based initial opinions (10)-(11) the paper's robots chose only S3 = (2,1,3) "
             "and S4 = (2,3,1), both letting robot 2 go first. The paper ran 30 trials for that row; the "
             "percentages of its first row are multiples of 1/60.")
-        _strategy_section(
+        section_strategies(
             rep, "Table II: bias (3-Robot Case-3)", STUDY_TABLE2, "3r-case3", "bias", PAPER_TABLE2,
             {"header": "bias", "": "0", "S3=150,S5=150": "150 on S3, S5"}, "table2", "table2-3r-case3.png",
             "Robot 1 is alone on the left against robots 2 and 3. With b_ij = 150 for S3 = (2,1,3) and S5 = (3,1,2) "
             "(robot 1 passes second) the paper's robots chose only those two. The paper's percentages are multiples "
             "of 1/60.")
-        _section_fig2(rep, heatmap_grid)
-        snapshots = _section_snapshots(rep, rerun_snapshots)
-        _section_planners(rep)
-        _section_methods(rep)
+        section_fig2(rep, heatmap_grid)
+        snapshots = section_snapshots(rep, rerun_snapshots)
+        section_planners(rep)
+        section_methods(rep)
         section_reduction(rep)
-        section_scaling(rep, wilson_interval)  # beyond the paper: 5-8 robots (nodnav.reporting.scaling)
+        section_scaling(rep)  # beyond the paper: 5-8 robots (nodnav.reporting.scaling)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")
     reason = (f"wrote {report_path} with {len(rep.figures)} figures"

@@ -44,6 +44,7 @@ from nodnav.experiments.paper import (
     STUDY_SUCCESS,
     STUDY_TABLE1,
     STUDY_TABLE2,
+    Snapshot,
 )
 from nodnav.experiments.scaling import SCALING_TITLE, scaling_spec
 from nodnav.experiments.store import ResultStore, canonical_json
@@ -458,7 +459,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
     return ReproduceResult(report.success and errors == 0, reason, db, report, progress, errors, wall, tuple(cuts))
 
 
-def _snapshot_cost(store: ResultStore, snap: dict) -> float:
+def _snapshot_cost(store: ResultStore, snap: Snapshot) -> float:
     """Expected wall time of re-running a snapshot trial: the mean of its stored cell (s)."""
     records = store.records(STUDY_SUCCESS, scenario=snap["scenario"], players=snap["players"])
     walls = [r.summary["wall_time_s"] for r in records if r.summary.get("wall_time_s") is not None]

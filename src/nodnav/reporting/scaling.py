@@ -2,8 +2,7 @@
 
 It reads the trials of the scaling part (:data:`~nodnav.experiments.scaling.STUDY_SCALING`) from
 the results database, like every other section. Success rates carry the report's 95 % Wilson
-intervals: :func:`section_scaling` is handed the report's own interval function, so that this
-module does not import the report (which calls it) and the two cannot form an import cycle.
+intervals.
 """
 
 from __future__ import annotations
@@ -11,12 +10,14 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from nodnav.experiments.scaling import SCALING_PLAYERS, STUDY_SCALING
+from nodnav.experiments.statistics import wilson_interval
 from nodnav.experiments.store import OUTCOMES, TrialRecord
+from nodnav.reporting.document import ReportDocument
+from nodnav.reporting.markdown import md_table
 
 #: Failed trials listed with the command that redoes them, at most.
 MAX_LISTED = 30
@@ -77,19 +78,14 @@ def _mean_sd(v: np.ndarray) -> str:
     return "-" if v.size == 0 else f"{v.mean():.1f} ± {v.std(ddof=1):.1f}" if v.size > 1 else f"{v[0]:.1f}"
 
 
-def _table(header: list[str], rows: list[list]) -> list[str]:
-    return (["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-            + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
-
-
-def readings(by_robots: list[ScalingGroup], records: list[TrialRecord], interval: Callable) -> list[str]:
+def readings(by_robots: list[ScalingGroup], records: list[TrialRecord]) -> list[str]:
     """Sentences that read the tables, generated from their numbers alone."""
     out = []
     for k in sorted({g.key[1] for g in by_robots}):
         mine = [g for g in by_robots if g.key[1] == k]
         s, n = sum(g.count("success") for g in mine), sum(g.trials for g in mine)
         collisions = sum(g.count("collision") for g in mine)
-        text = (f"k = {k}: {s} of {n} trials succeeded, {_pct(interval(s, n))} % pooled over "
+        text = (f"k = {k}: {s} of {n} trials succeeded, {_pct(wilson_interval(s, n))} % pooled over "
                 f"{', '.join(str(g.key[0]) for g in mine)} robots; {collisions} collision(s)")
         timed = [g for g in mine if g.wall.size and math.isfinite(g.realtime_factor)]
         if len(timed) >= 2:
@@ -111,9 +107,8 @@ def readings(by_robots: list[ScalingGroup], records: list[TrialRecord], interval
     return out
 
 
-def section_scaling(rep, interval: Callable) -> None:
-    """Write the section into ``rep`` (the report being built: ``store``, ``out``, ``add``,
-    ``figure``, ``read``, ``absent``, ``has``); ``interval(k, n)`` is the report's Wilson interval."""
+def section_scaling(rep: ReportDocument) -> None:
+    """Write the section into ``rep``, the report being built."""
     from nodnav.viz.scaling import plot_scaling_study
 
     rep.add("## Beyond the paper: 5 to 8 robots", "",
@@ -129,23 +124,23 @@ def section_scaling(rep, interval: Callable) -> None:
     by_robots = groups(records, "n_robots")
     rows, plotted = [], []
     for g in by_robots:
-        iv = interval(g.count("success"), g.trials)
+        iv = wilson_interval(g.count("success"), g.trials)
         rows.append([g.key[0], g.key[1], g.trials, _pct(iv), g.count("collision"), g.count("deadlock"),
                      g.count("timeout"), _mean_sd(g.makespan), _mean_sd(g.wall), f"{g.realtime_factor:.1f}x"])
         plotted.append({"n_robots": g.key[0], "players": g.key[1], "rate": iv.rate, "low": iv.low, "high": iv.high,
                         "makespan": g.makespan.mean() if g.makespan.size else math.nan,
                         "wall": g.wall.mean() if g.wall.size else math.nan})
-    rep.add("", *_table(["robots", "k", "trials", "success %", "collisions", "deadlocks", "timeouts", "makespan (s)",
+    rep.add("", *md_table(["robots", "k", "trials", "success %", "collisions", "deadlocks", "timeouts", "makespan (s)",
                          "wall per trial (s)", "real time"], rows), "")
     rep.add("Success pooled over the scenarios of each robot count; makespan over successful trials; wall time of a "
             "trial in its worker process (one core), and simulated over wall time.", "")
     per_scenario = []
     for g in groups(records, "scenario"):
-        per_scenario.append([g.key[0], g.key[1], g.trials, _pct(interval(g.count("success"), g.trials))]
+        per_scenario.append([g.key[0], g.key[1], g.trials, _pct(wilson_interval(g.count("success"), g.trials))]
                             + [g.count(o) for o in OUTCOMES if o != "success"] + [_mean_sd(g.makespan)])
-    rep.add(*_table(["scenario", "k", "trials", "success %"] + [f"{o}s" for o in OUTCOMES if o != "success"]
+    rep.add(*md_table(["scenario", "k", "trials", "success %"] + [f"{o}s" for o in OUTCOMES if o != "success"]
                     + ["makespan (s)"], per_scenario), "")
     path = plot_scaling_study(plotted, rep.out / "scaling-5-8-robots.png")
     rep.figure(path, "success, makespan and wall time against the number of robots",
                f"from the `{STUDY_SCALING}` trials")
-    rep.read(readings(by_robots, records, interval))
+    rep.read(readings(by_robots, records))

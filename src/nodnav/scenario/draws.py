@@ -114,6 +114,13 @@ class _Robot:
     destination: np.ndarray | None = None
 
 
+def _placed(p: np.ndarray | None) -> np.ndarray:
+    """A robot's origin or destination, which the draw has placed by the time it is used."""
+    if p is None:
+        raise ValueError("a robot's origin or destination was used before it was placed")
+    return p
+
+
 class _Attempt:
     """One attempt at a draw; raises :class:`_Reject` when a construction step cannot satisfy a rule."""
 
@@ -226,7 +233,7 @@ class _Attempt:
                 y += (group[k - 1].radius + gaps[k] if k else 0.0) + r.radius
                 r.origin = np.array([_mm(x), _mm(y)])
         for r in group:
-            self._fit(side, r.origin, r.radius)  # type: ignore[arg-type]
+            self._fit(side, _placed(r.origin), r.radius)
 
     def inside(self, group: list[_Robot]) -> None:
         """Robots in the corridor, those heading left left of those heading right: nobody must pass."""
@@ -246,7 +253,7 @@ class _Attempt:
             lateral = max(0.0, self.half - r.radius - CLEARANCE - SLACK)
             r.origin = np.array([_mm(x), _mm(d.uniform(-lateral, lateral))])
 
-    def _free(self, p: np.ndarray, r: float, robots: list[_Robot], skip: _Robot) -> bool:
+    def _free(self, p: np.ndarray, r: float, robots: list[_Robot], skip: _Robot | None) -> bool:
         """Whether a disc at ``p`` keeps the clearance from every placed origin and destination."""
         for o in robots:
             if o is skip:
@@ -269,7 +276,7 @@ class _Attempt:
     def scatter(self, side: int, r: float, robots: list[_Robot]) -> np.ndarray:
         for _ in range(100):
             p = self._room_point(side, r, False)
-            if self._free(p, r, robots, None):  # type: ignore[arg-type]
+            if self._free(p, r, robots, None):
                 return p
         raise _Reject("no free place to start in a room")
 
@@ -313,8 +320,8 @@ class _Attempt:
             "world": {"bounds": [x0, y0, x1, y1], "obstacles": [[-h, y0, h, -half], [-h, half, h, y1]],
                       "corridor": {"x_min": -h, "x_max": h, "y_min": -half, "y_max": half},
                       "entrances": [[-h, 0.0], [h, 0.0]]},
-            "robots": [{"origin": [float(r.origin[0]), float(r.origin[1])],  # type: ignore[index]
-                        "destination": [float(r.destination[0]), float(r.destination[1])],  # type: ignore[index]
+            "robots": [{"origin": [float(x) for x in _placed(r.origin)[:2]],
+                        "destination": [float(x) for x in _placed(r.destination)[:2]],
                         "radius": r.radius, "max_speed": r.speed, "max_accel": f.max_accel} for r in robots],
             "time_limit": time_limit(robots_routes(h, robots), [r.speed for r in robots], 2 * h,
                                      max(r.radius for r in robots)),
@@ -360,7 +367,7 @@ def draw(family: Family, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
             return scenario
         kind = re.sub(r"[0-9][0-9.]*", "N", verdict.reason)  # group reasons that differ only in numbers
         reasons[kind] = reasons.get(kind, 0) + 1
-    common = max(reasons, key=reasons.get) if reasons else "-"  # type: ignore[arg-type]
+    common = max(reasons, key=lambda reason: reasons[reason]) if reasons else "-"
     raise FamilyError(f"{family.name}:{seed}: no valid scenario in {attempts} attempts (most often: {common}); "
                       "widen the family's rooms or ranges, or set rooms.grow: true")
 

@@ -78,6 +78,12 @@ def vector(value: Any, n: int, where: str) -> tuple[float, ...]:
     return tuple(coordinate(v, f"{where}[{k}]") for k, v in enumerate(value))
 
 
+def point(value: Any, where: str) -> tuple[float, float]:
+    """A point ``[x, y]`` of the world (m)."""
+    x, y = vector(value, 2, where)
+    return x, y
+
+
 def mapping(value: Any, where: str) -> dict:
     if value is None:
         return {}
@@ -101,6 +107,14 @@ def strategy_number(name: Any) -> int | None:
     """The number ``j`` of a strategy named ``Sj`` (ASCII digits, no leading zero), else ``None``."""
     m = _BIAS_KEY.fullmatch(name) if isinstance(name, str) else None
     return int(m.group(1)) if m else None
+
+
+def strategy_name_index(name: str) -> int:
+    """The index (0-based: S1 is 0) of a strategy name that validation has accepted."""
+    number = strategy_number(name)
+    if number is None:
+        raise ValueError(f"not a strategy name: {name!r}")
+    return number - 1
 
 
 def choices_text(options: tuple) -> str:

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 
 from nodnav.registry import CONTROLLERS, PLANNERS
-from nodnav.scenario.fields import strategy_number
+from nodnav.scenario.fields import strategy_name_index
 
 
 @dataclass(frozen=True)
@@ -57,13 +57,13 @@ class OpinionParams:
 
     def bias_indices(self) -> dict[int, float]:
         """The bias b_ij as a mapping from strategy index (0-based: S1 is 0) to value."""
-        return {strategy_number(name) - 1: float(value) for name, value in self.bias.items()}  # type: ignore[operator]
+        return {strategy_name_index(name): float(value) for name, value in self.bias.items()}
 
     def bias_vector(self, n_strategies: int) -> np.ndarray:
         """The bias b_i as an array over strategies S1..S_{N_s}."""
         b = np.zeros(n_strategies)
         for name, value in self.bias.items():
-            b[strategy_number(name) - 1] = value  # type: ignore[operator]
+            b[strategy_name_index(name)] = value
         return b
 
 

@@ -27,6 +27,7 @@ from nodnav.scenario.fields import (
     fail,
     mapping,
     number,
+    point,
     read_params,
     strategy_number,
     text,
@@ -140,10 +141,10 @@ class Scenario:
 
 
 def _box(value: Any, where: str) -> tuple[float, float, float, float]:
-    box = vector(value, 4, where)
-    if box[0] >= box[2] or box[1] >= box[3]:
-        raise fail(where, f"need x_min < x_max and y_min < y_max, got {list(box)}")
-    return box  # type: ignore[return-value]
+    x0, y0, x1, y1 = vector(value, 4, where)
+    if x0 >= x1 or y0 >= y1:
+        raise fail(where, f"need x_min < x_max and y_min < y_max, got {[x0, y0, x1, y1]}")
+    return x0, y0, x1, y1
 
 
 def _world(data: Any) -> World:
@@ -188,26 +189,26 @@ def _world(data: Any) -> World:
         ent = data["entrances"]
         if not isinstance(ent, list) or len(ent) != 2:
             raise fail("world.entrances", f"expected two points [[x, y], [x, y]] (left, right), got {shown(ent)}")
-        entrances = (vector(ent[0], 2, "world.entrances[0]"), vector(ent[1], 2, "world.entrances[1]"))
+        entrances = (point(ent[0], "world.entrances[0]"), point(ent[1], "world.entrances[1]"))
         if entrances[0] == entrances[1]:
             raise fail("world.entrances", f"the two entrances are the same point {list(entrances[0])}")
-        for k, (point, end, side) in enumerate(zip(entrances, (corridor.x_min, corridor.x_max), ("left", "right"))):
-            if abs(point[0] - end) > 1e-9 or not corridor.y_min <= point[1] <= corridor.y_max:
-                raise fail(f"world.entrances[{k}]", f"{list(point)} is not on the corridor's {side} end "
+        for k, (entrance, end, side) in enumerate(zip(entrances, (corridor.x_min, corridor.x_max), ("left", "right"))):
+            if abs(entrance[0] - end) > 1e-9 or not corridor.y_min <= entrance[1] <= corridor.y_max:
+                raise fail(f"world.entrances[{k}]", f"{list(entrance)} is not on the corridor's {side} end "
                             f"(x = {end:g}, y from {corridor.y_min:g} to {corridor.y_max:g})")
     else:
         mid = 0.5 * (corridor.y_min + corridor.y_max)
         entrances = ((corridor.x_min, mid), (corridor.x_max, mid))
-    return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)  # type: ignore[arg-type]
+    return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)
 
 
-def _component(registry: Registry, base: type, data: Any, where: str) -> Any:
+def _component(registry: Registry, base: type[PlannerParams] | type[ControllerParams], data: Any, where: str) -> Any:
     """A planner's or controller's parameters: the class registered under ``name`` (the base
     class's default name when none is given), read from the mapping. Settings that belong to
     another registered implementation are accepted, checked and dropped: files written before
     each implementation had its own class name them all."""
     data = mapping(data, where)
-    name = text(data.get("name", base.name), f"{where}.name", 100)  # type: ignore[attr-defined]
+    name = text(data.get("name", base.name), f"{where}.name", 100)
     try:
         cls = registry.params(name)
     except RegistryError as exc:
@@ -229,7 +230,8 @@ def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     if opinion.init != "given" and opinion.z0:
         raise fail(f"{where}.z0", "only used with init 'given'; set init: given or remove z0")
     for name in opinion.bias:
-        if not 1 <= strategy_number(name) <= n_s:  # type: ignore[operator]
+        number = strategy_number(name)
+        if number is None or not 1 <= number <= n_s:
             raise fail(f"{where}.bias", f"unknown strategy {shown(name)}; use S1..S{n_s} for {n_robots} robots")
     return opinion
 
@@ -244,7 +246,8 @@ def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, .
     """The robots, and for each the key path each of its body values came from (``None``: the default)."""
     defaults = mapping(defaults, "robot_defaults")
     check_keys(defaults, _BODY_KEYS, "robot_defaults")
-    robots, sources = [], []
+    robots: list[RobotSpec] = []
+    sources: list[dict[str, str | None]] = []
     for k, entry in enumerate(data):
         where = f"robots[{k}]"
         entry = mapping(entry, where)
@@ -252,23 +255,24 @@ def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, .
         for key in ("origin", "destination"):
             if key not in entry:
                 raise fail(where, f"missing '{key}' for robot {k + 1} (give it as [x, y] in metres)")
-        source, body = {}, {}
+        source: dict[str, str | None] = {}
+        body: dict[str, float] = {}
         for key in _BODY_KEYS:
             if key in entry:
                 source[key], value = f"{where}.{key}", entry[key]
             elif key in defaults:
                 source[key], value = f"robot_defaults.{key}", defaults[key]
             else:  # the default, which the user did not write
-                source[key], value = None, getattr(RobotSpec, key)  # type: ignore[assignment]
+                source[key], value = None, getattr(RobotSpec, key)
             body[key] = number(value, source[key] or f"{where}.{key}", f"robots.{key}")
         own = entry.get("opinion")
         robots.append(RobotSpec(
-            origin=vector(entry["origin"], 2, f"{where}.origin"),  # type: ignore[arg-type]
-            destination=vector(entry["destination"], 2, f"{where}.destination"),  # type: ignore[arg-type]
+            origin=point(entry["origin"], f"{where}.origin"),
+            destination=point(entry["destination"], f"{where}.destination"),
             opinion=_opinion({**opinion, **mapping(own, f"{where}.opinion")}, len(data), f"{where}.opinion")
             if own else None, **body))
         sources.append(source)
-    return tuple(robots), sources  # type: ignore[return-value]
+    return tuple(robots), sources
 
 
 def _check_geometry(world: World, robots: tuple[RobotSpec, ...], sources: list[dict[str, str | None]],

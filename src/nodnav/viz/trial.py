@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib import colormaps
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.legend_handler import HandlerPatch
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
@@ -223,12 +224,15 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     ax.set_title(" ", fontsize=8)
     fig.tight_layout()
     canvas = fig.canvas
+    assert isinstance(canvas, FigureCanvasAgg)  # new_figure renders with Agg
     canvas.draw()
-    background = canvas.copy_from_bbox(fig.bbox)  # type: ignore[attr-defined]
+    background = canvas.copy_from_bbox(fig.bbox)
     trails = [ax.plot([], [], "-", color=robot_color(i), linewidth=1.2, alpha=0.8, animated=True)[0]
               for i in range(scenario.n_robots)]
-    discs = [ax.add_patch(Circle(pos[0, i], r.radius, facecolor=robot_color(i), edgecolor="k", zorder=4,
-                                 animated=True)) for i, r in enumerate(scenario.robots)]
+    discs = [Circle(pos[0, i], r.radius, facecolor=robot_color(i), edgecolor="k", zorder=4, animated=True)
+             for i, r in enumerate(scenario.robots)]
+    for disc in discs:
+        ax.add_patch(disc)
     title = ax.set_title("", fontsize=8, animated=True)
     has_opinions = len(arrays["decision_times"]) > 0 and (arrays["ranks"] >= 0).any()
     selected = selected_orders(arrays["ranks"])
@@ -237,11 +241,11 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
         steps.append(len(arrays["times"]) - 1)
     frames = []
     for k in steps:
-        canvas.restore_region(background)  # type: ignore[attr-defined]
+        canvas.restore_region(background)
         artists = []
         for i in range(scenario.n_robots):
             trails[i].set_data(pos[: k + 1, i, 0], pos[: k + 1, i, 1])
-            discs[i].center = pos[k, i]  # type: ignore[attr-defined]
+            discs[i].center = pos[k, i]
             artists += [trails[i], discs[i]]
         label = ""
         if len(arrays["decision_times"]):
@@ -255,7 +259,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
         title.set_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}")
         for artist in artists + [title]:
             ax.draw_artist(artist)
-        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())  # type: ignore[attr-defined]
+        frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())
         for artist in artists[2 * scenario.n_robots:]:
             artist.remove()
     path = Path(path)

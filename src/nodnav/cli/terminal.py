@@ -1,5 +1,5 @@
 """What the command line accepts and shows: option types, one-line usage errors, the notice
-while numba compiles, and trial summaries in plain words. Used by :mod:`nodnav.cli` only."""
+while numba compiles, and trial summaries in plain words. Used by the commands of :mod:`nodnav.cli` only."""
 
 from __future__ import annotations
 

@@ -1,8 +1,7 @@
-"""``nodnav bench scaling``: its options, their checks, and what it prints (used by :mod:`nodnav.cli`).
+"""``nodnav bench scaling``: its options, their checks, and what it prints.
 
-Kept apart from :mod:`nodnav.cli` so that the command hooks into it with a few lines:
-:func:`add_scaling_options` on the ``bench`` parser and :func:`cmd_bench_scaling` for the
-``scaling`` target.
+:mod:`nodnav.cli.bench` adds :func:`add_scaling_options` to the ``bench`` parser and hands the
+``scaling`` target to :func:`cmd_bench_scaling`.
 """
 
 from __future__ import annotations
@@ -12,9 +11,9 @@ import json
 import re
 import sys
 
+from nodnav.cli.terminal import real
 from nodnav.errors import NodnavError, shown
 from nodnav.paths import output_file
-from nodnav.terminal import real
 
 #: What ``bench scaling`` runs without options: a minute or two on one core (README).
 DEFAULT_ROBOTS = "2..8"

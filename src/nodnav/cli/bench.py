@@ -1,0 +1,97 @@
+"""The ``bench`` command: speed of the planners, the MPC, whole trials, or scaling in N_r (one core).
+
+Each target is one function that measures and prints; :data:`BENCHMARKS` maps the target's name
+to it, and the command line's choices come from that mapping and ``scaling``
+(:mod:`nodnav.cli.scaling`), which has options of its own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from nodnav.cli.scaling import add_scaling_options, check_scaling_only, cmd_bench_scaling
+from nodnav.cli.terminal import plural, whole
+from nodnav.errors import NodnavError, shown
+
+
+def _bench_planners(args: argparse.Namespace) -> None:
+    from nodnav.planning.bench import main_bench_planners
+    from nodnav.scenario.catalogue import PAPER_SCENARIOS
+
+    print(main_bench_planners(args.json, planners=tuple(args.planner or ("fast", "prm")),
+                              scenarios=PAPER_SCENARIOS))  # every order of 5-8 robots would be too many
+
+
+def _bench_mpc(args: argparse.Namespace) -> None:
+    import dataclasses
+
+    from nodnav.control.bench import benchmark_mpc
+
+    result = benchmark_mpc()
+    d = dataclasses.asdict(result)
+    if args.json:
+        print(json.dumps(d))
+    else:
+        print(f"MPC, 4 robots queueing through the corridor: {result.solves} calls, median "
+              f"{1e3 * result.median:.2f} ms, p95 {1e3 * result.p95:.2f} ms, max {1e3 * result.max:.1f} ms "
+              f"(QP median {1e3 * result.qp_median:.2f} ms, p95 {1e3 * result.qp_p95:.2f} ms); "
+              f"{result.infeasible} infeasible; min gap {result.min_separation:.3f} m; "
+              f"{plural(result.arrived, 'robot')} arrived")
+
+
+def _bench_sim(args: argparse.Namespace) -> None:
+    from nodnav.sim.bench import benchmark_closed_loop
+
+    results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)))
+               for planner in (args.planner or ("fast",))]
+    if args.json:
+        print(json.dumps([r.to_dict() for r in results]))
+    else:
+        for r in results:
+            print(r.format())
+
+
+#: What ``nodnav bench TARGET`` measures: the target's name -> the function that measures it and prints.
+BENCHMARKS = {
+    "planners": _bench_planners,
+    "mpc": _bench_mpc,
+    "sim": _bench_sim,
+}
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from nodnav.errors import nearest_hint
+    from nodnav.planning import PLANNERS
+    from nodnav.scenario.loading import load_scenario
+
+    check_scaling_only(args)
+    if args.target == "scaling":
+        return cmd_bench_scaling(args)
+    for p in args.planner or ():
+        if p not in PLANNERS:
+            raise NodnavError(f"--planner: unknown planner {shown(p)}{nearest_hint(p, PLANNERS, 'planners')}")
+    if args.target == "sim":
+        load_scenario(args.scenario)
+    if not args.execute:
+        return 0
+    if not args.json:
+        print(f"measuring {args.target} (this takes from seconds to a few minutes; -v logs each step)...",
+              file=sys.stderr)
+    BENCHMARKS[args.target](args)
+    return 0
+
+
+def add_parsers(sub) -> None:
+    """The subcommand of this module."""
+    p = sub.add_parser("bench", help="measure speed: planners, the MPC, whole trials, or scaling in N_r (one core)")
+    p.add_argument("target", choices=(*BENCHMARKS, "scaling"), help="what to measure")
+    add_scaling_options(p)
+    p.add_argument("--planner", action="append", help="planner(s) to measure (repeatable; default fast and prm, "
+                   "fast for sim)")
+    p.add_argument("--scenario", default="4r-case2", help="scenario of the 'sim' benchmark (default 4r-case2)")
+    p.add_argument("--trials", type=whole(1, 100), help="trials (seeds 1..N) of the 'sim' benchmark "
+                   "(default 3) and per cell of 'scaling' (default 1)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=_cmd_bench)

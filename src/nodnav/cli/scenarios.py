@@ -1,0 +1,112 @@
+"""The commands about scenarios: ``scenarios``, ``show``, ``families``, ``generate``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from nodnav.cli.terminal import plural
+from nodnav.errors import NodnavError
+from nodnav.paths import output_file
+
+
+def _cmd_scenarios(args: argparse.Namespace) -> int:
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
+
+    for name in builtin_names():
+        s = load_scenario(name)
+        print(f"{name:10s} {plural(s.n_robots, 'robot')}  {s.description}")
+    return 0
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    from nodnav.scenario.families import is_family
+    from nodnav.scenario.files import builtin_names
+    from nodnav.scenario.loading import load_scenario
+
+    if is_family(args.scenario):
+        return _show_family(args)
+    if args.seed is not None or args.count is not None:
+        raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
+                          "(list the families with 'nodnav families')")
+    names = builtin_names() if args.scenario == "all" else [args.scenario]
+    scenarios = [load_scenario(n) for n in names]
+    out = output_file(args.out)
+    if not args.execute:
+        return 0
+    from nodnav.viz.scenario import save_gallery, save_scenario_figure
+
+    path = save_gallery(scenarios, out) if args.scenario == "all" else save_scenario_figure(scenarios[0], out)
+    print(f"wrote {path}")
+    return 0
+
+
+def _first_seed(value: int | None) -> int:
+    seed = 1 if value is None else value
+    if seed < 0:
+        raise NodnavError(f"--seed: expected a whole number >= 0, got {seed}")
+    return seed
+
+
+def _show_family(args: argparse.Namespace) -> int:
+    from nodnav.scenario.draws import draw
+    from nodnav.scenario.families import load_family
+    from nodnav.viz.family import save_family_gallery
+
+    family = load_family(args.scenario)
+    if Path(args.out).suffix.lower() != ".png":
+        raise NodnavError(f"--out: the gallery is a PNG image; give a file name ending in .png, got {args.out!r}")
+    seed, count = _first_seed(args.seed), 6 if args.count is None else args.count
+    if not 1 <= count <= 60:
+        raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")
+    scenarios = [draw(family, s) for s in range(seed, seed + count)]
+    if not args.execute:
+        return 0
+    title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
+             "(crosses)")
+    print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
+    return 0
+
+
+def _cmd_families(args: argparse.Namespace) -> int:
+    from nodnav.scenario.families import builtin_families, load_family
+
+    for name in builtin_families():
+        f = load_family(name)
+        print(f"{name:11s} {f.count[0]}-{f.count[1]} robots  {f.description}")
+    return 0
+
+
+def _cmd_generate(args: argparse.Namespace) -> int:
+    from nodnav.scenario.draws import write_draws
+    from nodnav.scenario.families import load_family
+
+    if not 1 <= args.count <= 100_000:
+        raise NodnavError(f"--count: expected a whole number in 1..100000, got {args.count}")
+    written = write_draws(load_family(args.family), _first_seed(args.seed), args.count, args.out)
+    print(f"wrote {len(written)} scenario files to {args.out} ({written[0].name} .. {written[-1].name})")
+    return 0
+
+
+def add_parsers(sub) -> None:
+    """The subcommands of this module."""
+    p = sub.add_parser("scenarios", help="list the built-in scenarios")
+    p.set_defaults(func=_cmd_scenarios)
+
+    p = sub.add_parser("show", help="draw a scenario (or 'all' for the gallery, or a family's draws)")
+    p.add_argument("scenario", help="built-in name, YAML path, FAMILY:SEED, 'all', or a family (a gallery of draws)")
+    p.add_argument("--out", required=True, help="picture to write (.png, .pdf, .svg, ...; a family's gallery: .png)")
+    p.add_argument("--seed", type=int, help="family only: first draw (default 1)")
+    p.add_argument("--count", type=int, help="family only: number of draws (default 6)")
+    p.set_defaults(func=_cmd_show)
+
+    p = sub.add_parser("families", help="list the built-in scenario families")
+    p.set_defaults(func=_cmd_families)
+
+    p = sub.add_parser("generate", help="write scenario files drawn from a family")
+    p.add_argument("family", help="built-in family name or family YAML path")
+    p.add_argument("--seed", type=int, default=1, help="first draw (default 1)")
+    p.add_argument("--count", type=int, default=1, help="number of draws: seeds N..N+K-1 (default 1)")
+    p.add_argument("--out", required=True, help="directory for the scenario files (FAMILY-SEED.yaml)")
+    p.set_defaults(func=_cmd_generate)

@@ -1,0 +1,440 @@
+"""The MPC's QP: everything fixed for a controller and for a set of sample times, and one step's data.
+
+The QP (appendix, "Model Predictive Control"; the controller is :mod:`nodnav.control.mpc`):
+
+* Equalities by elimination. ``p(0)`` and ``v(0)`` are linear in the first three control
+  points; the first two are solved for (:func:`initial_state_nullspace`), so the initial state
+  holds to machine precision. The QP's variables are the other control points, as deviations
+  from the straight line ``p0 + v0 tau`` (which meets both equalities).
+* The cost exactly. The reference (like every prediction) is piecewise linear between the
+  request's samples (:func:`interpolation_matrix`), extrapolated back to ``tau = 0`` along its
+  first segment and held after the last; the spline is cubic on each knot span, so the
+  integrand is a polynomial of degree at most 6 between merged breakpoints, which a 4-point
+  Gauss-Legendre rule per piece integrates exactly.
+* The rows: a box, speed and acceleration polygons, and per wall and per other robot a
+  half-plane at every interval end plus terminal stopping rows (:mod:`nodnav.control.mpc_rows`).
+  Every inequality is tightened by the solver's primal tolerance, and every solution is checked
+  exactly (true distances and clearances at a fine step, derivative bounds,
+  :meth:`MPCProblem.violation`) before it is used.
+
+Everything fixed for one robot's controller is :class:`MPCSetup`; everything fixed for a (number
+of other robots, sample times) pair is precomputed once in :class:`MPCProblem`: the static
+constraint rows, the Hessians and the map from the reference to the cost's gradient. A step
+(:class:`StepData`) only writes the new half-planes and bounds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nodnav.control import bspline
+from nodnav.control.base import STEP_FRACTIONS
+from nodnav.control.mpc_rows import (
+    chord_inflation,
+    constraint_grid,
+    plan_extremes,
+    polygon_normals,
+    separation_rows,
+    stopping_rows,
+)
+from nodnav.control.qp import SolverEffort
+from nodnav.scenario.params import MPCParams, RobotSpec
+from nodnav.scenario.world import World
+
+DEGREE = 3
+"""The paper's third-order (cubic) B-spline."""
+
+
+def interpolation_matrix(times: ArrayLike, query: ArrayLike) -> np.ndarray:
+    """Weights ``W`` (``(len(query), K)``) with ``W @ values`` the piecewise-linear interpolant.
+
+    Linear through ``(times, values)``; before the first sample it continues the first segment
+    (the request gives no value at ``tau = 0``), after the last it holds the last value (a plan
+    that has ended stands still, as :class:`~nodnav.planning.base.JointTrajectory` does).
+    """
+    times = np.asarray(times, dtype=float)
+    q = np.atleast_1d(np.asarray(query, dtype=float))
+    k = len(times)
+    w = np.zeros((q.size, k))
+    if k == 1:
+        w[:, 0] = 1.0
+        return w
+    qq = np.minimum(q, times[-1])
+    idx = np.clip(np.searchsorted(times, qq, side="right") - 1, 0, k - 2)
+    frac = (qq - times[idx]) / (times[idx + 1] - times[idx])
+    rows = np.arange(q.size)
+    w[rows, idx] = 1.0 - frac
+    w[rows, idx + 1] += frac
+    return w
+
+
+def slope_matrix(times: ArrayLike, t: float) -> np.ndarray:
+    """Weights ``(K,)`` giving the left derivative at ``t`` of the interpolant of :func:`interpolation_matrix`."""
+    times = np.asarray(times, dtype=float)
+    w = np.zeros(len(times))
+    if len(times) == 1 or t > times[-1]:
+        return w
+    i = int(np.clip(np.searchsorted(times, t, side="left") - 1, 0, len(times) - 2))
+    w[i], w[i + 1] = -1.0, 1.0
+    return w / (times[i + 1] - times[i])
+
+
+
+def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
+    """``T`` (``(n, n - 2)``): the curves with ``p(0) = 0`` and ``v(0) = 0`` are exactly ``c = T z``.
+
+    The initial position and velocity (appendix) are linear in the first control points; the
+    first two are solved for, and ``z`` are the remaining ``n - 2`` control points. Every curve
+    with ``p(0) = p0``, ``v(0) = v0`` is the straight line ``p0 + v0 tau`` (control points
+    ``p0 + v0 xi_k``, :func:`~nodnav.control.bspline.greville_abscissae`) plus such a curve.
+    """
+    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),
+                    bspline.basis_derivative([0.0], knots, degree, 1)])
+    return np.vstack([-np.linalg.solve(d0[:, :2], d0[:, 2:]), np.eye(d0.shape[1] - 2)])
+
+
+@dataclass(frozen=True, eq=False)
+class MPCSetup:
+    """What is fixed for one robot's controller: its body and settings, the spline's knots and the
+    linear maps on its control points."""
+
+    robot: RobotSpec
+    """The robot."""
+    settings: MPCParams
+    """The controller's parameters."""
+    horizon: float
+    """T_MPC (s)."""
+    dt: float
+    """Control step (s)."""
+    knots: np.ndarray
+    """Uniform knots of the cubic spline over the horizon."""
+    nullspace: np.ndarray
+    """Curves with zero initial position and velocity, :func:`initial_state_nullspace`."""
+    greville: np.ndarray
+    """Greville abscissae: the control points of the line ``tau -> tau``."""
+    cost_hessian: np.ndarray
+    """Gram matrix of the tracking cost (position plus ``w_2`` velocity) on the control points."""
+    obstacles: np.ndarray
+    """Wall rectangles ``(M, 4)``."""
+    world_bounds: np.ndarray
+    """World bounds ``(x0, y0, x1, y1)``."""
+    b_step: np.ndarray
+    """Position one step ahead, as a row on the control points."""
+    b_substeps: np.ndarray
+    """Positions within the step (:data:`~nodnav.control.base.STEP_FRACTIONS`)."""
+    bv_step: np.ndarray
+    """Velocity one step ahead."""
+    rates: np.ndarray
+    """Points whose hulls hold the velocity (after ``v(0)``) and the acceleration."""
+    n_speed: int
+    """How many of :attr:`rates` are velocity points."""
+    shift: np.ndarray
+    """Moves a plan's control points on by one step."""
+
+    @staticmethod
+    def of(world: World, robot: RobotSpec, params: MPCParams) -> "MPCSetup":
+        """The setup of ``robot``'s controller in ``world``."""
+        horizon, dt = float(params.horizon), float(params.dt)
+        knots = bspline.uniform_knots(horizon, params.segments, DEGREE)
+        cost_hessian = (bspline.gram_matrix(knots, DEGREE, 0, 0.0, horizon)
+                        + params.w2 * bspline.gram_matrix(knots, DEGREE, 1, 0.0, horizon))
+        # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
+        d1 = bspline.velocity_hull_operator(knots)[1:]
+        # Moving a plan on by one step: least-squares fit of p(tau + dt) (the last span's
+        # polynomial continues past the horizon).
+        fit = np.linspace(0.0, horizon, 4 * params.segments + 1)
+        shift = np.linalg.lstsq(bspline.basis(fit, knots, DEGREE), bspline.basis(fit + dt, knots, DEGREE),
+                                rcond=None)[0]
+        return MPCSetup(
+            robot=robot, settings=params, horizon=horizon, dt=dt, knots=knots,
+            nullspace=initial_state_nullspace(knots, DEGREE), greville=bspline.greville_abscissae(knots, DEGREE),
+            cost_hessian=cost_hessian, obstacles=world.obstacle_array, world_bounds=world.bounds_array,
+            b_step=bspline.basis_derivative([dt], knots, DEGREE, 0)[0],
+            # Where the robot passes within a step: the spline is curved, the chord is not it.
+            b_substeps=bspline.basis_derivative(dt * STEP_FRACTIONS, knots, DEGREE, 0),
+            bv_step=bspline.basis_derivative([dt], knots, DEGREE, 1)[0],
+            rates=np.vstack([d1, bspline.derivative_control_operator(knots, DEGREE, 2)]), n_speed=len(d1),
+            shift=shift)
+
+
+class MPCProblem:
+    """Everything fixed for one (number of other robots, sample times): rows, Hessians, maps.
+
+    The QP's variables are ``z = [z_x, z_y]``, the free control points (:func:`initial_state_nullspace`)
+    as deviations from the line ``p0 + v0 tau``, in coordinates centred on ``p0``. Every row is a
+    functional ``alpha^T phi_f(c)`` of the control points (a position at an interval end, a
+    velocity or acceleration control point, a terminal combination) in one-sided form
+    ``row @ z >= lower``, in metres: derivative rows are scaled by the knot span (``h``, ``h^2``).
+    Order: box rows, speed polygon, acceleration polygon (all static), then one group of
+    ``n_end + n_term`` rows per wall and per other robot (normals written at every step).
+    """
+
+    def __init__(self, setup: MPCSetup, n_others: int, sample_times: np.ndarray):
+        s, robot = setup.settings, setup.robot
+        knots, horizon = setup.knots, setup.horizon
+        self.setup = setup
+        self.n_others = n_others
+        self.n_walls = len(setup.obstacles)
+        self.sample_times = sample_times
+        grid = constraint_grid(sample_times, horizon, s.max_interval)
+        self.ends = grid[1:]
+        self.mids = 0.5 * (grid[1:] + grid[:-1])
+        self.intervals = np.diff(grid)
+        n_end = len(self.ends)
+        h = knots[1] - knots[0]
+
+        # Terminal rows along the last normal (stopping distance, see stopping_rows).
+        self.term_time = grid[-1]
+        brake = robot.max_accel * np.cos(np.pi / s.accel_polygon_sides)
+        self.term_wv, self.term_wa, self.term_const = stopping_rows(
+            h, s.terminal_decel * brake, 2.0 * robot.max_speed, s.terminal_pieces)
+
+        # Every inequality is tightened by the solver's tolerance, so an accepted solution meets
+        # the untightened one. Chord inflation of each interval, and its maximum over the
+        # intervals meeting at each end.
+        self.tol = s.qp_tolerance
+        self.eps = chord_inflation(robot.max_accel, self.intervals) + self.tol
+        self.eps_end = np.maximum(self.eps, np.append(self.eps[1:], 0.0))
+
+        # Interpolation of the sampled reference and predictions.
+        self.interp_zero = interpolation_matrix(sample_times, 0.0)[0]
+        self.interp_ends = interpolation_matrix(sample_times, self.ends)
+        self.slope_end = slope_matrix(sample_times, self.term_time)
+        self.check_times = np.sort(np.concatenate([self.ends, self.mids]))
+        self.interp_check = interpolation_matrix(sample_times, self.check_times)
+        # One product gives every prediction at 0, at the interval ends, at the check times, and
+        # its velocity at the end of the horizon.
+        self.interp_all = np.vstack([self.interp_zero, self.interp_ends, self.interp_check, self.slope_end])
+
+        # Curve evaluations (control points -> values).
+        self.b_ends = bspline.basis(self.ends, knots, DEGREE)
+        self.b_check = bspline.basis(self.check_times, knots, DEGREE)
+        self.b_samples = bspline.basis(sample_times, knots, DEGREE)
+        # A plan's next position and velocity and its samples; its check points and the points
+        # whose hulls hold its velocity and acceleration.
+        self.b_out = np.vstack([setup.b_step, setup.bv_step, self.b_samples])
+        self.b_check_rates = np.vstack([self.b_check, setup.rates])
+        self.check_weights = horizon / self.check_times
+
+        # Linear functionals on the control points used by constraint rows: positions at the
+        # interval ends, velocity and acceleration control points, terminal functionals.
+        # Velocity: the hull points after v(0), which the initial state fixes (constraining it
+        # would pin the first points to the polygon's face whenever the robot is at the limit).
+        d1 = h * bspline.velocity_hull_operator(knots)[1:]
+        d2 = h**2 * bspline.derivative_control_operator(knots, DEGREE, 2)
+        phi_term = (bspline.basis_derivative([self.term_time], knots, DEGREE, 0)
+                    + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
+                    + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
+        phi = np.vstack([self.b_ends, d1, d2, phi_term])
+        phi_t = phi @ setup.nullspace
+        phi_line = phi @ setup.greville  # each functional on the line tau -> tau
+        f_vel = n_end + np.arange(len(d1))
+        f_acc = n_end + len(d1) + np.arange(len(d2))
+        f_term = n_end + len(d1) + len(d2) + np.arange(len(phi_term))
+        self.nz = phi_t.shape[1]
+
+        # Static rows: x, y, -x, -y at each interval end (the box), speed and acceleration polygons.
+        eye = np.eye(2)
+        v_normals = polygon_normals(s.speed_polygon_sides)
+        a_normals = polygon_normals(s.accel_polygon_sides)
+        self.n_box = 4 * n_end
+        static_alpha = np.vstack([np.tile(np.vstack([eye, -eye]), (n_end, 1)),
+                                  -np.tile(v_normals, (len(d1), 1)), -np.tile(a_normals, (len(d2), 1))])
+        static_f = np.concatenate([np.repeat(np.arange(n_end), 4), np.repeat(f_vel, len(v_normals)),
+                                   np.repeat(f_acc, len(a_normals))])
+        self.static_base = np.concatenate([
+            np.zeros(self.n_box),  # the box bounds depend on the position, set per step
+            np.full(len(d1) * len(v_normals), self.tol - h * robot.max_speed * np.cos(np.pi / s.speed_polygon_sides)),
+            np.full(len(d2) * len(a_normals), self.tol - h**2 * brake),
+        ])
+        self.static_alpha = static_alpha
+        self.static_line = phi_line[static_f]
+        self.n_static = len(static_f)
+
+        # Dynamic rows, one group per wall and per other robot: a half-plane at every interval
+        # end, then the terminal rows with the last end's normal.
+        n_term = len(phi_term)
+        self.group_point = np.concatenate([np.arange(n_end), np.full(n_term, n_end - 1)])
+        self.group_wv = np.concatenate([np.zeros(n_end), self.term_wv])
+        self.term_offset = self.eps_end[-1] + self.term_const
+        self.rows_per_group = n_end + n_term
+        self.n_groups = self.n_walls + n_others
+        dyn_f = np.tile(np.concatenate([np.arange(n_end), f_term]), self.n_groups)
+        self.dyn_phi = phi_t[dyn_f]
+        self.dyn_line = phi_line[dyn_f]
+        self.n_rows = self.n_static + len(dyn_f)
+        # The group of every row (-1: static rows).
+        self.row_group = np.concatenate([np.full(self.n_static, -1),
+                                         np.repeat(np.arange(self.n_groups), self.rows_per_group)])
+        # Row alpha^T phi_f is [alpha_x phi_f, alpha_y phi_f]; the dynamic rows are written per QP.
+        self.rows = np.zeros((self.n_rows, 2 * self.nz))
+        by_coordinate = self.rows.reshape(self.n_rows, 2, self.nz)
+        by_coordinate[:self.n_static] = static_alpha[:, :, None] * phi_t[static_f][:, None, :]
+        # Each soft group of the evasive QP: one slack per interval end, one for its terminal rows.
+        self.slack_of_row = np.concatenate([np.arange(n_end), np.full(n_term, n_end)])
+        self.slack_weights = np.append(horizon / self.ends, 1.0) * s.evasive_penalty
+
+        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant.
+        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
+        q_line = setup.nullspace.T @ setup.cost_hessian @ setup.greville
+        # Cross term integral N(tau) p_ref(tau) dtau = ref_weights @ reference (exact quadrature).
+        inner_knots = knots[(knots > 0) & (knots < horizon)]
+        nodes, weights = bspline.gauss_legendre(
+            np.concatenate([[0.0, horizon], inner_knots, sample_times[sample_times < horizon]]), 4)
+        ref_weights = setup.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
+            weights[:, None] * interpolation_matrix(sample_times, nodes))
+        zero = np.zeros_like(p_half)
+        self.hessian = np.block([[2.0 * p_half, zero], [zero, 2.0 * p_half]])
+        self.q_line, self.ref_weights = q_line, ref_weights
+
+        # The evasive QP (:func:`~nodnav.control.evasive.elastic_plan`) with every other robot softened, variables
+        # [z, slacks] (one softening fewer robots takes a subset): its Hessian, the slack columns
+        # of its rows (each row of a robot's group -> that robot's slack for the row's interval
+        # end; the static and wall rows have none), the bounds and the slacks' costs.
+        n_slack = len(self.slack_weights) * n_others
+        self.evasive_hessian = np.zeros((2 * self.nz + n_slack,) * 2)
+        self.evasive_hessian[:2 * self.nz, :2 * self.nz] = self.hessian
+        self.evasive_hessian[2 * self.nz:, 2 * self.nz:] = s.evasive_curvature * np.eye(n_slack)
+        self.slack_columns = np.zeros((self.n_rows, n_slack))
+        robot_rows = self.n_static + self.rows_per_group * (self.n_walls + np.arange(n_others))
+        self.slack_columns[(robot_rows[:, None] + np.arange(self.rows_per_group)).ravel(),
+                           (len(self.slack_weights) * np.arange(n_others)[:, None] + self.slack_of_row).ravel()] = 1.0
+        self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
+        self.slack_gradient = np.tile(self.slack_weights, n_others)
+
+    def softened_rows(self, soft: np.ndarray) -> np.ndarray:
+        """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);
+        the static rows belong to none."""
+        return (self.row_group >= 0) & soft[np.maximum(self.row_group, 0)]
+
+    def conflicting_others(self, rows: np.ndarray) -> np.ndarray:
+        """Indices of the other robots owning any of the given rows."""
+        group = self.row_group[rows] - self.n_walls
+        return np.unique(group[group >= 0])
+
+    def gradient(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
+        """Gradient at ``z = 0`` of the tracking cost, ``[g_x, g_y]`` with ``g_d = 2 (v0_d q_line - W ref_d)``
+        (the Hessian is :attr:`hessian`)."""
+        return (2.0 * (self.q_line[:, None] * v0 - self.ref_weights @ ref_local)).T.ravel()
+
+    def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:
+        """Lower bounds of the static rows in the QP's coordinates (centred on ``p0``, relative to
+        the line ``v0 tau``): the box ``[box_low, box_high]`` of allowed positions at each end,
+        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons."""
+        box = np.concatenate([box_low - p0, p0 - box_high])
+        static = self.static_base - (self.static_alpha @ v0) * self.static_line
+        static[:self.n_box] += (box[None, :] + self.eps_end[:, None]).ravel()
+        return static
+
+    def control_points(self, data: StepData, z: np.ndarray) -> np.ndarray:
+        """Control points ``(n, 2)`` of the curve with free control points ``z`` (line plus deviation)."""
+        return data.p0 + self.setup.greville[:, None] * data.v0 + self.setup.nullspace @ z.reshape(2, -1).T
+
+    def write_separation(self, data: StepData, lin: np.ndarray, cold: bool, need: np.ndarray,
+                         keep_arrangement: np.ndarray | None = None) -> np.ndarray:
+        """Write the wall and separation rows into :attr:`rows`; return every row's lower bound.
+
+        At each interval end, the half-plane through the linearisation point ``lin`` tangent to
+        the disc of radius ``need`` round the other robot's prediction (or to the wall rectangle
+        inflated by ``need``, at its nearest point): the linearisation trajectory satisfies its
+        own half-planes whenever it is clear, so the previous plan stays feasible from one step to
+        the next. A point inside a wall or colliding with another robot gives no usable
+        direction; then, and on a ``cold`` start (``lin`` is the reference, not a trajectory the
+        robot can follow) wherever the half-plane would exclude the robot's current position, the
+        half-plane through the current position is used instead: it keeps the robot on the side
+        it is on now. The groups marked ``keep_arrangement`` keep the current arrangement
+        instead: at every end the normal is the direction from their point now to the robot.
+        Last come the terminal rows of :func:`~nodnav.control.mpc_rows.stopping_rows`, along the
+        last end's normal (``x`` the other robot or the wall's nearest point, ``v_x`` its
+        velocity, zero for a wall). Bounds are moved to the QP's coordinates (centred on ``p0``,
+        relative to the line ``v0 tau``). The loops run compiled
+        (:func:`~nodnav.control.mpc_rows.separation_rows`): a few hundred scalar rows are cheaper
+        there than as dozens of small array operations.
+        """
+        lower = np.empty(self.n_rows)
+        lower[:self.n_static] = data.static_lower
+        marked = np.zeros(self.n_groups, dtype=bool) if keep_arrangement is None else keep_arrangement
+        separation_rows(lin, data.x_now, self.setup.obstacles, self.n_walls, data.p0, data.v0, data.contact,
+                        np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
+                        self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
+                        self.dyn_line, self.rows, lower, self.n_static)
+        return lower
+
+    def violation(self, data: StepData, c: np.ndarray, separation: bool) -> str:
+        """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
+        exactly (true clearances and distances at the check times, speed and acceleration on
+        points whose hulls hold them), else what it violates."""
+        setup = self.setup
+        tol = setup.settings.check_tolerance
+        clear, closest, speed, accel = plan_extremes(self.b_check_rates @ c, len(self.check_times), setup.n_speed,
+                                                      setup.obstacles, setup.world_bounds, data.pred_check)
+        if clear < data.need_clear - tol:
+            return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
+        if separation and self.n_others:
+            short = data.need[self.n_walls:] - closest
+            j = int(np.argmax(short))
+            if short[j] > tol:
+                return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
+        if speed > setup.robot.max_speed + tol:
+            return f"plan exceeds the speed limit ({speed:.4f} m/s)"
+        if accel > setup.robot.max_accel + tol:
+            return f"plan exceeds the acceleration limit ({accel:.4f} m/s^2)"
+        return ""
+
+    def certified_conflict(self, rows: np.ndarray, lower: np.ndarray, effort: SolverEffort) -> np.ndarray | None:
+        """The other robots owning rows of an infeasibility certificate of ``rows @ x >= lower``
+        (empty if walls and limits alone conflict), or None if the rows are consistent."""
+        support = effort.certificate(rows, lower)
+        return self.conflicting_others(support) if support.size else None
+
+
+@dataclass(frozen=True)
+class StepData:
+    """The request's data for one step, with the requirements derived from the current state.
+
+    Walls and other robots are handled alike, as ``G`` groups (walls first): each keeps a
+    clearance from a point ``x`` at every interval end (a wall's point is the nearest point of its
+    rectangle, which depends on the linearisation; another robot's is its prediction).
+    """
+
+    p0: np.ndarray
+    v0: np.ndarray
+    ref_local: np.ndarray
+    """Reference relative to ``p0`` ``(K, 2)`` (m)."""
+    pred_check: np.ndarray
+    """Predicted positions of the others at the check times ``(m, C, 2)`` (m)."""
+    x_now: np.ndarray
+    """Each group's point at every interval end for a half-plane through the current position:
+    the wall's nearest point to ``p0``, or the prediction ``(G, N, 2)`` (m)."""
+    away: np.ndarray
+    """Unit vector from each group's point at ``tau = 0`` to ``p0`` ``(G, 2)``."""
+    dist_now: np.ndarray
+    """Current distance to each group's point ``(G,)`` (m)."""
+    contact: np.ndarray
+    """Distance to a group's point below which a linearisation point gives no direction ``(G,)`` (m)."""
+    full: np.ndarray
+    """Clearance wanted from each group: r_i from a wall, r_i + r_j + margin from a robot ``(G,)`` (m)."""
+    need: np.ndarray
+    """Clearance to keep: ``full``, or less where the current state is already closer ``(G,)`` (m)."""
+    delta_sq: np.ndarray
+    """A quarter of the squared largest relative displacement over the intervals meeting at each
+    end ``(G, N)`` (m^2)."""
+    velocities: np.ndarray
+    """Each other robot's predicted velocity at the end of the horizon ``(m, 2)`` (m/s)."""
+    far: np.ndarray
+    """Groups out of reach within the horizon ``(G,)``: a wall's rows then constrain nothing."""
+    gap_box: np.ndarray
+    """Current distance to the bounds x_min, y_min, x_max, y_max ``(4,)`` (m)."""
+    need_box: np.ndarray
+    """Clearance to keep from the bounds ``(4,)`` (m)."""
+    static_lower: np.ndarray
+    """Lower bounds of the static rows in the QP's coordinates (:meth:`MPCProblem.static_lower`)."""
+    n_walls: int
+
+    @property
+    def need_clear(self) -> float:
+        """The smallest clearance the plan has to keep from any wall or bound (m)."""
+        return float(min(self.need[:self.n_walls].min(initial=np.inf), self.need_box.min()))

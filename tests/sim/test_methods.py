@@ -45,3 +45,21 @@ def test_reaction_margin_is_how_far_a_braking_trajectory_can_move_in_one_step():
 
     # a dt^2 + (v + a dt / 2) dt: at rest 2 * 0.01 + 0.1 * 0.1 = 0.03 m; at 1 m/s 0.02 + 0.11 = 0.13 m.
     np.testing.assert_allclose(reaction_margin(np.array([0.0, 1.0]), np.array([2.0, 2.0]), 0.1), [0.03, 0.13])
+
+
+def test_unexpected_approach_counts_only_deviations_towards_the_robot():
+    from nodnav.sim.methods import unexpected_approach
+
+    dt = 0.1
+    # Robot 0 at the origin; robot 1 starts from rest towards it (1 cm in a step it was expected to
+    # stand still); robot 2 starts away from it; robot 3 drives at it at constant velocity (no
+    # surprise: 1 m/s for 0.1 s is the 0.1 m it covered); robot 4 starts sideways, across the line.
+    seen_positions = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [2.0, 0.0]])
+    seen_velocities = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [1.0, 0.0], [0.0, 0.0]])
+    positions = np.array([[0.0, 0.0], [0.99, 0.0], [0.0, 1.01], [-0.9, 0.0], [2.0, 0.01]])
+    others = np.array([1, 2, 3, 4])
+    got = unexpected_approach(seen_positions, seen_velocities, positions, 0, others, dt, threshold=5e-3)
+    np.testing.assert_array_equal(got, [True, False, False, False])
+    # A deviation of 4 mm towards the robot is below a 5 mm threshold.
+    positions[1] = [0.996, 0.0]
+    assert not unexpected_approach(seen_positions, seen_velocities, positions, 0, others, dt, threshold=5e-3)[0]

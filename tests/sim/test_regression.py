@@ -22,6 +22,8 @@ CASES = [
     ("destination-in-the-mouth.yaml", (22,)),
     ("squeeze-abreast-at-the-mouth.yaml", (134,)),
     ("squeeze-backing-out-of-the-mouth.yaml", (165,)),
+    ("queue-abreast-one-player.yaml", (12,)),
+    ("three-against-one-one-player.yaml", (20,)),
 ]
 
 

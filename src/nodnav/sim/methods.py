@@ -43,6 +43,11 @@ def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: 
 
 #: How much of the present gap to another robot the reaction margin leaves free (m).
 REACTION_SLACK = 1e-3
+#: How far (m) another robot must end a control step from where its velocity would have taken it
+#: to count as not doing what was expected of it: half of what full acceleration gives, a dt^2 / 2.
+SURPRISE = 5e-3
+#: For how many control steps such a robot stays unexpected (one second at 0.1 s).
+SURPRISE_MEMORY = 10
 
 
 def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
@@ -59,6 +64,22 @@ def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.
     v = np.asarray(speeds, dtype=float)
     a = np.asarray(max_accel, dtype=float)
     return a * dt * dt + (v + 0.5 * a * dt) * dt
+
+
+def unexpected_approach(seen_positions: np.ndarray, seen_velocities: np.ndarray, positions: np.ndarray,
+                        robot: int, others: np.ndarray | list[int], dt: float,
+                        threshold: float = SURPRISE) -> np.ndarray:
+    """Which ``others`` came towards ``robot`` over the last control step more than ``threshold``
+    (m) beyond where their velocity one step ago would have taken them ``(len(others),)``.
+
+    Each other robot's deviation from its constant-velocity step, ``p_j - (p_j' + v_j' dt)``, is
+    projected on the unit vector from it to ``robot``: starting, speeding up or swerving towards
+    the robot counts; braking, backing off or passing by does not.
+    """
+    expected = seen_positions[others] + seen_velocities[others] * dt
+    towards = positions[robot] - positions[others]
+    towards = towards / np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-9)
+    return np.einsum("ij,ij->i", positions[others] - expected, towards) > threshold
 
 
 @compiled
@@ -127,6 +148,8 @@ class PlannedMethod:
         self.dt = scenario.controller.dt
         self._braking_margin = scenario.execution.reaction_margin
         self._conflicted = np.zeros(n, dtype=bool)
+        self._surprised = np.zeros((n, max(n - 1, 0)), dtype=int)  # steps left, per robot and other robot
+        self._last_seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         ex = scenario.execution
         self._execution_settings = ExecutionSettings(
             gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
@@ -192,7 +215,8 @@ class PlannedMethod:
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self._other_radii[i]
-            if self._braking_margin == "always" or (self._braking_margin == "conflict" and self._conflicted[i]):
+            careful = self._careful(i, view)
+            if careful.any():
                 others = self._others[i]
                 radii = radii.copy()
                 margin = reaction_margin(np.linalg.norm(view.velocities[others], axis=1), self._accel[others], self.dt)
@@ -200,13 +224,33 @@ class PlannedMethod:
                 # leaves, so that the robot is not "inside" the other's braking disc at once.
                 gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
                        - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
-                radii[2 * len(others):] += np.clip(np.minimum(margin, gap - REACTION_SLACK), 0.0, None)
+                allowed = np.clip(np.minimum(margin, gap - REACTION_SLACK), 0.0, None)
+                radii[2 * len(others):] += np.where(careful, allowed, 0.0)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=self._firm)
             out[i] = self.controllers[i].control(request)
             self._conflicted[i] = not out[i].success
         return out
+
+    def _careful(self, i: int, view: RobotView) -> np.ndarray:
+        """Towards which other robots robot ``i`` keeps the reaction margin this step ``(N_r - 1,)``:
+        all of them (``always``), all while it cannot follow its plan (``conflict``), and with
+        ``surprised`` also any robot it saw, within the last :data:`SURPRISE_MEMORY` steps, come
+        towards it more than :data:`SURPRISE` beyond where its velocity would have taken it
+        (:func:`unexpected_approach`): a robot that starts or swerves towards it unannounced may
+        be following a plan of its own that conflicts with this one."""
+        mode, others = self._braking_margin, self._others[i]
+        if mode == "off":
+            return np.zeros(len(others), dtype=bool)
+        if mode == "always":
+            return np.ones(len(others), dtype=bool)
+        seen = self._last_seen.get(i)
+        if mode == "surprised" and seen is not None:
+            off = unexpected_approach(seen[0], seen[1], view.positions, i, others, self.dt)
+            self._surprised[i] = np.where(off, SURPRISE_MEMORY, np.maximum(self._surprised[i] - 1, 0))
+        self._last_seen[i] = (view.positions.copy(), view.velocities.copy())
+        return (self._surprised[i] > 0) | bool(self._conflicted[i])
 
 
 @register_method("nod", help="the paper: every robot runs Algorithm 1 (opinions, game players, planning per "

@@ -24,6 +24,7 @@ CASES = [
     ("squeeze-backing-out-of-the-mouth.yaml", (165,)),
     ("queue-abreast-one-player.yaml", (12,)),
     ("three-against-one-one-player.yaml", (20,)),
+    ("race-abreast-into-the-mouth.yaml", (132,)),
 ]
 
 

@@ -218,13 +218,12 @@ class ExecutionParams:
     tolerance: float = 0.05
     """Distance within which an observed robot counts as still at the earliest of its nearest
     planned samples (m): how far it must move before it counts as having moved on."""
-    reaction_margin: Literal["always", "surprised", "conflict", "off"] = "surprised"
-    """When the MPC keeps clear of another robot's braking trajectory by how far that can move in
-    one control step (``nodnav.sim.methods.reaction_margin``): ``always``; ``conflict``, from a
-    step at which the robot could not follow its plan until it can again; ``surprised`` (default),
-    that and towards a robot it saw come towards it faster than its velocity predicted within
-    the last second (``unexpected_approach``), so that two robots that both start for one mouth
-    never squeeze each other; ``off``."""
+    reaction_margin: Literal["always", "moving", "surprised", "conflict", "off"] = "moving"
+    """Towards which robots the MPC keeps clear of the braking trajectory by how far that can move
+    in one control step (``nodnav.sim.methods.reaction_margin``): ``always`` every robot;
+    ``moving`` (default) every robot that moves, that came at this one unexpectedly
+    (``unexpected_approach``) within the last second, and every robot while this one cannot
+    follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""
 
 
 @dataclass(frozen=True)

@@ -234,23 +234,32 @@ class PlannedMethod:
         return out
 
     def _careful(self, i: int, view: RobotView) -> np.ndarray:
-        """Towards which other robots robot ``i`` keeps the reaction margin this step ``(N_r - 1,)``:
-        all of them (``always``), all while it cannot follow its plan (``conflict``), and with
-        ``surprised`` also any robot it saw, within the last :data:`SURPRISE_MEMORY` steps, come
-        towards it more than :data:`SURPRISE` beyond where its velocity would have taken it
-        (:func:`unexpected_approach`): a robot that starts or swerves towards it unannounced may
-        be following a plan of its own that conflicts with this one."""
+        """Towards which other robots robot ``i`` keeps the reaction margin this step ``(N_r - 1,)``.
+
+        ``always``: all of them. ``conflict``: all while ``i`` cannot follow its plan, when the
+        other may not be able to either. ``surprised`` adds any robot ``i`` saw, within the last
+        :data:`SURPRISE_MEMORY` steps, come towards it more than :data:`SURPRISE` beyond where its
+        velocity would have taken it (:func:`unexpected_approach`): a robot that starts or swerves
+        towards it unannounced may follow a plan that conflicts with this one. ``moving`` adds
+        every robot that moves more than :data:`SURPRISE` a step, so that the margin is in place
+        before two moving robots get close, not switched on once they are (when the present gap
+        caps it). A robot at rest needs none: its braking trajectory is where it stands, and if it
+        starts towards ``i`` it counts as unexpected after one step; a margin from it would make a
+        robot pass a waiting one with no slack beyond the planner's own clearance."""
         mode, others = self._braking_margin, self._others[i]
         if mode == "off":
             return np.zeros(len(others), dtype=bool)
         if mode == "always":
             return np.ones(len(others), dtype=bool)
         seen = self._last_seen.get(i)
-        if mode == "surprised" and seen is not None:
+        if mode in ("surprised", "moving") and seen is not None:
             off = unexpected_approach(seen[0], seen[1], view.positions, i, others, self.dt)
             self._surprised[i] = np.where(off, SURPRISE_MEMORY, np.maximum(self._surprised[i] - 1, 0))
         self._last_seen[i] = (view.positions.copy(), view.velocities.copy())
-        return (self._surprised[i] > 0) | bool(self._conflicted[i])
+        careful = (self._surprised[i] > 0) | bool(self._conflicted[i])
+        if mode == "moving":
+            careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > SURPRISE)
+        return careful
 
 
 @register_method("nod", help="the paper: every robot runs Algorithm 1 (opinions, game players, planning per "

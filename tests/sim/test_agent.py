@@ -68,3 +68,21 @@ def test_opinion_update_matches_eqs_4_and_8_by_hand():
     x = np.exp(z - z.max()) / np.exp(z - z.max()).sum()
     assert second.probabilities == pytest.approx(x, rel=1e-9)
     assert math.isclose(x[1], 1.0, rel_tol=1e-9)  # 50 x tanh(0.83) apart: robot 1 yields with certainty
+
+
+def test_robots_seen_in_the_corridor_join_the_plan_only_of_a_robot_with_game_players():
+    # Three robots; robot 3 stands in the middle of the corridor and has entered it. With
+    # nonplayers: entered it joins robot 1's plan when robot 1 plays with robot 2, and not when
+    # robot 1 has no game players: the paper's no-coordination case plans alone.
+    scenario = load_scenario("3r-case1")
+    states = np.zeros((3, 2, 4))
+    states[:, :, :2] = scenario.origins[:, None]
+    states[2, :, :2] = [0.0, 0.0]
+    view = RobotView(t=1.0, window_times=np.array([0.9, 1.0]), window_states=states, entered=(2,))
+    with_player = NODAgent(scenario, 0, np.random.default_rng(1), PlanCache(ScriptedPlanner()), n_players=1)
+    alone = NODAgent(scenario, 0, np.random.default_rng(1), PlanCache(ScriptedPlanner()), n_players=0)
+    assert with_player.committed(view, (1,)) == (2,)
+    assert alone.committed(view, ()) == ()
+    static = NODAgent(scenario.with_overrides(**{"opinion.nonplayers": "static"}), 0, np.random.default_rng(1),
+                      PlanCache(ScriptedPlanner()), n_players=1)
+    assert static.committed(view, (1,)) == ()

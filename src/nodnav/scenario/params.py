@@ -53,7 +53,8 @@ class OpinionParams:
     nonplayers: Literal["static", "entered"] = "entered"
     """How robots outside N_i(t) enter the robot's planning: ``static`` (the paper: not planned,
     held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the
-    front of the order, where history has put them)."""
+    front of the order, where history has put them; not with 0 game players, the paper's
+    no-coordination case)."""
 
     def bias_indices(self) -> dict[int, float]:
         """The bias b_ij as a mapping from strategy index (0-based: S1 is 0) to value."""

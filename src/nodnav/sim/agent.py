@@ -284,9 +284,12 @@ class NODAgent:
 
         Planning with them costs little (history fixes them at the front of every order) and
         keeps a robot from planning into a corridor that someone it does not play with is coming
-        through; they take no part in eq. (4).
+        through; they take no part in eq. (4). A robot with no game players (k = 0) is the paper's
+        no-coordination case, its Fig. 3 baseline, and stays literal: it plans alone, as with
+        ``static``. (Planning robots it saw enter would be coordination of its own: first come,
+        first served.)
         """
-        if self.params.nonplayers != "entered":
+        if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
         inside = self.scenario.world.in_corridor(view.positions)
         return tuple(k for k in view.entered if inside[k] and k != self.index and k not in players)

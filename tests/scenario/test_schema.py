@@ -122,6 +122,9 @@ def test_minimal_file(tmp_path):
     (GOOD + "opinion: {bias: {S7: 1}}\n", "unknown strategy 'S7'"),
     (GOOD + "game_players: 2\n", "game_players: expected 'all' or a whole number 0..1"),
     (GOOD + "planner: {name: prn}\n", "did you mean 'prm'?"),
+    (GOOD + "execution: {surprise: 0}\n", "execution.surprise: must be"),
+    (GOOD + "baselines: {closest_first_tie: 0}\n", "baselines.closest_first_tie: must be"),
+    (GOOD + "baselines: {orca_radius: 1}\n", "baselines: unknown key 'orca_radius'"),
     (GOOD + "world: {bounds: [1, 2, 3]}\n", "world.bounds: expected a list of 4 numbers"),
     ("robots:\n  - {origin: [-5, 0]}\n", "robots[0]: missing 'destination' for robot 1"),
     ("robots:\n  - {origin: [-5, 0], destination: [5, 0], colour: red}\n", "robots[0]: unknown key 'colour'"),
@@ -139,6 +142,17 @@ def test_malformed_is_one_clear_line(tmp_path, text, message):
         _load(tmp_path, text)
     assert message in str(exc.value)
     assert "\n" not in str(exc.value)
+
+
+def test_every_behaviour_setting_reads_back_from_the_file(tmp_path):
+    # The reaction margin's, the baselines' and PRM*'s settings are scenario keys like the rest.
+    s = _load(tmp_path, GOOD + "execution: {surprise: 0.01, surprise_memory: 2.0, reaction_slack: 0.002}\n"
+              "baselines: {closest_first_tie: 0.05, orca_time_horizon: 3.0}\n"
+              "planner: {name: prm, connect_factor: 4, link_widening: 2}\n")
+    assert (s.execution.surprise, s.execution.surprise_memory, s.execution.reaction_slack) == (0.01, 2.0, 0.002)
+    assert (s.baselines.closest_first_tie, s.baselines.orca_time_horizon) == (0.05, 3.0)
+    assert (s.planner.connect_factor, s.planner.link_widening) == (4, 2)
+    assert scenario_from_dict(scenario_to_dict(s)) == s
 
 
 def test_unknown_builtin_suggests():

@@ -76,11 +76,11 @@ def test_best_strategy_breaks_ties_by_cost_then_index():
 
 
 def test_closest_first_orders_by_distance_then_robot_number():
-    assert closest_first_order([2.5, 1.0, 2.5, 0.3]) == (3, 1, 0, 2)
+    assert closest_first_order([2.5, 1.0, 2.5, 0.3], 0.01) == (3, 1, 0, 2)
     # Within a centimetre counts as equal: the lower robot number goes first either way round.
-    assert closest_first_order([1.0, 1.004]) == (0, 1)
-    assert closest_first_order([1.004, 1.0]) == (0, 1)
-    assert closest_first_order([1.03, 1.0]) == (1, 0)
+    assert closest_first_order([1.0, 1.004], 0.01) == (0, 1)
+    assert closest_first_order([1.004, 1.0], 0.01) == (0, 1)
+    assert closest_first_order([1.03, 1.0], 0.01) == (1, 0)
 
 
 def test_fixed_preference_is_a_softmax_of_initial_opinion_plus_bias():

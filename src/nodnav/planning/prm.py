@@ -66,10 +66,6 @@ from nodnav.registry import register_planner
 from nodnav.scenario.params import PRMParams
 from nodnav.scenario.world import World
 
-CONNECT_FACTOR = 3
-"""Start and goal are offered ``CONNECT_FACTOR`` times PRM*'s k nearest roadmap vertices."""
-LINK_WIDENING = 8
-"""If none of the k nearest vertices can be linked, this many times more are tried, then all."""
 GOAL_FIELDS = 64
 """Goal fields (one Dijkstra run each) a planner keeps."""
 
@@ -321,11 +317,11 @@ class PRMStarPlanner:
             return SearchResult.failed(f"no roadmap for direction pattern {key.pattern}: {got.report.reason}")
         qg = self._graphs[digest]
         v = len(qg.roadmap.vertices)
-        k = min(v, CONNECT_FACTOR * prm_star_k(v, 2 * n))
+        k = min(v, self.params.connect_factor * prm_star_k(v, 2 * n))
         field = self._goal_field(qg, digest, goal, radii, rules.goal, k)
         if not field.success:
             return SearchResult.failed(field.reason)
-        s_nbr, s_len = _links(qg, rules.start, start, k)
+        s_nbr, s_len = _links(qg, rules.start, start, k, self.params.link_widening)
         if not len(s_nbr):
             return SearchResult.failed(f"start cannot be joined to any of the {v} roadmap vertices")
         phi_s = p.w1 * float(proximity_penalty(start, radii, p.varsigma))
@@ -351,7 +347,7 @@ class PRMStarPlanner:
         if cache_key in self._fields:
             self._fields.move_to_end(cache_key)
             return self._fields[cache_key]
-        g_nbr, g_len = _links(qg, rules, goal, k)
+        g_nbr, g_len = _links(qg, rules, goal, k, self.params.link_widening)
         v = len(qg.roadmap.vertices)
         if not len(g_nbr):
             field = GoalField(False, f"goal cannot be joined to any of the {v} roadmap vertices",
@@ -392,13 +388,14 @@ def shortcut(configs: np.ndarray, rules: EdgeRules) -> np.ndarray:
     return configs[kept]
 
 
-def _links(qg: QueryGraph, rules: CompiledRules, x: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+def _links(qg: QueryGraph, rules: CompiledRules, x: np.ndarray, k: int,
+           widening: int) -> tuple[np.ndarray, np.ndarray]:
     """Roadmap vertices among the ``k`` nearest to ``x`` that a valid straight edge from ``x``
-    reaches, and the edge lengths. If none does, ``LINK_WIDENING`` times as many are tried,
-    then every vertex."""
+    reaches, and the edge lengths. If none does, ``widening`` times as many are tried, then
+    every vertex."""
     v = len(qg.roadmap.vertices)
     tried = 0
-    for count in (min(k, v), min(LINK_WIDENING * k, v), v):
+    for count in (min(k, v), min(widening * k, v), v):
         if count <= tried:
             continue
         dist, idx = qg.tree.query(x, k=count)

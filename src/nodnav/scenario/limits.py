@@ -92,6 +92,8 @@ RANGES: dict[str, Range] = {
     "planner.w1": (0.0, 1e3, True),
     "planner.varsigma": (0.0, 1.0, True),
     "planner.roadmap_vertices": (10, 10_000, True),
+    "planner.connect_factor": (1, 100, True),
+    "planner.link_widening": (1, 100, True),
     # The fast planner's ways of making room: spots up to a world's side away, in rings of a few
     # dozen directions; each try and each level of the cascade replans robots, so both stay small.
     "planner.retreat_radii": (0.01, MAX_WORLD_SIZE, True),
@@ -128,6 +130,16 @@ RANGES: dict[str, Range] = {
     # Execution: precedences reach back a lag of at least one control step when it is positive.
     "execution.lag": (0.0, 10.0, True),
     "execution.tolerance": (0.0, 1.0, True),
+    "execution.surprise": (0.0, 1.0, False),
+    "execution.surprise_memory": (0.0, 60.0, True),
+    "execution.reaction_slack": (0.0, 0.1, True),
+    # The baselines.
+    "baselines.closest_first_tie": (0.0, 10.0, False),
+    "baselines.orca_neighbor_dist": (0.0, 1e3, False),
+    "baselines.orca_time_horizon": (0.0, 60.0, False),
+    "baselines.orca_time_horizon_obst": (0.0, 60.0, False),
+    "baselines.orca_radius_margin": (0.0, 1.0, True),
+    "baselines.orca_route_margin": (0.0, 1.0, True),
     "time_limit": (0.0, 3600.0, False),
 }
 

@@ -136,6 +136,10 @@ class PRMParams(PlannerParams):
     """Roadmap size is this times the number of robots (vertices); 500 already answers every built-in query."""
     cache_dir: str = ""
     """Roadmap cache directory; empty means ``$NODNAV_CACHE`` or ``~/.cache/nodnav``."""
+    connect_factor: int = 3
+    """A query's start and goal are offered this many times PRM*'s k nearest roadmap vertices."""
+    link_widening: int = 8
+    """When none of those can be linked, this many times as many are tried, then all."""
 
 
 @dataclass(frozen=True)
@@ -225,6 +229,35 @@ class ExecutionParams:
     ``moving`` (default) every robot that moves, that came at this one unexpectedly
     (``unexpected_approach``) within the last second, and every robot while this one cannot
     follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""
+    surprise: float = 5e-3
+    """How far another robot must come at this one beyond where its velocity would have taken it
+    in one control step to count as unexpected, and how far it must move in a step to count as
+    moving (m); half of what 2 m/s^2 gives in 0.1 s."""
+    surprise_memory: float = 1.0
+    """For how long a robot that came at this one unexpectedly stays unexpected (s)."""
+    reaction_slack: float = 1e-3
+    """How much of the present gap to another robot the reaction margin leaves free (m), so that
+    switching the margin on never puts a robot inside the other's braking disc at once."""
+
+
+@dataclass(frozen=True)
+class BaselineParams:
+    """Settings of the methods NOD is compared with (``nodnav run --method``); NOD reads none."""
+
+    closest_first_tie: float = 0.01
+    """closest-first: distances to the entrance that round to the same multiple of this are a tie,
+    which the lower robot number wins (m)."""
+    orca_neighbor_dist: float = 5.0
+    """orca: centre distance within which other robots are taken into account (m)."""
+    orca_time_horizon: float = 2.0
+    """orca: time for which velocities are kept safe with respect to other robots (s)."""
+    orca_time_horizon_obst: float = 1.0
+    """orca: time for which velocities are kept safe with respect to walls (s)."""
+    orca_radius_margin: float = 0.02
+    """orca: added to each robot's radius in RVO2, so contacts stay clear of the simulator's tolerance (m)."""
+    orca_route_margin: float = 0.05
+    """orca: clearance beyond the radius kept by the route the preferred velocity follows (m);
+    larger than ``orca_radius_margin`` so that the preferred velocity does not press against a wall."""
 
 
 @dataclass(frozen=True)

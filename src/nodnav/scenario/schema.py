@@ -34,6 +34,7 @@ from nodnav.scenario.fields import (
     vector,
 )
 from nodnav.scenario.params import (
+    BaselineParams,
     ControllerParams,
     ExecutionParams,
     FastPlannerParams,
@@ -74,6 +75,8 @@ class Scenario:
     """Simulation and outcome settings."""
     execution: ExecutionParams = ExecutionParams()
     """How robots follow their plans between decisions."""
+    baselines: BaselineParams = BaselineParams()
+    """Settings of the methods NOD is compared with."""
 
     @property
     def n_robots(self) -> int:
@@ -237,7 +240,7 @@ def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
 
 
 _TOP_KEYS = ("name", "description", "world", "robot_defaults", "robots", "opinion", "game_players",
-             "time_limit", "planner", "controller", "sim", "execution")
+             "time_limit", "planner", "controller", "sim", "execution", "baselines")
 _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
 _BODY_KEYS = ("radius", "max_speed", "max_accel")
 
@@ -394,9 +397,10 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
         raise fail("opinion.T", f"{opinion.T:g} s must be a whole multiple of controller.dt ({controller.dt:g} s)")
     sim = read_params(SimParams, data.get("sim"), "sim", "sim")
     execution = read_params(ExecutionParams, data.get("execution"), "execution", "execution")
+    baselines = read_params(BaselineParams, data.get("baselines"), "baselines", "baselines")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,
                     game_players=game_players, time_limit=time_limit, planner=planner,
-                    controller=controller, sim=sim, execution=execution)
+                    controller=controller, sim=sim, execution=execution, baselines=baselines)
 
 
 def _opinion_to_raw(opinion: OpinionParams) -> dict:
@@ -436,6 +440,7 @@ def _to_raw(scenario: Scenario) -> dict:
         "controller": _listed(dataclasses.asdict(scenario.controller)),
         "sim": dataclasses.asdict(scenario.sim),
         "execution": dataclasses.asdict(scenario.execution),
+        "baselines": dataclasses.asdict(scenario.baselines),
     }
 
 

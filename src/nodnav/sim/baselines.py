@@ -35,7 +35,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,11 +65,6 @@ from nodnav.sim.metrics import arrival_times
 
 log = logging.getLogger(__name__)
 
-#: Distances to the entrance closer than this count as equal for ``closest-first`` (m), so that
-#: robots placed symmetrically by hand tie exactly and fall back to the robot number.
-TIE_RESOLUTION = 0.01
-
-
 # ---------------------------------------------------------------------------------------------
 # Pure functions
 
@@ -96,9 +90,10 @@ def best_strategy(makespans: np.ndarray, costs: np.ndarray) -> int:
     return int(np.lexsort((np.arange(len(makespans)), costs, np.round(makespans, 9)))[0])
 
 
-def closest_first_order(distances: np.ndarray, resolution: float = TIE_RESOLUTION) -> tuple[int, ...]:
+def closest_first_order(distances: np.ndarray, resolution: float) -> tuple[int, ...]:
     """Robots sorted by distance to their entrance (eq. (10)'s d_{i,corridor}), nearest first;
-    distances equal at ``resolution`` are ordered by robot number."""
+    distances equal at ``resolution`` (m) are ordered by robot number, so that robots placed
+    symmetrically by hand tie exactly."""
     d = np.asarray(distances, dtype=float)
     key = np.round(d / resolution)
     return tuple(int(k) for k in np.lexsort((np.arange(len(d)), key)))
@@ -287,16 +282,17 @@ class ClosestFirstMethod(FixedOrderMethod):
 
     Each robot ranks everyone by the distance d_{k,corridor} of eq. (10) to the entrance they
     approach, as it observes them at the first decision, nearest first; distances that round to
-    the same multiple of :data:`TIE_RESOLUTION` go to the lower robot number. Without observation noise every robot
-    computes the same order; with noise, near ties may be broken differently, as they would be
-    by real robots that do not talk.
+    the same multiple of ``baselines.closest_first_tie`` go to the lower robot number. Without
+    observation noise every robot computes the same order; with noise, near ties may be broken
+    differently, as they would be by real robots that do not talk.
     """
 
     name = "closest-first"
 
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
         world = self.scenario.world
-        return {i: strategy_index(closest_first_order(world.corridor_distance(view.positions, self.sides)))
+        tie = self.scenario.baselines.closest_first_tie
+        return {i: strategy_index(closest_first_order(world.corridor_distance(view.positions, self.sides), tie))
                 for i, view in views.items()}
 
 
@@ -345,23 +341,6 @@ class OracleMethod(FixedOrderMethod):
 # ORCA
 
 
-@dataclass(frozen=True)
-class OrcaParams:
-    """Settings of the ORCA baseline (RVO2's per-agent parameters and the route it follows)."""
-
-    neighbor_dist: float = 5.0
-    """Centre distance within which other robots are taken into account (m)."""
-    time_horizon: float = 2.0
-    """Time for which velocities are kept safe with respect to other robots (s)."""
-    time_horizon_obst: float = 1.0
-    """Time for which velocities are kept safe with respect to walls (s)."""
-    radius_margin: float = 0.02
-    """Added to each robot's radius in RVO2, so contacts stay clear of the simulator's tolerance (m)."""
-    route_margin: float = 0.05
-    """Clearance beyond the radius kept by the route the preferred velocity follows (m); larger
-    than ``radius_margin`` so that the preferred velocity does not press against a wall."""
-
-
 @register_method("orca", help="reactive collision avoidance with ORCA (RVO2), walls as obstacles; needs "
                  "nodnav[baselines]")
 class OrcaMethod:
@@ -371,21 +350,20 @@ class OrcaMethod:
     observes them into an RVO2 simulator holding the walls (:func:`wall_polygons`), sets its own
     preferred velocity towards the next vertex of its shortest route to its destination around
     the walls (:class:`~nodnav.planning.visibility.VisibilityGraph`, clearance radius plus
-    ``route_margin``), and lets RVO2 compute its new velocity; it then moves at that velocity for
+    ``baselines.orca_route_margin``), and lets RVO2 compute its new velocity; it then moves at that velocity for
     one step. RVO2 has no acceleration limit (its agents are holonomic single integrators).
     ``planner`` is accepted for the common interface and ignored.
     """
 
     name = "orca"
 
-    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None,
-                 params: OrcaParams = OrcaParams()):
+    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         try:
             import pyrvo
         except ImportError:
             raise NodnavError("method 'orca' needs the RVO2 bindings: pip install 'nodnav[baselines]'") from None
         self.scenario = scenario
-        self.params = params
+        self.params = params = scenario.baselines
         self.dt = scenario.controller.dt
         n = scenario.n_robots
         horizon = scenario.controller.horizon
@@ -394,13 +372,14 @@ class OrcaMethod:
         self.rvo = pyrvo.RVOSimulator()
         self.rvo.set_time_step(self.dt)
         for r in scenario.robots:
-            self.rvo.add_agent(tuple(r.origin), params.neighbor_dist, max(n - 1, 1), params.time_horizon,
-                               params.time_horizon_obst, r.radius + params.radius_margin, r.max_speed)
+            self.rvo.add_agent(tuple(r.origin), params.orca_neighbor_dist, max(n - 1, 1), params.orca_time_horizon,
+                               params.orca_time_horizon_obst, r.radius + params.orca_radius_margin, r.max_speed)
         self.polygons = wall_polygons(scenario.world)
         self.obstacle_ids = [self.rvo.add_obstacle([tuple(map(float, v)) for v in poly]) for poly in self.polygons]
         """RVO2 number of the first vertex of each polygon of :attr:`polygons`."""
         self.rvo.process_obstacles()
-        self.graphs = {r: VisibilityGraph(scenario.world, r, params.route_margin) for r in set(scenario.radii.tolist())}
+        self.graphs = {r: VisibilityGraph(scenario.world, r, params.orca_route_margin)
+                       for r in set(scenario.radii.tolist())}
         self.decisions: dict[int, Decision] = {}
 
     def route(self, i: int, position: np.ndarray) -> np.ndarray:

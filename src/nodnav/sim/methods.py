@@ -41,15 +41,6 @@ def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: 
     return out
 
 
-#: How much of the present gap to another robot the reaction margin leaves free (m).
-REACTION_SLACK = 1e-3
-#: How far (m) another robot must end a control step from where its velocity would have taken it
-#: to count as not doing what was expected of it: half of what full acceleration gives, a dt^2 / 2.
-SURPRISE = 5e-3
-#: For how many control steps such a robot stays unexpected (one second at 0.1 s).
-SURPRISE_MEMORY = 10
-
-
 def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
     """How far (m) a robot's braking trajectory can move within one control step: the others
     predict it braking from where it is now, but it chooses its next step at the same time.
@@ -67,8 +58,7 @@ def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.
 
 
 def unexpected_approach(seen_positions: np.ndarray, seen_velocities: np.ndarray, positions: np.ndarray,
-                        robot: int, others: np.ndarray | list[int], dt: float,
-                        threshold: float = SURPRISE) -> np.ndarray:
+                        robot: int, others: np.ndarray | list[int], dt: float, threshold: float) -> np.ndarray:
     """Which ``others`` came towards ``robot`` over the last control step more than ``threshold``
     (m) beyond where their velocity one step ago would have taken them ``(len(others),)``.
 
@@ -149,6 +139,8 @@ class PlannedMethod:
         self._braking_margin = scenario.execution.reaction_margin
         self._conflicted = np.zeros(n, dtype=bool)
         self._surprised = np.zeros((n, max(n - 1, 0)), dtype=int)  # steps left, per robot and other robot
+        self._surprise = scenario.execution.surprise
+        self._surprise_steps = int(round(scenario.execution.surprise_memory / self.dt))
         self._last_seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         ex = scenario.execution
         self._execution_settings = ExecutionSettings(
@@ -224,7 +216,7 @@ class PlannedMethod:
                 # leaves, so that the robot is not "inside" the other's braking disc at once.
                 gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
                        - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
-                allowed = np.clip(np.minimum(margin, gap - REACTION_SLACK), 0.0, None)
+                allowed = np.clip(np.minimum(margin, gap - self.scenario.execution.reaction_slack), 0.0, None)
                 radii[2 * len(others):] += np.where(careful, allowed, 0.0)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
@@ -238,10 +230,10 @@ class PlannedMethod:
 
         ``always``: all of them. ``conflict``: all while ``i`` cannot follow its plan, when the
         other may not be able to either. ``surprised`` adds any robot ``i`` saw, within the last
-        :data:`SURPRISE_MEMORY` steps, come towards it more than :data:`SURPRISE` beyond where its
+        ``execution.surprise_memory`` seconds, come towards it more than ``execution.surprise`` beyond where its
         velocity would have taken it (:func:`unexpected_approach`): a robot that starts or swerves
         towards it unannounced may follow a plan that conflicts with this one. ``moving`` adds
-        every robot that moves more than :data:`SURPRISE` a step, so that the margin is in place
+        every robot that moves more than ``execution.surprise`` a step, so that the margin is in place
         before two moving robots get close, not switched on once they are (when the present gap
         caps it). A robot at rest needs none: its braking trajectory is where it stands, and if it
         starts towards ``i`` it counts as unexpected after one step; a margin from it would make a
@@ -253,12 +245,12 @@ class PlannedMethod:
             return np.ones(len(others), dtype=bool)
         seen = self._last_seen.get(i)
         if mode in ("surprised", "moving") and seen is not None:
-            off = unexpected_approach(seen[0], seen[1], view.positions, i, others, self.dt)
-            self._surprised[i] = np.where(off, SURPRISE_MEMORY, np.maximum(self._surprised[i] - 1, 0))
+            off = unexpected_approach(seen[0], seen[1], view.positions, i, others, self.dt, self._surprise)
+            self._surprised[i] = np.where(off, self._surprise_steps, np.maximum(self._surprised[i] - 1, 0))
         self._last_seen[i] = (view.positions.copy(), view.velocities.copy())
         careful = (self._surprised[i] > 0) | bool(self._conflicted[i])
         if mode == "moving":
-            careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > SURPRISE)
+            careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > self._surprise)
         return careful
 
 

@@ -4,6 +4,7 @@ import numpy as np
 
 from nodnav.planning.base import PlanRequest
 from nodnav.planning.clearing import clear_the_way
+from nodnav.scenario.params import PlannerParams
 from nodnav.scenario.world import paper_world
 
 
@@ -16,7 +17,7 @@ def _request(positions, destinations):
 def test_a_robot_in_the_door_moves_out_of_every_way_and_the_others_hold():
     # Robot 0 stands in front of the left mouth; robot 1, behind it, needs the mouth.
     request = _request([[-3.4, 0.0], [-5.5, 0.0]], [[-6.0, 2.0], [5.0, 0.0]])
-    plan = clear_the_way(request, 0, "no order", door_clearance=1.0, margin=0.05, dt=0.1)
+    plan = clear_the_way(request, 0, "no order", PlannerParams(door_clearance=1.0, margin=0.05, dt=0.1))
     assert not plan.success and plan.reason.startswith("no order; clearing the way to")
     end = plan.trajectory.positions[-1]
     np.testing.assert_array_equal(plan.trajectory.positions[:, 1], np.repeat([[-5.5, 0.0]], len(end) and
@@ -32,6 +33,6 @@ def test_a_robot_in_the_door_moves_out_of_every_way_and_the_others_hold():
 
 def test_a_robot_already_out_of_the_way_waits_where_it_is():
     request = _request([[-6.0, 2.0], [-5.5, 0.0]], [[-6.0, -2.0], [5.0, 0.0]])
-    plan = clear_the_way(request, 0, "no order", door_clearance=1.0, margin=0.05, dt=0.1)
+    plan = clear_the_way(request, 0, "no order", PlannerParams(door_clearance=1.0, margin=0.05, dt=0.1))
     assert not plan.success and plan.reason == "no order"
     np.testing.assert_array_equal(plan.trajectory.positions[-1], request.positions)

@@ -19,24 +19,25 @@ import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
 from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
-
-#: Radii (m) of the rings of candidate spots around the robot, and directions per ring.
-RINGS = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
-DIRECTIONS = 16
+from nodnav.scenario.params import PlannerParams
 
 
-def clearing_spots(centre: np.ndarray) -> np.ndarray:
-    """Candidate spots: rings of :data:`RINGS` around ``centre``, nearest first, ``(M, 2)``."""
-    angles = 2.0 * np.pi * np.arange(DIRECTIONS) / DIRECTIONS
+def clearing_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int) -> np.ndarray:
+    """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
+    nearest first, ``(M, 2)``."""
+    angles = 2.0 * np.pi * np.arange(directions) / directions
     ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(RINGS)[:, None, None] * ring[None]).reshape(-1, 2)
+    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
 
 
-def clear_the_way(request: PlanRequest, robot: int, reason: str, door_clearance: float, margin: float,
-                  dt: float, graphs: dict | None = None) -> PlanResult:
+def clear_the_way(request: PlanRequest, robot: int, reason: str, settings: PlannerParams,
+                  graphs: dict | None = None) -> PlanResult:
     """A failed plan in which robot ``robot`` of ``request`` moves out of everybody's way and waits
     while the others hold still (see the module docstring); a plain failure (everyone holding) when
-    it already stands clear or no spot can be reached. ``graphs`` caches visibility graphs by radius."""
+    it already stands clear or no spot can be reached. ``settings``: the planner's ``door_clearance``,
+    ``margin``, ``dt``, ``clearing_radii`` and ``clearing_directions``; ``graphs`` caches visibility
+    graphs by radius."""
+    door_clearance, margin, dt = settings.door_clearance, settings.margin, settings.dt
     world = request.world
     pos = np.asarray(request.positions, dtype=float)
     dest = np.asarray(request.destinations, dtype=float)
@@ -61,7 +62,7 @@ def clear_the_way(request: PlanRequest, robot: int, reason: str, door_clearance:
     failure = PlanResult.failure(request, reason)
     if clear(me[None])[0]:
         return failure  # already out of everybody's way: wait here
-    spots = clearing_spots(me)
+    spots = clearing_spots(me, settings.clearing_radii, settings.clearing_directions)
     spots = spots[clear(spots)]
     for spot in spots:
         way = graph.shortest_path(me, spot, pos[others], radii[others] + r)

@@ -41,7 +41,8 @@ number; weights are relative (they need not sum to 1); the defaults are those of
     destinations:
       mouth: 0.15                # probability that one robot parks right outside its far mouth (5-25 cm)
       axis: 0.25                 # probability, per other robot, that its destination is on the corridor axis
-    scenario: {}                 # settings of every drawn scenario: opinion, game_players, planner, controller, sim
+    scenario: {}                 # settings of every drawn scenario: opinion, game_players, planner, controller, sim,
+                                 # execution, baselines
 
 A drawn scenario is named ``FAMILY:SEED``; ``nodnav run mixed:17`` (or ``path/fam.yaml:17``)
 loads it wherever a scenario name is accepted (:mod:`nodnav.scenario.draws` draws it).
@@ -68,7 +69,7 @@ MAX_ROBOTS = 8
 """Most robots a family may draw (the scaling issue's largest scenarios)."""
 TRAFFIC = ("head-on", "one-sided", "mixed")
 FORMATIONS = ("scatter", "abreast", "line")
-SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim")
+SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim", "execution", "baselines")
 
 
 class FamilyError(ScenarioError):
@@ -138,7 +139,8 @@ class Family:
     axis: float = 0.25
     """Probability, per other robot, that its destination is on the corridor axis."""
     settings: dict = field(default_factory=dict)
-    """Scenario settings of every draw (``opinion``, ``game_players``, ``planner``, ``controller``, ``sim``)."""
+    """Scenario settings of every draw (``opinion``, ``game_players``, ``planner``, ``controller``, ``sim``,
+    ``execution``, ``baselines``)."""
 
 
 # ---------------------------------------------------------------------------------------------

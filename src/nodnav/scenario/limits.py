@@ -89,6 +89,8 @@ RANGES: dict[str, Range] = {
     "planner.dt": (0.01, 1.0, True),
     "planner.margin": (0.0, 0.5, True),
     "planner.door_clearance": (0.0, 10.0, True),
+    "planner.clearing_radii": (0.01, MAX_WORLD_SIZE, True),
+    "planner.clearing_directions": (1, 360, True),
     "planner.w1": (0.0, 1e3, True),
     "planner.varsigma": (0.0, 1.0, True),
     "planner.roadmap_vertices": (10, 10_000, True),

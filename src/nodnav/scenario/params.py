@@ -103,6 +103,10 @@ class PlannerParams:
     door_clearance: float = 1.0
     """Radius of the zone around a corridor entrance kept clear while a robot comes out of it,
     and that a robot with no plan gets out of (:mod:`nodnav.planning.clearing`) (m)."""
+    clearing_radii: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+    """Radii of the rings of spots a robot with no plan tries to clear the way to, nearest first (m)."""
+    clearing_directions: int = 16
+    """Spots per ring of ``clearing_radii``."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")

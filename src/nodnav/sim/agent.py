@@ -157,8 +157,7 @@ def clearing_plan(scenario: Scenario, view: RobotView, planning: tuple[int, ...]
     """When no order can be planned for ``robot`` (a scenario index, in ``planning``): the plan in
     which it clears the way (:func:`~nodnav.planning.clearing.clear_the_way`), a failure still."""
     request = joint_requests(scenario, view, planning, [tuple(range(len(planning)))])[0]
-    p = scenario.planner
-    return clear_the_way(request, planning.index(robot), failed.reason, p.door_clearance, p.margin, p.dt, graphs)
+    return clear_the_way(request, planning.index(robot), failed.reason, scenario.planner, graphs)
 
 
 def approach_sides(scenario: Scenario) -> np.ndarray:

@@ -25,6 +25,7 @@ CASES = [
     ("queue-abreast-one-player.yaml", (12,)),
     ("three-against-one-one-player.yaml", (20,)),
     ("race-abreast-into-the-mouth.yaml", (132,)),
+    ("waiting-aside-in-a-small-room.yaml", (347,)),
 ]
 
 

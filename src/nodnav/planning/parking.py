@@ -58,7 +58,8 @@ class DeferredParking:
 
     def _deferring(self, world: World, state: State, planned: tuple, deferred: frozenset) -> State | None:
         """The state with each robot of ``deferred`` going to a holding spot instead of its
-        destination: the spot nearest its destination that keeps the required distance from the
+        destination: the spot (on rings around its destination, or where it stands now) nearest its
+        destination that keeps the required distance from the
         ways (among the walls) of the robots after it in ``planned``, from where every other robot
         stands and parks, and from the other holding spots, out of the corridor and of both door
         zones, in the room of its destination (so that it has passed the corridor where the order
@@ -70,7 +71,9 @@ class DeferredParking:
             later = list(planned[planned.index(i) + 1:])
             others = [m for m in range(len(goals)) if m != i]
             graph = self.graph(world, state.radii[i])
-            spots = retreat_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles)
+            # Where it stands now is a candidate too: a robot already waiting aside need not move.
+            rings = retreat_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles)
+            spots = np.vstack([state.positions[i][None], rings])
             ok = (world.clearance(spots) >= graph.clearance - TOL) & (world.side_of(spots) == world.side_of(goals[i]))
             ok &= ~world.in_corridor(spots)
             ok &= ~self._in_door(world, spots, 0) & ~self._in_door(world, spots, 1)

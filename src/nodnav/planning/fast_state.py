@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +15,11 @@ from nodnav.planning.base import JointTrajectory
 from nodnav.planning.occupancy import Motion, corridor_passage
 from nodnav.planning.visibility import GeometricPath
 from nodnav.scenario.world import World
+
+if TYPE_CHECKING:
+    from nodnav.planning.timing import Timing
+    from nodnav.planning.visibility import VisibilityGraph
+    from nodnav.scenario.params import FastPlannerParams
 
 
 @dataclass(frozen=True)
@@ -184,3 +190,26 @@ class Layout:
         """Every known motion, except robot ``but``'s own: the plans, then the heads."""
         return ([(i, p.motion) for i, p in self.plans.items()]
                 + [(j, m) for j, m in sorted(self.heads.items()) if j != but])
+
+
+class FastPlannerHooks:
+    """What the fast planner's mixins (:class:`~nodnav.planning.making_way.MakingWay`,
+    :class:`~nodnav.planning.parking.DeferredParking`) use of
+    :class:`~nodnav.planning.prioritized.PrioritizedPlanner`, declared once for the type checker."""
+
+    if TYPE_CHECKING:  # provided by PrioritizedPlanner
+        params: FastPlannerParams
+
+        def graph(self, world: World, radius: float) -> VisibilityGraph: ...
+        def _start(self, state: State, k: int, layout: Layout) -> np.ndarray: ...
+        def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray: ...
+        def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track: ...
+        def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
+                   centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track: ...
+        def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track: ...
+        def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing: ...
+        def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
+                  head: Motion | None = None) -> Attempt: ...
+        def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
+                   order: tuple) -> State: ...
+

@@ -23,16 +23,14 @@ from __future__ import annotations
 
 import logging
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodnav.geometry import TOL
-from nodnav.planning.fast_state import Attempt, Layout, Route, State, Track
+from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State
 from nodnav.planning.occupancy import Motion
-from nodnav.planning.timing import Timing, dash_clashes
-from nodnav.planning.visibility import VisibilityGraph, disc_violations, polyline_point_distance
-from nodnav.scenario.params import FastPlannerParams
+from nodnav.planning.timing import dash_clashes
+from nodnav.planning.visibility import disc_violations, polyline_point_distance
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
@@ -45,25 +43,9 @@ def retreat_spots(centre: np.ndarray, radii: tuple[float, ...], angles: int) -> 
     return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
 
 
-class MakingWay:
+class MakingWay(FastPlannerHooks):
     """The fast planner's ways of making room (a mixin of
     :class:`~nodnav.planning.prioritized.PrioritizedPlanner`, whose geometry and timing it uses)."""
-
-    if TYPE_CHECKING:  # provided by PrioritizedPlanner
-        params: FastPlannerParams
-
-        def graph(self, world: World, radius: float) -> VisibilityGraph: ...
-        def _start(self, state: State, k: int, layout: Layout) -> np.ndarray: ...
-        def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray: ...
-        def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track: ...
-        def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
-                   centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track: ...
-        def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track: ...
-        def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing: ...
-        def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
-                  head: Motion | None = None) -> Attempt: ...
-        def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
-                   order: tuple) -> State: ...
 
     def _get_out_of_way(self, world: World, state: State, mover: int, planned: int, layout: Layout,
                         clear: tuple = (), depth: int = 0) -> dict:

@@ -11,39 +11,20 @@ drives on from there to park when the way is free (:meth:`DeferredParking._park`
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodnav.geometry import TOL
-from nodnav.planning.fast_state import Attempt, Layout, RobotPlan, Route, State, Track
+from nodnav.planning.fast_state import FastPlannerHooks, RobotPlan, State
 from nodnav.planning.making_way import retreat_spots
 from nodnav.planning.occupancy import Motion, join_motions
-from nodnav.planning.timing import Timing
-from nodnav.planning.visibility import VisibilityGraph, polyline_point_distance
-from nodnav.scenario.params import FastPlannerParams
+from nodnav.planning.visibility import polyline_point_distance
 from nodnav.scenario.world import World
 
 
-class DeferredParking:
+class DeferredParking(FastPlannerHooks):
     """Robots that wait aside before they park (a mixin of
     :class:`~nodnav.planning.prioritized.PrioritizedPlanner`)."""
-
-    if TYPE_CHECKING:  # provided by PrioritizedPlanner
-        params: FastPlannerParams
-
-        def graph(self, world: World, radius: float) -> VisibilityGraph: ...
-        def _start(self, state: State, k: int, layout: Layout) -> np.ndarray: ...
-        def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray: ...
-        def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track: ...
-        def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
-                   centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track: ...
-        def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track: ...
-        def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing: ...
-        def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
-                  head: Motion | None = None) -> Attempt: ...
-        def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
-                   order: tuple) -> State: ...
 
     def _blockers(self, world: World, state: State, earlier: tuple, k: int, start: np.ndarray) -> frozenset:
         """The robots of ``earlier`` whose destination lies on robot ``k``'s way among the walls

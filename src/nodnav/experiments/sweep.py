@@ -41,9 +41,9 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import PACKAGE_VERSION, code_version
-from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.families import FamilyError
 from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.overrides import override_scenario, setting_text
 from nodnav.scenario.schema import Scenario, scenario_to_dict

@@ -189,3 +189,46 @@ def test_run_with_set_json(capsys):
     assert main(["run", "2r-case1", "--seed", "1", "--set", "time_limit=0.5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["outcome"] == "timeout" and out["sim_time_s"] == pytest.approx(0.5)
+
+
+KEYS = ["game_players", "time_limit", "opinion.u", "opinion.bias", "opinion.init", "opinion.z0", "planner.name",
+        "planner", "robots", "robots[0]", "robots[1].radius", "robots[3].origin", "robots[0].opinion.u",
+        "robot_defaults.radius", "robot_defaults", "world", "world.obstacles", "world.obstacles[0]",
+        "world.entrances[1][0]", "world.corridor.x_min", "sim.observation_noise", "controller.dt", "name",
+        "description", "nonsense.key", "time_limit.x", "robots[0][0]", "opinion.bias.S3"]
+
+
+def _fuzz_strategies():
+    from hypothesis import strategies as st
+
+    leaves = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(), st.text(max_size=8),
+                       st.sampled_from(["all", "prm", "fast", "zero", "given", "[1, 2]", "{S3: 150}", "1e3"]))
+    values = st.recursive(leaves, lambda inner: st.one_of(st.lists(inner, max_size=4),
+                                                          st.dictionaries(st.text(max_size=6), inner, max_size=3)),
+                          max_leaves=8)
+    key = st.one_of(st.sampled_from(KEYS), st.text(max_size=12))
+    setting = st.one_of(st.tuples(key, values).map(lambda kv: setting_text(kv[0], kv[1]) if isinstance(kv[0], str)
+                                                   and kv[0] else f"{kv[0]}={kv[1]}"),
+                        st.text(max_size=20))
+    return st.lists(setting, min_size=1, max_size=4)
+
+
+def test_any_setting_answers_in_one_line():
+    """Whatever is typed after --set, the command answers 0 or 2 with at most one error line."""
+    import contextlib
+    import io
+
+    from hypothesis import HealthCheck, given, settings
+
+    @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+    @given(_fuzz_strategies())
+    def check(texts):
+        argv = ["run", "3r-case4"] + [w for text in texts for w in ("--set", text)]
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            code = main(argv, execute=False)
+        lines = [line for line in err.getvalue().splitlines() if not line.startswith("nodnav: compiling")]
+        assert code in (0, 2), err.getvalue()
+        assert len(lines) == (code == 2) and all(line.startswith("nodnav: error: ") for line in lines)
+
+    check()

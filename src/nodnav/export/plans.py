@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from nodnav.errors import NodnavError
 from nodnav.sim.history import History
 from nodnav.sim.simulator import Simulation
 
@@ -55,7 +56,10 @@ class Plans:
 
 def replay_plans(history: History) -> Plans:
     """Re-run ``history``'s trial and collect the plans (module docstring); a few seconds to a minute."""
-    sim = Simulation(history.scenario, history.method, history.seed)
+    try:
+        sim = Simulation(history.scenario, history.method, history.seed)
+    except NodnavError as exc:  # e.g. a plugin's method that is not installed here
+        return Plans(False, f"cannot replay the trial ({exc}); plans left out")
     method = sim.method
     inner = method.decide
     plans: list[RobotPlan] = []

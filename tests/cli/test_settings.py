@@ -76,6 +76,11 @@ def test_robot_entries_and_robot_defaults():
 def test_api_takes_overrides():
     s = nodnav.load_scenario("2r-case1", overrides={"game_players": 0, "time_limit": 30})
     assert s.game_players == 0 and s.time_limit == 30
+    import numpy as np  # values from code may be NumPy's; they are taken as a file's lists and numbers
+
+    s = nodnav.load_scenario("2r-case1", overrides={"robots[0].origin": np.array([-5.0, 0.5]),
+                                                    "robot_defaults.radius": np.float64(0.25)})
+    assert s.robots[0].origin == (-5.0, 0.5) and s.radii.tolist() == [0.25, 0.25]
 
 
 def _eight_robots(tmp_path, players: str | None):

@@ -44,15 +44,6 @@ class Plans:
     plans: tuple[RobotPlan, ...] = field(default=())
     """Plans in decision order, robots in index order within a decision."""
 
-    def position_at(self, robot: int, decision_time: float, t: np.ndarray) -> np.ndarray:
-        """Where robot ``robot``'s plan from ``decision_time`` puts it at times ``t`` ``(T, 2)`` (held after
-        its end; NaN without such a plan)."""
-        for p in self.plans:
-            if p.robot == robot and p.decision_time == decision_time and len(p.times):
-                return np.stack([np.interp(t, p.times, p.positions[:, 0]), np.interp(t, p.times, p.positions[:, 1])],
-                                axis=-1)
-        return np.full((len(t), 2), np.nan)
-
 
 def replay_plans(history: History) -> Plans:
     """Re-run ``history``'s trial and collect the plans (module docstring); a few seconds to a minute."""

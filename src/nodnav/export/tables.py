@@ -25,8 +25,9 @@ def trial_frame(history: History, plans: Plans | None = None):
     robots, decided, times = frame["robot"].to_numpy() - 1, frame["decision_time"].to_numpy(), frame["time"].to_numpy()
     for plan in plans.plans:
         rows = np.flatnonzero((robots == plan.robot) & (decided == plan.decision_time))
-        if len(rows) and len(plan.times):
-            planned[rows] = plans.position_at(plan.robot, plan.decision_time, times[rows])
+        if len(rows) and len(plan.times):  # held at its end, as the controller holds a finished plan
+            planned[rows, 0] = np.interp(times[rows], plan.times, plan.positions[:, 0])
+            planned[rows, 1] = np.interp(times[rows], plan.times, plan.positions[:, 1])
     at = frame.columns.get_loc("decision_time")
     frame.insert(at, "plan_y", planned[:, 1])
     frame.insert(at, "plan_x", planned[:, 0])

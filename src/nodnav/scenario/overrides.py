@@ -115,7 +115,18 @@ def _put(raw: dict, path: list[str | int], value: Any, label: str) -> None:
     leaf = path[-1]
     if isinstance(leaf, int):
         _entry(target, leaf, path[:-1], label)  # in range
-    target[leaf] = copy.deepcopy(value)
+    target[leaf] = _plain(value)
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as a file would hold it: NumPy arrays and numbers, and tuples, as lists and Python numbers."""
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return value.tolist()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    return copy.deepcopy(value)
 
 
 def merge_overrides(raw: Any, overrides: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> Any:
@@ -129,11 +140,11 @@ def merge_overrides(raw: Any, overrides: Mapping[str, Any], labels: Mapping[str,
         return raw
     raw = copy.deepcopy(raw)
     parsed = [(key, key_path(key, (labels or {}).get(key) or key), value) for key, value in overrides.items()]
-    first = [p for p in parsed if len(p[1]) == 2 and p[1][0] == "robot_defaults"]
-    for key, path, value in first + [p for p in parsed if p not in first]:
-        label = (labels or {}).get(key) or key
-        _put(raw, path, value, label)
-        if (key, path, value) in first and isinstance(raw.get("robots"), list):
+    defaults = [len(path) == 2 and path[0] == "robot_defaults" for _, path, _ in parsed]
+    for n in [n for n in range(len(parsed)) if defaults[n]] + [n for n in range(len(parsed)) if not defaults[n]]:
+        key, path, value = parsed[n]
+        _put(raw, path, value, (labels or {}).get(key) or key)
+        if defaults[n] and isinstance(raw.get("robots"), list):  # every robot takes it (module docstring)
             for robot in raw["robots"]:
                 if isinstance(robot, dict):
                     robot.pop(path[1], None)

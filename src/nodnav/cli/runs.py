@@ -184,7 +184,7 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
-    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's; = --set planner.name=NAME)")
     add_set_option(p)
     p.add_argument("--out", help="picture to write (.png, .pdf, .svg, ...)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
@@ -193,13 +193,17 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("run", help="simulate one trial of a scenario")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--seed", type=whole(0, MAX_SEED), default=1, help="trial seed (default 1)")
-    p.add_argument("--players", help="game players per robot: a number or 'all' (default: the scenario's)")
-    p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's)")
-    p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's)")
-    p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's)")
-    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--players", help="game players per robot: a number or 'all' (default: the scenario's; "
+                   "= --set game_players=K)")
+    p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's; "
+                   "= --set opinion.init=MODE)")
+    p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's; "
+                   "= --set opinion.bias={S3: 150, S5: 150})")
+    p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's; = --set opinion.u=U)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's; = --set planner.name=NAME)")
     p.add_argument("--method", default="nod", help=f"navigation method, nod by default ({methods})")
-    p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's)")
+    p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's; "
+                   "= --set sim.observation_noise=SIGMA)")
     add_set_option(p)
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")

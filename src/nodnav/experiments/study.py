@@ -11,7 +11,7 @@ A study file::
     methods: [nod]                # optional; default: [nod]
     trials: 40                    # seeds 1..40 for every combination
     families: [mixed]             # optional: generated families; seed s runs draw s (FAMILY:s)
-    set: {sensing.range: 3, robot_defaults.max_accel: 0.5}   # optional: scenario keys set in every
+    set: {sim.observation_noise: 0.02, robot_defaults.max_accel: 1.0}   # optional: scenario keys set in every
                                   # scenario and every family draw (as --set KEY=VALUE does)
 
 Any single value may stand for a one-element list. The command line builds the same
@@ -285,10 +285,9 @@ def load_study(path: str | Path, overrides: dict | None = None) -> SweepSpec:
     except ScenarioError as exc:
         raise StudyError(str(exc)) from None
     if isinstance(data, dict):
-        settings = {**(data.get("set") or {}), **(overrides or {}).get("set", {})} if isinstance(
-            data.get("set") or {}, dict) else data.get("set")  # the command line's --set beside the file's
+        in_file = data.get("set")
         data = {"name": path.stem, **data, **(overrides or {})}
-        if settings:
-            data["set"] = settings
+        if isinstance(in_file, dict) and isinstance(data.get("set"), dict):  # --set beside the file's set:
+            data["set"] = {**in_file, **data["set"]}
     labels = {k: OPTION_NAMES[k] for k in (overrides or {}) if k in OPTION_NAMES}
     return study_from_dict(data, shown_path(path), labels)

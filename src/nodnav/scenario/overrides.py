@@ -1,7 +1,7 @@
 """Settings given on top of a scenario (``--set KEY=VALUE``, ``overrides=``), merged before its one validation.
 
 An override names a scenario key as a file writes it: a dotted path with list indices,
-``sensing.range``, ``planner.name``, ``robots[1].max_speed`` (0-based, as validation errors name
+``sim.observation_noise``, ``planner.name``, ``robots[1].max_speed`` (0-based, as validation errors name
 robots), ``robot_defaults.max_accel``. Its value replaces what the file holds at that key (a
 mapping or list value replaces the whole entry; other keys beside it stay). Overrides are written
 into the scenario's raw mapping (the file as parsed, a family draw's mapping) and the result is

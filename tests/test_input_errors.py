@@ -109,7 +109,9 @@ def test_more_robots_than_strategies_allow():
     assert np.prod(np.arange(1, n + 1)) > MAX_STRATEGIES
     robots = [{"origin": [-6.0, -2.0 + 0.6 * k], "destination": [6.0, -2.0 + 0.6 * k]} for k in range(n)]
     # With every other robot a game player each robot would weigh 7! orders; with 2 it weighs 3!.
-    assert _error({"robots": robots}).startswith("game_players: all game players make every robot weigh 7! = 5040")
+    assert _error({"robots": robots, "game_players": "all"}).startswith(
+        "game_players: all game players make every robot weigh 7! = 5040")
+    assert scenario_from_dict({"robots": robots}).game_players == 2  # unnamed: the crowds' default above 6
     assert _error({"robots": robots, "game_players": 6}).startswith("game_players: 6 game players")
     scenario_from_dict({"robots": robots, "game_players": 2})
     many = [{"origin": [-6.0, -2.0 + 0.4 * k], "destination": [6.0, -2.0 + 0.4 * k]} for k in range(MAX_ROBOTS + 1)]

@@ -10,7 +10,8 @@ The names a user needs, importable from here (loaded when first used)::
 
 Scenarios: :func:`load_scenario`, :func:`build_scenario`, :class:`Scenario` and its parameter
 classes, :func:`builtin_scenarios`. Trials: :func:`run_trial`, :class:`TrialResult`,
-:class:`History`, :func:`save_snapshots`, :func:`save_animation`. Studies: :func:`run_sweep`,
+:class:`History` (``History.to_dataframe()``), :func:`save_snapshots`, :func:`save_animation`,
+:func:`export_history` (CSV, Parquet, ROS 2 bags). Studies: :func:`run_sweep`,
 :class:`SweepSpec`, :class:`SweepSummary`, :func:`build_report`, :class:`ReportResult`.
 Plugins: the registries :data:`PLANNERS`, :data:`CONTROLLERS`, :data:`METHODS` and their
 decorators :func:`register_planner`, :func:`register_controller`, :func:`register_method`, with
@@ -49,6 +50,7 @@ _HOMES = {
     "Controller": "nodnav.control.base", "ControlRequest": "nodnav.control.base",
     "ControlResult": "nodnav.control.base",
     "NodnavError": "nodnav.errors",
+    "export_history": "nodnav.export",
 }
 
 __all__ = sorted(_HOMES) + ["__version__"]
@@ -80,6 +82,7 @@ if TYPE_CHECKING:
     from nodnav.experiments.store import ResultStore
     from nodnav.experiments.study import SweepSpec
     from nodnav.experiments.sweep import SweepSummary
+    from nodnav.export import export_history
     from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult
     from nodnav.registry import (
         CONTROLLERS,

@@ -21,7 +21,7 @@ from nodnav.sim.simulator import TrialResult
 from nodnav.sim.simulator import run_trial as _run_trial
 
 
-def load_scenario(spec: str | Path) -> Scenario:
+def load_scenario(spec: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
     """Load a scenario, validated.
 
     Parameters
@@ -29,6 +29,11 @@ def load_scenario(spec: str | Path) -> Scenario:
     spec : str or Path
         A built-in name (``"3r-case4"``; ``nodnav scenarios`` lists them), a YAML file, or a draw
         of a family as ``"FAMILY:SEED"`` (``"mixed:17"``).
+    overrides : mapping, optional
+        Scenario keys as a file writes them, and their values, set on top of the file before it
+        is validated (what ``--set KEY=VALUE`` does): ``{"planner.name": "prm",
+        "robots[1].max_speed": 0.5, "robot_defaults.max_accel": 0.5}``. A family's draw is drawn
+        as without them and they apply to it.
 
     Returns
     -------
@@ -40,7 +45,7 @@ def load_scenario(spec: str | Path) -> Scenario:
     ScenarioError
         One line naming the key that is wrong and how to fix it.
     """
-    return _load_scenario(spec)
+    return _load_scenario(spec, overrides)
 
 
 def build_scenario(data: Mapping[str, Any], name: str = "scenario") -> Scenario:
@@ -104,7 +109,8 @@ def run_sweep(study: SweepSpec | Mapping[str, Any], db: str | Path, jobs: int = 
     ----------
     study : SweepSpec or mapping
         The study: a :class:`SweepSpec`, or the mapping a study file holds, e.g.
-        ``{"name": "mine", "scenarios": ["2r-case1"], "players": [0, "all"], "trials": 10}``.
+        ``{"name": "mine", "scenarios": ["2r-case1"], "players": [0, "all"], "trials": 10,
+        "set": {"sim.observation_noise": 0.01}}`` (``set``: scenario keys set in every scenario).
     db : str or Path
         The results database; trials it holds already are not run again.
     jobs : int

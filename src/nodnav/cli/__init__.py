@@ -8,8 +8,9 @@ an interrupt. :func:`main` with ``execute=False`` does every check and stops bef
 
 Commands by group, each module with its subcommands' options: :mod:`~nodnav.cli.scenarios`
 (``scenarios``, ``show``, ``families``, ``generate``), :mod:`~nodnav.cli.runs` (``heatmap``,
-``plan``, ``run``, ``replay``), :mod:`~nodnav.cli.studies` (``sweep``, ``reproduce``,
-``report``), :mod:`~nodnav.cli.bench` and :mod:`~nodnav.cli.roadmaps`; the parser is
+``plan``, ``run``, ``replay``), :mod:`~nodnav.cli.exports` (``export``), :mod:`~nodnav.cli.studies`
+(``sweep``, ``reproduce``, ``report``), :mod:`~nodnav.cli.bench` and :mod:`~nodnav.cli.roadmaps`;
+``--set KEY=VALUE`` and the options that are shorthands for it are :mod:`~nodnav.cli.settings`; the parser is
 :mod:`~nodnav.cli.parser`, the entry point :func:`main` (:mod:`~nodnav.cli.main`), and what the
 command line accepts and prints :mod:`~nodnav.cli.terminal`.
 """

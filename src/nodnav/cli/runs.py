@@ -7,10 +7,10 @@ import json
 import re
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from nodnav.cli.settings import add_set_option, scenario_with_options
 from nodnav.cli.terminal import MAX_SEED, real, trial_summary_lines, whole
 from nodnav.errors import NodnavError, shown
 from nodnav.paths import output_dir, output_file, safe_filename
@@ -50,34 +50,6 @@ def _parse_order(text: str, n: int) -> tuple[int, ...]:
     if sorted(order) != list(range(n)):
         raise NodnavError(f"--order: expected a permutation of 1..{n} for this {n}-robot scenario, got {shown(text)}")
     return order
-
-
-#: Scenario settings the options of ``run`` and ``plan`` override, and the option that names each in errors.
-OPTION_KEYS = {"game_players": "--players", "opinion.init": "--init", "opinion.bias": "--bias", "opinion.u": "--u",
-               "planner.name": "--planner", "sim.observation_noise": "--noise"}
-
-
-def scenario_with_options(args: argparse.Namespace):
-    """The scenario named on the command line with the options that override its settings;
-    an error about an option names the option."""
-    from nodnav.experiments.study import parse_bias, parse_players
-    from nodnav.scenario.loading import load_scenario
-
-    scenario = load_scenario(args.scenario)
-    changes: dict[str, Any] = {}
-    if getattr(args, "players", None) is not None:
-        changes["game_players"] = parse_players(args.players, "--players")
-    if getattr(args, "init", None):
-        changes["opinion.init"] = args.init
-    if getattr(args, "bias", None) is not None:
-        changes["opinion.bias"] = dict(parse_bias(args.bias, "--bias"))
-    if getattr(args, "u", None) is not None:
-        changes["opinion.u"] = args.u
-    if getattr(args, "planner", None):
-        changes["planner.name"] = args.planner
-    if getattr(args, "noise", None) is not None:
-        changes["sim.observation_noise"] = args.noise
-    return scenario.with_options(changes, OPTION_KEYS) if changes else scenario
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
@@ -212,7 +184,8 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("plan", help="plan a joint path for one passing order from the scenario's origins")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--order", required=True, help="passing order as robot numbers, e.g. 2,1,3")
-    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's; = --set planner.name=NAME)")
+    add_set_option(p)
     p.add_argument("--out", help="picture to write (.png, .pdf, .svg, ...)")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=_cmd_plan)
@@ -220,13 +193,18 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("run", help="simulate one trial of a scenario")
     p.add_argument("scenario", help="built-in name, YAML path, or FAMILY:SEED (e.g. mixed:17)")
     p.add_argument("--seed", type=whole(0, MAX_SEED), default=1, help="trial seed (default 1)")
-    p.add_argument("--players", help="game players per robot: a number or 'all' (default: the scenario's)")
-    p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's)")
-    p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's)")
-    p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's)")
-    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's)")
+    p.add_argument("--players", help="game players per robot: a number or 'all' (default: the scenario's; "
+                   "= --set game_players=K)")
+    p.add_argument("--init", choices=("zero", "distance"), help="initial opinions (default: the scenario's; "
+                   "= --set opinion.init=MODE)")
+    p.add_argument("--bias", help="bias per strategy, e.g. S3=150,S5=150 (default: the scenario's; "
+                   "= --set opinion.bias={S3: 150, S5: 150})")
+    p.add_argument("--u", type=float, help="attention parameter u (default: the scenario's; = --set opinion.u=U)")
+    p.add_argument("--planner", help=f"planner ({planners}; default: the scenario's; = --set planner.name=NAME)")
     p.add_argument("--method", default="nod", help=f"navigation method, nod by default ({methods})")
-    p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's)")
+    p.add_argument("--noise", type=float, help="observation noise standard deviation in m (default: the scenario's; "
+                   "= --set sim.observation_noise=SIGMA)")
+    add_set_option(p)
     p.add_argument("--out", help="directory for the history, snapshot figure and animation")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_run)

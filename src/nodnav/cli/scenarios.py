@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from nodnav.cli.settings import add_set_option, overrides_of
 from nodnav.cli.terminal import plural
 from nodnav.errors import NodnavError
 from nodnav.paths import output_file
@@ -23,7 +24,6 @@ def _cmd_scenarios(args: argparse.Namespace) -> int:
 def _cmd_show(args: argparse.Namespace) -> int:
     from nodnav.scenario.families import is_family
     from nodnav.scenario.files import builtin_names
-    from nodnav.scenario.loading import load_scenario
 
     if is_family(args.scenario):
         return _show_family(args)
@@ -31,7 +31,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
         raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
                           "(list the families with 'nodnav families')")
     names = builtin_names() if args.scenario == "all" else [args.scenario]
-    scenarios = [load_scenario(n) for n in names]
+    overrides, labels = overrides_of(args)
+    scenarios = [_with_settings(n, overrides, labels, len(names) > 1) for n in names]
     out = output_file(args.out)
     if not args.execute:
         return 0
@@ -40,6 +41,19 @@ def _cmd_show(args: argparse.Namespace) -> int:
     path = save_gallery(scenarios, out) if args.scenario == "all" else save_scenario_figure(scenarios[0], out)
     print(f"wrote {path}")
     return 0
+
+
+def _with_settings(name: str, overrides: dict, labels: dict, several: bool):
+    """Scenario ``name`` with the ``--set`` settings; in a gallery an error also names the scenario."""
+    from nodnav.scenario.fields import ScenarioError
+    from nodnav.scenario.loading import load_scenario
+
+    try:
+        return load_scenario(name, overrides, labels)
+    except ScenarioError as exc:
+        if several and overrides:
+            raise ScenarioError(f"{exc} (in {name})", key=exc.key) from None
+        raise
 
 
 def _first_seed(value: int | None) -> int:
@@ -52,6 +66,8 @@ def _first_seed(value: int | None) -> int:
 def _show_family(args: argparse.Namespace) -> int:
     from nodnav.scenario.draws import draw
     from nodnav.scenario.families import load_family
+    from nodnav.scenario.fields import ScenarioError
+    from nodnav.scenario.overrides import override_scenario
     from nodnav.viz.family import save_family_gallery
 
     family = load_family(args.scenario)
@@ -60,7 +76,13 @@ def _show_family(args: argparse.Namespace) -> int:
     seed, count = _first_seed(args.seed), 6 if args.count is None else args.count
     if not 1 <= count <= 60:
         raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")
-    scenarios = [draw(family, s) for s in range(seed, seed + count)]
+    overrides, labels = overrides_of(args)
+    scenarios = []
+    for s in range(seed, seed + count):
+        try:
+            scenarios.append(override_scenario(draw(family, s), overrides, labels))
+        except ScenarioError as exc:
+            raise ScenarioError(f"{exc} (in {family.name}:{s})", key=exc.key) from None
     if not args.execute:
         return 0
     title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
@@ -99,6 +121,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--out", required=True, help="picture to write (.png, .pdf, .svg, ...; a family's gallery: .png)")
     p.add_argument("--seed", type=int, help="family only: first draw (default 1)")
     p.add_argument("--count", type=int, help="family only: number of draws (default 6)")
+    add_set_option(p)
     p.set_defaults(func=_cmd_show)
 
     p = sub.add_parser("families", help="list the built-in scenario families")

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from nodnav.cli.settings import add_set_option, parse_settings
 from nodnav.cli.terminal import jobs, note, plural, real, warm_kernels, whole
 from nodnav.errors import NodnavError, shown_path
 from nodnav.paths import output_dir, output_file
@@ -19,14 +20,15 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     name = args.name
     if name is None and args.families and not args.scenarios and not args.study:  # group results by family
         name = "+".join(Path(f).stem for f in args.families)
+    settings, labels = parse_settings(args.settings)
     options = {k: v for k, v in {"name": name, "scenarios": args.scenarios, "players": args.players,
                                  "init": args.init, "bias": args.bias, "planners": args.planners,
                                  "methods": args.methods, "trials": args.trials,
-                                 "families": args.families}.items() if v is not None}
+                                 "families": args.families, "set": settings or None}.items() if v is not None}
     spec = (load_study(args.study, overrides=options) if args.study
             else study_from_dict(options, "command line", OPTION_NAMES))
-    for name in spec.scenarios:  # every scenario loads before any trial runs
-        load_scenario(name)
+    for name in spec.scenarios:  # every scenario loads, with the study's settings, before any trial runs
+        load_scenario(name, spec.overrides, labels)
     db = output_file(args.db, "--db", formats=None)
     if not args.execute:
         return 0
@@ -150,6 +152,7 @@ def add_parsers(sub) -> None:
                    help=f"planner, one of {', '.join(PLANNERS)} (repeatable; default: each scenario's own)")
     p.add_argument("--method", action="append", dest="methods",
                    help=f"navigation method, one of {', '.join(METHODS)} (repeatable; default nod)")
+    add_set_option(p)
     p.add_argument("--trials", help=f"seeds 1..N for every combination (default 1, at most {MAX_TRIALS})")
     p.add_argument("--db", default="nodnav-results.sqlite", help="results database (default nodnav-results.sqlite)")
     p.add_argument("--jobs", type=jobs, default=1, help="local worker processes (default 1)")

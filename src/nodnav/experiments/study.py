@@ -11,6 +11,8 @@ A study file::
     methods: [nod]                # optional; default: [nod]
     trials: 40                    # seeds 1..40 for every combination
     families: [mixed]             # optional: generated families; seed s runs draw s (FAMILY:s)
+    set: {sim.observation_noise: 0.02, robot_defaults.max_accel: 1.0}   # optional: scenario keys set in every
+                                  # scenario and every family draw (as --set KEY=VALUE does)
 
 Any single value may stand for a one-element list. The command line builds the same
 :class:`SweepSpec` through :func:`study_from_dict`, so both are checked by the same code and
@@ -33,7 +35,10 @@ from nodnav.scenario.files import builtin_names, read_yaml
 from nodnav.scenario.limits import MAX_ROBOTS, RANGES
 from nodnav.sim import METHODS
 
-STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
+STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families", "set")
+
+#: The scenario key each axis of a study sets: giving it in ``set`` too would be ambiguous.
+AXIS_KEYS = {"players": "game_players", "init": "opinion.init", "bias": "opinion.bias", "planners": "planner.name"}
 
 INIT_MODES = ("zero", "distance")
 
@@ -70,6 +75,8 @@ class SweepSpec:
     """Number of seeds: every combination runs with seeds 1..trials."""
     families: tuple[str, ...] = ()
     """Generated families (built-in names or family files): seed s runs the family's draw s."""
+    overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
+    """Scenario keys set in every scenario and family draw (``set:``, ``--set``), in their order."""
 
     def to_dict(self) -> dict:
         """The spec as a study-file mapping that :func:`study_from_dict` reads back unchanged."""
@@ -83,6 +90,8 @@ class SweepSpec:
         out["trials"] = self.trials
         if self.families:
             out["families"] = list(self.families)
+        if self.overrides:
+            out["set"] = dict(self.overrides)
         return out
 
 
@@ -94,7 +103,7 @@ MAX_SWEEP_TRIALS = 100_000
 
 #: The command-line option that sets each study key, named in errors about what was typed.
 OPTION_NAMES = {"name": "--name", "scenarios": "--scenario", "players": "--players", "init": "--init",
-                "bias": "--bias", "planners": "--planner", "methods": "--method", "trials": "--trials"}
+                "bias": "--bias", "planners": "--planner", "methods": "--method", "trials": "--trials", "set": "--set"}
 
 _WHOLE = re.compile(r"[0-9]{1,6}")
 
@@ -184,6 +193,24 @@ def _choices(value: Any, valid, where: str, what: str) -> tuple[str, ...]:
     return names
 
 
+def _settings(value: Any, data: dict, at) -> dict[str, Any]:
+    """The ``set`` mapping: scenario keys (checked as key paths; their values when a scenario loads)."""
+    from nodnav.scenario.overrides import key_path
+
+    if not isinstance(value, dict):
+        raise StudyError(f"{at('set')}: expected a mapping of scenario keys to values, e.g. "
+                         f"{{planner.name: prm, robots[1].max_speed: 0.5}}, got {shown(value)}")
+    for key in value:
+        try:
+            key_path(key, f"{at('set')}: {key}" if isinstance(key, str) else at("set"))
+        except ScenarioError as exc:
+            raise StudyError(str(exc)) from None
+        for axis, axis_key in AXIS_KEYS.items():
+            if axis in data and key == axis_key:
+                raise StudyError(f"{at('set')}: {key} is also the study's axis {at(axis)}; give it in one place")
+    return dict(value)
+
+
 def known_methods() -> tuple[str, ...]:
     """Names of the navigation methods the simulator knows (:data:`~nodnav.registry.METHODS`)."""
     return METHODS.names()
@@ -235,8 +262,10 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
         changes["planners"] = _choices(data["planners"], PLANNERS, at("planners"), "planner")
     if "families" in data:
         changes["families"] = _family_names(data["families"], at("families"))
+    if data.get("set") is not None:
+        changes["overrides"] = _settings(data["set"], data, at)
     for key, values in changes.items():
-        if not values:
+        if not values and key != "overrides":
             raise StudyError(f"{at(key)}: expected at least one value")
     spec = dataclasses.replace(spec, **changes)
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
@@ -256,6 +285,9 @@ def load_study(path: str | Path, overrides: dict | None = None) -> SweepSpec:
     except ScenarioError as exc:
         raise StudyError(str(exc)) from None
     if isinstance(data, dict):
+        in_file = data.get("set")
         data = {"name": path.stem, **data, **(overrides or {})}
+        if isinstance(in_file, dict) and isinstance(data.get("set"), dict):  # --set beside the file's set:
+            data["set"] = {**in_file, **data["set"]}
     labels = {k: OPTION_NAMES[k] for k in (overrides or {}) if k in OPTION_NAMES}
     return study_from_dict(data, shown_path(path), labels)

@@ -41,8 +41,11 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import PACKAGE_VERSION, code_version
+from nodnav.scenario.families import FamilyError
+from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
+from nodnav.scenario.overrides import override_scenario, setting_text
 from nodnav.scenario.schema import Scenario, scenario_to_dict
 from nodnav.sim.metrics import json_ready
 
@@ -138,6 +141,13 @@ def expand(spec: SweepSpec) -> Expansion:
     A family (``spec.families``) contributes its draws 1..trials, draw s with seed s only, so that
     ``nodnav run FAMILY:s --seed s`` redoes any of its trials.
 
+    The study's ``overrides`` (``set:``) apply to every scenario as it loads and to every draw
+    after it is drawn (the draw itself does not change, so ``nodnav run FAMILY:s --seed s --set
+    KEY=VALUE ...`` redoes the trial); a draw they do not fit (``robots[5]`` of a 3-robot draw) is
+    left out with a note. Each trial's stored configuration records them under ``set``, as the
+    ``KEY=VALUE`` texts ``--set`` takes, in their order (the trial key, a hash of what determines
+    the trial, is that of the scenario they give).
+
     A game-player count outside 0..N_r - 1 or giving games of more than ``MAX_STRATEGIES`` orders
     (``all`` above 6 robots), or a bias naming a strategy beyond N_r!, does not apply to a
     scenario: that combination is left out with a note (and logged). ``all`` is
@@ -145,7 +155,8 @@ def expand(spec: SweepSpec) -> Expansion:
     """
     trials: dict[str, TrialSpec] = {}
     notes: Counter[str] = Counter()
-    for base, label, seeds in _bases(spec):
+    settings = [setting_text(k, v) for k, v in spec.overrides.items()]  # as --set takes them, in order
+    for base, label, seeds in _bases(spec, notes):
         n, n_s = base.n_robots, math.factorial(base.n_robots)
         players_axis = []
         for players in spec.players:
@@ -179,27 +190,39 @@ def expand(spec: SweepSpec) -> Expansion:
             mapping = scenario_to_dict(scenario)
             for method in spec.methods:
                 config = trial_config(mapping, method)
+                stored = {**config, "set": settings} if settings else config
                 for seed in seeds:
                     key = trial_key(config, seed)
-                    trials.setdefault(key, TrialSpec(key, scenario, method, seed, config))
+                    trials.setdefault(key, TrialSpec(key, scenario, method, seed, stored))
     lines = tuple(text if count == 1 else f"{text} in {count} draws" for text, count in notes.items())
     for note in lines:
         log.info("%s", note)
     return Expansion(trials=tuple(trials.values()), notes=lines)
 
 
-def _bases(spec: SweepSpec):
-    """(scenario, label for notes, seeds) of every scenario of ``spec``; a family's draw s runs only seed s."""
+def _bases(spec: SweepSpec, notes: Counter[str]):
+    """(scenario, label for notes, seeds) of every scenario of ``spec``, with its overrides; a family's
+    draw s runs only seed s, and a draw the overrides do not fit is left out with a note."""
     for name in spec.scenarios:
-        base = load_scenario(name)
+        base = load_scenario(name, spec.overrides)
         yield base, base.name, range(1, spec.trials + 1)
     for family_spec in spec.families:
         from nodnav.scenario.draws import draw
         from nodnav.scenario.families import load_family
 
         family = load_family(family_spec)
+        examples: dict[str, str] = {}
         for seed in range(1, spec.trials + 1):
-            yield draw(family, seed), family.name, (seed,)
+            try:
+                base = override_scenario(draw(family, seed), spec.overrides)
+            except FamilyError:
+                raise
+            except ScenarioError as exc:  # e.g. robots[5] of a 3-robot draw
+                log.info("%s:%d left out: %s", family.name, seed, exc)
+                example = examples.setdefault(family.name, f"draw {seed}: {exc}")
+                notes[f"{family.name}: draws that the study's set does not fit left out (e.g. {example})"] += 1
+                continue
+            yield base, family.name, (seed,)
 
 
 def _one_line(exc: BaseException) -> str:

@@ -9,6 +9,7 @@ command that redoes it. Rates carry 95 % Wilson score intervals (SciPy's ``binom
 from __future__ import annotations
 
 import re
+import shlex
 from collections import Counter, defaultdict
 from dataclasses import dataclass
 
@@ -70,6 +71,7 @@ def redo_command(record: TrialRecord, spec: str) -> str:
         words.append(f"--noise {sc['sim']['observation_noise']:g}")
     if record.method != "nod":
         words.append(f"--method {record.method}")
+    words += [f"--set {shlex.quote(text)}" for text in record.config.get("set", ())]  # the study's set:
     return " ".join(words)
 
 

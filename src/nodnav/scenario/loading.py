@@ -6,21 +6,31 @@ its scenarios with :func:`~nodnav.scenario.schema.scenario_from_dict`, so nothin
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from nodnav.errors import nearest_hint, shown_path
 from nodnav.scenario.draws import draw_spec
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import builtin_names, builtin_text, parse_yaml, read_yaml
-from nodnav.scenario.schema import Scenario, scenario_from_dict
+from nodnav.scenario.overrides import apply_overrides, override_scenario
+from nodnav.scenario.schema import Scenario
 
 
-def load_scenario(spec: str | Path) -> Scenario:
+def load_scenario(spec: str | Path, overrides: Mapping[str, Any] | None = None,
+                  labels: Mapping[str, str] | None = None) -> Scenario:
     """Load a scenario by built-in name (``3r-case2``), from a YAML file path, or drawn from a
-    family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.draws`)."""
+    family as ``FAMILY:SEED`` (``mixed:17``, ``path/fam.yaml:17``; :mod:`nodnav.scenario.draws`).
+
+    ``overrides`` (scenario keys as a file writes them, ``{"planner.name": "prm", "robots[1].radius":
+    0.3}``; :mod:`nodnav.scenario.overrides`) are merged into the file's mapping before its one
+    validation; a family's draw is drawn as without them (so it stays the same scenario) and they
+    apply to it. ``labels`` names each override as the user typed it, for errors.
+    """
     spec = str(spec)
     if spec in builtin_names():
-        return scenario_from_dict(parse_yaml(builtin_text(spec), spec), spec)
+        return apply_overrides(parse_yaml(builtin_text(spec), spec), spec, overrides, labels)
     path = Path(spec)
     try:
         exists = path.exists()
@@ -29,7 +39,7 @@ def load_scenario(spec: str | Path) -> Scenario:
     if not exists:
         drawn = draw_spec(spec)  # FAMILY:SEED, a generated scenario
         if drawn is not None:
-            return drawn
+            return override_scenario(drawn, overrides, labels)
         hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
         raise ScenarioError(f"{shown_path(spec)}: no such built-in scenario or file{hint}", key=spec)
-    return scenario_from_dict(read_yaml(path), spec)
+    return apply_overrides(read_yaml(path), spec, overrides, labels)

@@ -121,21 +121,11 @@ class Scenario:
 
     def with_options(self, changes: dict[str, Any], labels: dict[str, str] | None = None) -> "Scenario":
         """:meth:`with_overrides` for values the user typed as options: an error about key ``k``
-        (or below it) names ``labels[k]`` instead, e.g. ``{"game_players": "--players"}``."""
-        raw = _to_raw(self)
-        for key, value in changes.items():
-            target = raw
-            *parents, leaf = key.split(".")
-            for p in parents:
-                target = target.setdefault(p, {})
-            target[leaf] = value
-        try:
-            return scenario_from_dict(raw, self.name)
-        except ScenarioError as exc:
-            for key, label in (labels or {}).items():
-                if exc.key == key or exc.key.startswith(key + "."):
-                    raise ScenarioError(f"{label}: {exc.detail}", key=label) from None
-            raise
+        (or below it) names ``labels[k]`` instead, e.g. ``{"game_players": "--players"}``
+        (:mod:`nodnav.scenario.overrides` merges them)."""
+        from nodnav.scenario.overrides import apply_overrides  # it builds on this module
+
+        return apply_overrides(_to_raw(self), self.name, changes, labels)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -344,6 +334,18 @@ def _robot_list(data: Any) -> list:
     return robots
 
 
+#: Game players per robot of a scenario that does not name ``game_players`` and has more robots
+#: than all-player games allow (:data:`~nodnav.scenario.limits.MAX_GAME`): the crowds' value.
+CROWD_PLAYERS = 2
+
+
+def default_players(n_robots: int) -> str | int:
+    """``game_players`` of a scenario that does not name it: ``all`` (the paper's) up to
+    :data:`~nodnav.scenario.limits.MAX_GAME` robots, above that :data:`CROWD_PLAYERS` (all
+    players would weigh N_r! > MAX_STRATEGIES orders, which is refused)."""
+    return "all" if n_robots <= limits.MAX_GAME else CROWD_PLAYERS
+
+
 def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     """Validate a parsed YAML mapping and build a :class:`Scenario`.
 
@@ -374,7 +376,7 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     world_raw = mapping(data.get("world"), "world")
     corridor_key = "world.corridor" if "corridor" in world_raw else "world.corridor_width"
     _check_geometry(world, robots, sources, corridor_key)
-    players = data.get("game_players", "all")
+    players = data.get("game_players", default_players(len(robots)))
     if players == "all" or players is None:
         game_players = None
     elif isinstance(players, int) and not isinstance(players, bool) and 0 <= players < len(robots):

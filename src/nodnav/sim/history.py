@@ -94,6 +94,53 @@ class History:
             "undecided": np.asarray(self.undecided, dtype=bool).reshape(-1, n),
         }
 
+    def to_dataframe(self) -> Any:
+        """One row per robot and control step, for pandas (needs ``pip install 'nodnav[export]'``).
+
+        Columns: ``step``, ``time`` (s), ``robot`` (1..N_r), ``x``, ``y`` (m), ``vx``, ``vy`` (m/s),
+        and from the robot's latest decision at or before the step: ``decision_time`` (s),
+        ``order`` (its selected passing order as robot numbers, ``2,1,3``; empty without one),
+        ``strategy`` (``S3`` when its game holds every robot, else empty), ``game`` (the robots
+        its opinions are about), ``chosen_probability`` and ``p_1`` .. ``p_W``: its selection
+        probabilities over the orders of its game (:func:`~nodnav.decision.games.game_orders`;
+        with every robot in the game, p_j is strategy S_j's), NaN beyond them. A history does
+        not hold the plans; ``nodnav export`` adds them by replaying the trial.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise NodnavError("History.to_dataframe needs pandas: pip install 'nodnav[export]'") from None
+        a = self.arrays()
+        n, steps = self.scenario.n_robots, len(a["times"])
+        # The decision each step follows: the latest at or before it (the first one is at t = 0).
+        d = np.clip(np.searchsorted(a["decision_times"], a["times"] + 1e-9, side="right") - 1, 0, None)
+        has = len(a["decision_times"]) > 0
+        columns: dict[str, Any] = {
+            "step": np.repeat(np.arange(steps), n), "time": np.repeat(a["times"], n),
+            "robot": np.tile(np.arange(1, n + 1), steps),
+            "x": a["positions"][:, :, 0].ravel(), "y": a["positions"][:, :, 1].ravel(),
+            "vx": a["velocities"][:, :, 0].ravel(), "vy": a["velocities"][:, :, 1].ravel(),
+            "decision_time": np.repeat(a["decision_times"][d], n) if has else np.full(steps * n, np.nan),
+        }
+
+        def order_text(ranks: np.ndarray) -> str:
+            placed = np.flatnonzero(ranks >= 0)
+            return ",".join(str(k + 1) for k in placed[np.argsort(ranks[placed])])
+
+        per_decision = [[order_text(a["ranks"][j, i]) for i in range(n)] for j in range(len(a["ranks"]))]
+        games = [[",".join(str(k + 1) for k in np.flatnonzero(a["games"][j, i])) for i in range(n)]
+                 for j in range(len(a["games"]))]
+        rows = [(j, i) for j in (d if has else ()) for i in range(n)]
+        columns["order"] = [per_decision[j][i] for j, i in rows] if has else [""] * (steps * n)
+        columns["strategy"] = ([f"S{a['strategies'][j, i] + 1}" if a["strategies"][j, i] >= 0 else "" for j, i in rows]
+                               if has else [""] * (steps * n))
+        columns["game"] = [games[j][i] for j, i in rows] if has else [""] * (steps * n)
+        columns["chosen_probability"] = a["chosen"][d].ravel() if has else np.full(steps * n, np.nan)
+        probabilities = a["probabilities"][d].reshape(steps * n, -1) if has else np.zeros((steps * n, 0))
+        for w in range(probabilities.shape[1]):
+            columns[f"p_{w + 1}"] = probabilities[:, w]
+        return pd.DataFrame(columns)
+
     def save(self, path: str | Path) -> Path:
         """Write the history to ``path`` (``.npz``), with the code version that produced it."""
         from nodnav.provenance import code_version

@@ -167,6 +167,10 @@ class ControllerParams:
     samples: int = field(default=8, metadata=accepted(1, 100))
     """Instants over the horizon at which the others' predicted motion is given (evenly spaced, the
     last at the horizon); the MPC keeps clear of the predictions there and between them."""
+    safety_margin: float = field(default=0.02, metadata=accepted(0.0, 0.5))
+    """Separation the controller keeps beyond 2 r_robot (m), which the simulation's reaction margin
+    leaves free too; below the planner's ``margin`` so that plans that keep exactly that can be
+    tracked (not in the paper)."""
 
 
 @CONTROLLERS.declare("mpc", help="the B-spline model predictive controller of the appendix (default)")
@@ -177,9 +181,6 @@ class MPCParams(ControllerParams):
 
     w2: float = field(default=1e-6, metadata=accepted(0.0, 1e3))
     """Velocity weight w_2 of the MPC cost (s^2); paper: 1e-6."""
-    safety_margin: float = field(default=0.02, metadata=accepted(0.0, 0.5))
-    """Separation kept by the MPC beyond 2 r_robot (m); below the planner's ``margin`` so that the
-    MPC can track plans that keep exactly that (not in the paper)."""
     segments: int = field(default=8, metadata=accepted(2, 64))
     """Knot spans of the cubic B-spline over the horizon (one per 0.1 s for T_MPC = 0.8 s)."""
     max_interval: float = field(default=0.05, metadata=accepted(0.01, 1.0))

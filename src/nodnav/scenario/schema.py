@@ -43,6 +43,7 @@ from nodnav.scenario.params import (
     MPCParams,
     OpinionParams,
     PlannerParams,
+    PRMParams,
     RobotSpec,
     SimParams,
 )
@@ -392,7 +393,7 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     time_limit = number(data.get("time_limit", 60.0), "time_limit", range_of(Scenario, "time_limit"))
     planner = _component(PLANNERS, PlannerParams, data.get("planner"), "planner")
     controller = _component(CONTROLLERS, ControllerParams, data.get("controller"), "controller")
-    if "\0" in getattr(planner, "cache_dir", ""):
+    if isinstance(planner, PRMParams) and "\0" in planner.cache_dir:
         raise fail("planner.cache_dir", "a directory name cannot hold a NUL character")
     _check_sizes(time_limit, controller, planner, robots, world)
     ratio = opinion.T / controller.dt

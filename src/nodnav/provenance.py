@@ -30,8 +30,8 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 PRESENTATION = ("cli/", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
                 "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
                 "experiments/sweep.py", "experiments/store.py", "bench/",
-                # the scaling part, and which built-ins are the paper's
-                "experiments/scaling.py", "scenario/catalogue.py")
+                # the scaling part, which built-ins are the paper's, the bounds' reference page
+                "experiments/scaling.py", "scenario/catalogue.py", "scenario/bounds.py")
 
 #: What stored rows written before code versions were recorded hold instead of one.
 UNKNOWN = "unknown"

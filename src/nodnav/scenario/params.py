@@ -44,7 +44,7 @@ class OpinionParams:
     """Scaling K_2 of the distance-based initial opinions, eq. (11) (dimensionless); paper: 10."""
     delta: float = field(default=1.0, metadata=accepted(0.001, 1e3))
     """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
-    bias: dict[str, float] = field(default_factory=dict, metadata=accepted(-1e6, 1e6, why="keys S1 .. S<N_r!>"))
+    bias: dict[str, float] = field(default_factory=dict, metadata=accepted(-1e6, 1e6, why="keys ``S1`` .. ``S<N_r!>``"))
     """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
     conflict: Literal["paper", "undecided"] = "paper"
     """Game-player selection, eqs. (6)-(7): ``paper`` (every other robot a candidate) or

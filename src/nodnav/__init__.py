@@ -20,38 +20,27 @@ the protocols an implementation meets (:class:`Planner`, :class:`Controller`, :c
 
 from __future__ import annotations
 
+import ast
 import importlib
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nodnav.provenance import PACKAGE_VERSION as __version__
 
-#: Where each public name lives.
-_HOMES = {
-    "load_scenario": "nodnav.api", "build_scenario": "nodnav.api", "run_trial": "nodnav.api",
-    "run_sweep": "nodnav.api", "build_report": "nodnav.api",
-    "Scenario": "nodnav.scenario.schema", "scenario_from_dict": "nodnav.scenario.schema",
-    "scenario_to_dict": "nodnav.scenario.schema", "ScenarioError": "nodnav.scenario.fields",
-    "builtin_scenarios": ("nodnav.scenario.files", "builtin_names"),
-    "RobotSpec": "nodnav.scenario.params", "OpinionParams": "nodnav.scenario.params",
-    "PlannerParams": "nodnav.scenario.params", "FastPlannerParams": "nodnav.scenario.params",
-    "PRMParams": "nodnav.scenario.params", "ControllerParams": "nodnav.scenario.params",
-    "MPCParams": "nodnav.scenario.params", "SimParams": "nodnav.scenario.params",
-    "ExecutionParams": "nodnav.scenario.params",
-    "World": "nodnav.scenario.world", "Corridor": "nodnav.scenario.world", "paper_world": "nodnav.scenario.world",
-    "TrialResult": "nodnav.sim.simulator", "History": "nodnav.sim.history", "Method": "nodnav.sim.methods",
-    "SweepSpec": "nodnav.experiments.study", "SweepSummary": "nodnav.experiments.sweep",
-    "ResultStore": "nodnav.experiments.store", "ReportResult": "nodnav.reporting.report",
-    "save_snapshots": "nodnav.viz.trial", "save_animation": "nodnav.viz.trial",
-    "PLANNERS": "nodnav.registry", "CONTROLLERS": "nodnav.registry", "METHODS": "nodnav.registry",
-    "register_planner": "nodnav.registry", "register_controller": "nodnav.registry",
-    "register_method": "nodnav.registry", "Registry": "nodnav.registry",
-    "Planner": "nodnav.planning.base", "PlanRequest": "nodnav.planning.base", "PlanResult": "nodnav.planning.base",
-    "JointTrajectory": "nodnav.planning.base",
-    "Controller": "nodnav.control.base", "ControlRequest": "nodnav.control.base",
-    "ControlResult": "nodnav.control.base",
-    "NodnavError": "nodnav.errors",
-    "export_history": "nodnav.export",
-}
+
+def _declared() -> dict[str, tuple[str, str]]:
+    """The public names, each with the module and attribute it is, read from the imports under
+    ``if TYPE_CHECKING:`` at the end of this file: they are the one declaration, which type
+    checkers read as imports and which :func:`__getattr__` follows when a name is first used."""
+    tree = ast.parse(Path(__file__).read_text(encoding="utf-8"))
+    block = next(node for node in tree.body if isinstance(node, ast.If) and ast.unparse(node.test) == "TYPE_CHECKING")
+    return {alias.asname or alias.name: (node.module, alias.name)
+            for node in block.body if isinstance(node, ast.ImportFrom) and node.module
+            for alias in node.names}
+
+
+#: Where each public name lives: ``name -> (module, attribute)``.
+_HOMES = _declared()
 
 __all__ = sorted(_HOMES) + ["__version__"]
 
@@ -63,7 +52,7 @@ def __getattr__(name: str) -> Any:
     home = _HOMES.get(name)
     if home is None:
         raise AttributeError(f"module 'nodnav' has no attribute {name!r}")
-    module, attr = home if isinstance(home, tuple) else (home, name)
+    module, attr = home
     if name in _LAYERS:
         importlib.import_module(_LAYERS[name])
     value = getattr(importlib.import_module(module), attr)
@@ -75,6 +64,8 @@ def __dir__() -> list[str]:
     return __all__
 
 
+# The public names: add one here and it is importable as ``nodnav.NAME``, listed in ``__all__``
+# and checked by tests/test_public_names.py.
 if TYPE_CHECKING:
     from nodnav.api import build_report, build_scenario, load_scenario, run_sweep, run_trial
     from nodnav.control.base import Controller, ControlRequest, ControlResult
@@ -97,6 +88,7 @@ if TYPE_CHECKING:
     from nodnav.scenario.fields import ScenarioError
     from nodnav.scenario.files import builtin_names as builtin_scenarios
     from nodnav.scenario.params import (
+        BaselineParams,
         ControllerParams,
         ExecutionParams,
         FastPlannerParams,

@@ -29,9 +29,9 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 #: change a trial's result and are left out of the hash.
 PRESENTATION = ("cli/", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
                 "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
-                "experiments/sweep.py", "experiments/store.py", "control/bench.py", "planning/bench.py", "sim/bench.py",
-                # the scaling benchmark and part, and which built-ins are the paper's
-                "sim/bench_scaling.py", "experiments/scaling.py", "scenario/catalogue.py")
+                "experiments/sweep.py", "experiments/store.py", "bench/",
+                # the scaling part, which built-ins are the paper's, the bounds' reference page
+                "experiments/scaling.py", "scenario/catalogue.py", "scenario/bounds.py")
 
 #: What stored rows written before code versions were recorded hold instead of one.
 UNKNOWN = "unknown"

@@ -78,6 +78,7 @@ class Registry:
         self._entries: dict[str, Entry] = {}
         self._plugins_loaded = False
         self._broken: dict[str, str] = {}
+        self._declared_by: dict[str, str] = {}  # name -> the package whose implementation fills it
 
     def register(self, name: str, *, params: type | None = None, help: str | None = None) -> Callable[[T], T]:
         """A decorator registering an implementation (a class or a factory function) under ``name``.
@@ -101,6 +102,10 @@ class Registry:
             known = self._entries.get(name)
             if known is not None and known.factory is not None and known.factory is not factory:
                 raise RegistryError(f"{self.kind} {name!r} is registered already (by {_where(known.factory)})")
+            owner = self._declared_by.get(name)
+            if known is not None and known.factory is None and owner and _package(factory) != owner:
+                raise RegistryError(f"{self.kind} {name!r} is declared already by {owner} "
+                                    f"({_where(known.params)}); register yours under another name")
             if known is not None and params is not None and known.params not in (None, params):
                 raise RegistryError(f"{self.kind} {name!r}: its parameters are declared already as "
                                     f"{known.params.__name__}")
@@ -112,10 +117,14 @@ class Registry:
 
     def declare(self, name: str, *, params: type | None = None, help: str = "") -> Callable[[C], C]:
         """A decorator declaring a built-in name and its parameter dataclass before its
-        implementation registers (which happens in a higher layer). Use it on the dataclass."""
+        implementation registers (which happens in a higher layer). Use it on the dataclass.
+
+        The name is kept for an implementation from the dataclass's own top-level package
+        (nodnav's for the built-ins): a plugin loaded first cannot take it."""
         def decorate(cls: C) -> C:
             known = self._entries.get(name)
             self._put(Entry(name, known.factory if known else None, params or cls, help))
+            self._declared_by[name] = _package(cls)
             return cls
 
         return decorate
@@ -179,7 +188,8 @@ class Registry:
 
     def load_plugins(self) -> None:
         """Import what the entry points of :attr:`group` name, once; a plugin that fails to
-        load is logged and left out (asking for its name then says why)."""
+        load, or that names an implementation under a name taken already, is logged and left out
+        (asking for its name then says why)."""
         if self._plugins_loaded:
             return
         self._plugins_loaded = True
@@ -190,8 +200,12 @@ class Registry:
                 self._broken[point.name] = f"{type(exc).__name__}: {exc}"
                 log.warning("%s plugin %r (%s) failed to load: %s", self.kind, point.name, point.value, exc)
                 continue
-            if point.name not in self._entries and callable(loaded) and not isinstance(loaded, types.ModuleType):
-                self.register(point.name)(loaded)
+            if callable(loaded) and not isinstance(loaded, types.ModuleType):
+                try:  # an implementation, registered under the entry point's name
+                    self.register(point.name)(loaded)
+                except RegistryError as exc:  # a name taken already: the first registration stays
+                    self._broken[point.name] = str(exc)
+                    log.warning("%s plugin %r (%s) not registered: %s", self.kind, point.name, point.value, exc)
 
     def _put(self, entry: Entry) -> None:
         if not isinstance(entry.name, str) or not _NAME.fullmatch(entry.name):
@@ -207,6 +221,11 @@ class Registry:
 def _first_line(obj: Any) -> str:
     doc = (getattr(obj, "__doc__", None) or "").strip()
     return doc.splitlines()[0].rstrip(".") if doc else ""
+
+
+def _package(obj: Any) -> str:
+    """The top-level package an object is defined in (``nodnav``)."""
+    return str(getattr(obj, "__module__", "") or "").partition(".")[0]
 
 
 def _where(obj: Any) -> str:

@@ -7,12 +7,10 @@ import pytest
 from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
-from nodnav.control.bench import benchmark_mpc, queue_references
 from nodnav.control.mpc import BSplineMPC, braking_profile
 from nodnav.control.mpc_problem import initial_state_nullspace, interpolation_matrix, slope_matrix
 from nodnav.control.mpc_rows import chord_inflation, constraint_grid, plan_extremes, polygon_normals, stopping_rows
 from nodnav.control.qp import infeasibility_certificate, solve_qp
-from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
 
@@ -544,17 +542,3 @@ def test_malformed_requests_raise():
         ctl.control(replace(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2))), firm=np.array([True])))
     with pytest.raises(ValueError):
         BSplineMPC(WORLD, ROBOT, MPCParams(dt=1.0, horizon=0.8))
-
-
-def test_benchmark_situation_is_consistent_and_runs():
-    scenario = load_scenario("4r-case1")
-    grid = np.arange(0.0, 30.0, 0.02)
-    refs = queue_references(scenario.world, scenario.origins, scenario.destinations[[2, 3, 0, 1]], 0.8, 1.2, grid)
-    gaps = np.linalg.norm(refs[:, :, None] - refs[:, None], axis=-1) + 10.0 * np.eye(4)
-    assert gaps.min() > 2 * ROBOT.radius + PARAMS.safety_margin
-    assert scenario.world.clearance(refs).min() >= ROBOT.radius
-    result = benchmark_mpc(duration=2.0)
-    assert result.solves == 4 * 20
-    assert result.infeasible == 0
-    assert result.min_separation > 0.0 and result.min_clearance >= -1e-9
-    assert 0.0 < result.median <= result.p95 <= result.max

@@ -17,15 +17,12 @@ from nodnav.experiments.sweep import run_sweep
 from nodnav.provenance import UNKNOWN, code_version, result_files, source_hash
 
 
-def cheap_trial(scenario, method, seed):
-    class Result:
-        outcome = "success"
-        metrics = {}
+@pytest.fixture
+def cheap_trial(trial_result):
+    def trial(scenario, method, seed):
+        return trial_result("success", {"seed": seed, "sim_time_s": 1.0, "wall_time_s": 0.01})
 
-        @staticmethod
-        def to_dict():
-            return {"outcome": "success", "seed": seed, "sim_time_s": 1.0, "wall_time_s": 0.01}
-    return Result()
+    return trial
 
 
 def test_code_version_is_the_package_version_and_a_hash_of_the_installed_source():
@@ -52,7 +49,7 @@ def test_the_hash_follows_what_determines_a_result_and_nothing_else(tmp_path):
     assert source_hash(copy) != after_sim
 
 
-def test_every_stored_trial_records_the_code_version(tmp_path):
+def test_every_stored_trial_records_the_code_version(tmp_path, cheap_trial):
     db = tmp_path / "r.sqlite"
     run_sweep(SweepSpec("s", ("2r-case1",), trials=2), db, quiet=True, trial_fn=cheap_trial)
     with ResultStore(db) as store:
@@ -85,7 +82,8 @@ def _pretend_code_changed(monkeypatch, version: str) -> None:
     monkeypatch.setattr(store_module, "current_code_version", lambda: version)
 
 
-def test_a_resumed_sweep_reruns_trials_of_another_code_version_and_keeps_the_old_rows(tmp_path, monkeypatch):
+def test_a_resumed_sweep_reruns_trials_of_another_code_version_and_keeps_the_old_rows(tmp_path, monkeypatch,
+                                                                                      cheap_trial):
     db = tmp_path / "r.sqlite"
     spec = SweepSpec("s", ("2r-case1",), trials=3)
     first = run_sweep(spec, db, quiet=True, trial_fn=cheap_trial)
@@ -103,7 +101,7 @@ def test_a_resumed_sweep_reruns_trials_of_another_code_version_and_keeps_the_old
     assert third.done == 0 and third.skipped == 3 and third.stale == 0 and len(said) == 1
 
 
-def test_allow_mixed_keeps_trials_of_another_code_version(tmp_path, monkeypatch):
+def test_allow_mixed_keeps_trials_of_another_code_version(tmp_path, monkeypatch, cheap_trial):
     db = tmp_path / "r.sqlite"
     run_sweep(SweepSpec("s", ("2r-case1",), trials=2), db, quiet=True, trial_fn=cheap_trial)
     _pretend_code_changed(monkeypatch, "9.9.9+new")
@@ -118,7 +116,7 @@ def test_allow_mixed_keeps_trials_of_another_code_version(tmp_path, monkeypatch)
 
 
 @pytest.mark.parametrize("allow", [False, True])
-def test_the_policy_is_said_on_the_command_line(tmp_path, monkeypatch, capsys, allow):
+def test_the_policy_is_said_on_the_command_line(tmp_path, monkeypatch, capsys, allow, cheap_trial):
     from nodnav.cli import main
 
     db = tmp_path / "r.sqlite"

@@ -8,8 +8,6 @@ import subprocess
 import sys
 import time
 from contextlib import closing
-from dataclasses import dataclass, field
-from pathlib import Path
 
 import cloudpickle
 import numpy as np
@@ -20,46 +18,41 @@ from nodnav.experiments.study import StudyError, SweepSpec, load_study, parse_bi
 from nodnav.experiments.sweep import execute_trial, expand, run_sweep
 from nodnav.scenario.loading import load_scenario
 
-HERE = Path(__file__).resolve().parent
-
 # Worker processes cannot import this test module by name: send its functions by value
 # (loky pickles with cloudpickle, which the [cluster] extra brings in).
 cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 
-@dataclass
-class CheapResult:
-    """Quacks like a TrialResult: ``outcome``, ``metrics`` and ``to_dict()``."""
-
-    outcome: str
-    summary: dict
-    metrics: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {**self.summary, **self.metrics}
-
-
-def cheap_trial(scenario, method, seed):
+@pytest.fixture
+def cheap_trial(trial_result):
     """A deterministic stand-in for run_trial: its numbers depend on the configuration and the seed only.
 
     Seed 3 raises, so every sweep over seeds 1..3 or more meets an error.
     """
-    if seed == 3:
-        raise RuntimeError(f"seed {seed} exploded\nwith a second line that must not be stored")
-    rng = np.random.default_rng([seed, scenario.n_robots, scenario.n_players, len(method)])
-    outcome = "success" if rng.random() < 0.7 else "deadlock"
-    summary = {"scenario": scenario.name, "method": method, "seed": seed, "outcome": outcome,
-               "success": outcome == "success",
-               "makespan_s": float(10 + rng.random()) if outcome == "success" else None,
-               "min_separation_m": float(0.4 + rng.random()), "strategy": int(rng.integers(1, 3)), "consensus": True,
-               "sim_time_s": 20.0, "wall_time_s": float(rng.random())}
-    return CheapResult(outcome, summary, {"flow_rate_rps": float(rng.random()), "time_to_consensus_s": float("nan")})
+    def trial(scenario, method, seed):
+        if seed == 3:
+            raise RuntimeError(f"seed {seed} exploded\nwith a second line that must not be stored")
+        rng = np.random.default_rng([seed, scenario.n_robots, scenario.n_players, len(method)])
+        outcome = "success" if rng.random() < 0.7 else "deadlock"
+        summary = {"scenario": scenario.name, "method": method, "seed": seed, "outcome": outcome,
+                   "success": outcome == "success",
+                   "makespan_s": float(10 + rng.random()) if outcome == "success" else None,
+                   "min_separation_m": float(0.4 + rng.random()), "strategy": int(rng.integers(1, 3)),
+                   "consensus": True, "sim_time_s": 20.0, "wall_time_s": float(rng.random())}
+        metrics = {"flow_rate_rps": float(rng.random()), "time_to_consensus_s": float("nan")}
+        return trial_result(outcome, summary, metrics)
+
+    return trial
 
 
-def slow_trial(scenario, method, seed):
+@pytest.fixture
+def slow_trial(cheap_trial):
     """:func:`cheap_trial` taking 0.1 s, so that a sweep can be killed part-way."""
-    time.sleep(0.1)
-    return cheap_trial(scenario, method, seed)
+    def trial(scenario, method, seed):
+        time.sleep(0.1)
+        return cheap_trial(scenario, method, seed)
+
+    return trial
 
 
 def _stored(db):
@@ -172,7 +165,7 @@ def test_an_init_mode_replaces_initial_opinions_given_in_the_scenario_file(tmp_p
 # -- running -----------------------------------------------------------------------------------
 
 
-def test_a_trial_that_raises_is_stored_as_an_error_and_the_sweep_goes_on(tmp_path):
+def test_a_trial_that_raises_is_stored_as_an_error_and_the_sweep_goes_on(tmp_path, cheap_trial):
     db = tmp_path / "r.sqlite"
     spec = SweepSpec(name="e", scenarios=("2r-case1",), trials=5)
     summary = run_sweep(spec, db, quiet=True, trial_fn=cheap_trial)
@@ -191,14 +184,14 @@ def test_a_trial_that_raises_is_stored_as_an_error_and_the_sweep_goes_on(tmp_pat
     assert len(_stored(db)) == 5
 
 
-def test_execute_trial_measures_the_error():
+def test_execute_trial_measures_the_error(cheap_trial):
     out = execute_trial(cheap_trial, expand(SweepSpec(name="x", scenarios=("2r-case1",))).trials[0].scenario,
                         "nod", 3, "k")
     assert out.outcome == "error" and out.error == "RuntimeError: seed 3 exploded" and out.key == "k"
     assert out.summary["wall_time_s"] >= 0
 
 
-def test_one_and_two_workers_store_the_same_results(tmp_path):
+def test_one_and_two_workers_store_the_same_results(tmp_path, cheap_trial):
     spec = SweepSpec(name="w", scenarios=("2r-case1", "3r-case2"), players=(1, "all"), trials=4)
     one = run_sweep(spec, tmp_path / "one.sqlite", jobs=1, quiet=True, trial_fn=cheap_trial)
     two = run_sweep(spec, tmp_path / "two.sqlite", jobs=2, quiet=True, trial_fn=cheap_trial)
@@ -207,7 +200,7 @@ def test_one_and_two_workers_store_the_same_results(tmp_path):
     assert a == b and len(a) == 12
 
 
-def test_progress_bar_goes_to_stderr_unless_quiet(tmp_path, capsys):
+def test_progress_bar_goes_to_stderr_unless_quiet(tmp_path, capsys, cheap_trial):
     spec = SweepSpec(name="p", scenarios=("2r-case1",), trials=2)
     run_sweep(spec, tmp_path / "a.sqlite", quiet=True, trial_fn=cheap_trial)
     assert capsys.readouterr().err == ""
@@ -218,21 +211,25 @@ def test_progress_bar_goes_to_stderr_unless_quiet(tmp_path, capsys):
 
 KILL_SCRIPT = """
 import sys
+from pathlib import Path
+
+import cloudpickle
+
 from nodnav.experiments.study import SweepSpec
 from nodnav.experiments.sweep import run_sweep
-from test_sweep import slow_trial
 
+slow_trial = cloudpickle.loads(Path(sys.argv[2]).read_bytes())
 spec = SweepSpec(name="kill", scenarios=("2r-case1", "3r-case1"), trials=20)
 run_sweep(spec, sys.argv[1], jobs=2, quiet=True, trial_fn=slow_trial)
 """
 
 
-def test_sigkill_part_way_loses_nothing_and_a_rerun_completes_the_sweep(tmp_path):
+def test_sigkill_part_way_loses_nothing_and_a_rerun_completes_the_sweep(tmp_path, cheap_trial, slow_trial):
     db = tmp_path / "r.sqlite"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")])}
+    (tmp_path / "trial.pickle").write_bytes(cloudpickle.dumps(slow_trial))
     with open(tmp_path / "out.txt", "w") as log:
-        proc = subprocess.Popen([sys.executable, "-c", KILL_SCRIPT, str(db)], env=env, stdout=log, stderr=log,
-                                start_new_session=True)
+        proc = subprocess.Popen([sys.executable, "-c", KILL_SCRIPT, str(db), str(tmp_path / "trial.pickle")],
+                                stdout=log, stderr=log, start_new_session=True)
         try:
             deadline = time.monotonic() + 60
             count = 0

@@ -2,7 +2,6 @@
 scenario or family, players, method and failure class (no trial is simulated)."""
 
 import math
-from dataclasses import dataclass, field
 
 import matplotlib
 
@@ -22,24 +21,18 @@ from nodnav.scenario.loading import load_scenario  #noqa: E402
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 
 
-@dataclass
-class StubResult:
-    outcome: str
-    summary: dict
-    metrics: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return self.summary
-
-
-def stub_trial(scenario, method, seed):
+@pytest.fixture
+def stub_trial(trial_result):
     """Seed 1 succeeds, seed 2 jams; the summary carries what the store reads."""
-    outcome = "success" if seed == 1 else "deadlock"
-    return StubResult(outcome, {"scenario": scenario.name, "seed": seed, "outcome": outcome, "consensus": True,
-                                "failure_class": "success" if seed == 1 else "jam", "sim_time_s": 1.0})
+    def trial(scenario, method, seed):
+        outcome = "success" if seed == 1 else "deadlock"
+        return trial_result(outcome, {"scenario": scenario.name, "seed": seed, "consensus": True,
+                                      "failure_class": "success" if seed == 1 else "jam", "sim_time_s": 1.0})
+
+    return trial
 
 
-def test_family_sweep_stores_each_draw_with_its_seed(tmp_path):
+def test_family_sweep_stores_each_draw_with_its_seed(tmp_path, stub_trial):
     db = tmp_path / "f.sqlite"
     summary = run_sweep(SweepSpec(name="mixed", scenarios=(), families=("mixed",), trials=2), db, quiet=True,
                         trial_fn=stub_trial)
@@ -132,7 +125,7 @@ def test_redo_spec_of_a_family_file(tmp_path):
     assert math.isfinite(s.time_limit)
 
 
-def test_sweep_command_names_the_study_after_the_family(tmp_path, monkeypatch, capsys):
+def test_sweep_command_names_the_study_after_the_family(tmp_path, monkeypatch, capsys, stub_trial):
     import nodnav.experiments.sweep as sweep
     from nodnav.cli import main
 

@@ -2,7 +2,6 @@
 tiny end-to-end run of real trials through the command line."""
 
 import time
-from dataclasses import dataclass, field
 
 import matplotlib
 
@@ -154,27 +153,20 @@ def test_rounds_complete_the_papers_evaluation_before_the_comparisons():
 # -- the budget, with a stand-in trial that claims to have taken a minute ---------------------------
 
 
-@dataclass
-class ClaimedResult:
-    outcome: str
-    summary: dict
-    metrics: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return self.summary
-
-
 RUNS = []
 
 
-def minute_trial(scenario, method, seed):
+@pytest.fixture
+def minute_trial(trial_result):
     """Instant, but stores a wall time of 60 s, so the cost model expects every trial to take a minute."""
-    RUNS.append((scenario.name, scenario.n_players, seed))
-    return ClaimedResult("success", {"outcome": "success", "strategy": 1, "wall_time_s": 60.0, "sim_time_s": 1.0,
-                                     "makespan_s": 1.0})
+    def trial(scenario, method, seed):
+        RUNS.append((scenario.name, scenario.n_players, seed))
+        return trial_result("success", {"strategy": 1, "wall_time_s": 60.0, "sim_time_s": 1.0, "makespan_s": 1.0})
+
+    return trial
 
 
-def test_budget_cuts_every_part_evenly_and_a_rerun_continues(tmp_path):
+def test_budget_cuts_every_part_evenly_and_a_rerun_continues(tmp_path, minute_trial):
     RUNS.clear()
     options = ReproduceOptions(out=tmp_path, trials=3, jobs=1, scenarios=("2r-case1",), methods=("nod",),
                                parts=("success", "table1"), budget_minutes=1.5, heatmap_grid=3,
@@ -196,13 +188,17 @@ def test_budget_cuts_every_part_evenly_and_a_rerun_continues(tmp_path):
     assert again.complete and not again.cuts and len(RUNS) == 8 and all(seed > 1 for *_, seed in RUNS)
 
 
-def slow_trial(scenario, method, seed):
+@pytest.fixture
+def slow_trial(minute_trial):
     """:func:`minute_trial` that really takes 1.5 s."""
-    time.sleep(1.5)
-    return minute_trial(scenario, method, seed)
+    def trial(scenario, method, seed):
+        time.sleep(1.5)
+        return minute_trial(scenario, method, seed)
+
+    return trial
 
 
-def test_no_sweep_starts_once_the_budget_is_spent(tmp_path, monkeypatch):
+def test_no_sweep_starts_once_the_budget_is_spent(tmp_path, monkeypatch, slow_trial):
     import nodnav.reporting.reproduce as module
 
     # Budget 60 s with 58 s kept for the report: sweeps may start only in the first 2 s.

@@ -17,7 +17,7 @@ from nodnav.errors import NodnavError, shown
 
 
 def _bench_planners(args: argparse.Namespace) -> None:
-    from nodnav.planning.bench import main_bench_planners
+    from nodnav.bench.planners import main_bench_planners
     from nodnav.scenario.catalogue import PAPER_SCENARIOS
 
     print(main_bench_planners(args.json, planners=tuple(args.planner or ("fast", "prm")),
@@ -27,7 +27,7 @@ def _bench_planners(args: argparse.Namespace) -> None:
 def _bench_mpc(args: argparse.Namespace) -> None:
     import dataclasses
 
-    from nodnav.control.bench import benchmark_mpc
+    from nodnav.bench.mpc import benchmark_mpc
 
     result = benchmark_mpc()
     d = dataclasses.asdict(result)
@@ -42,7 +42,7 @@ def _bench_mpc(args: argparse.Namespace) -> None:
 
 
 def _bench_sim(args: argparse.Namespace) -> None:
-    from nodnav.sim.bench import benchmark_closed_loop
+    from nodnav.bench.closed_loop import benchmark_closed_loop
 
     results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)))
                for planner in (args.planner or ("fast",))]

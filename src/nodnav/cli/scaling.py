@@ -65,7 +65,7 @@ def check_scaling_only(args: argparse.Namespace) -> None:
 
 def cmd_bench_scaling(args: argparse.Namespace) -> int:
     """Run ``nodnav bench scaling`` and print its table (or JSON); 1 if a cell's worker failed."""
-    from nodnav.sim.bench_scaling import benchmark_scaling
+    from nodnav.bench.scaling import benchmark_scaling
 
     if args.planner:
         raise NodnavError("--planner: 'bench scaling' measures the fast planner only")

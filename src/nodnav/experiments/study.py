@@ -30,9 +30,10 @@ from typing import Any
 
 from nodnav.errors import NodnavError, nearest_hint, shown, shown_path
 from nodnav.planning import PLANNERS
-from nodnav.scenario.fields import ScenarioError, strategy_number
+from nodnav.scenario.fields import ScenarioError, range_of, strategy_number
 from nodnav.scenario.files import builtin_names, read_yaml
-from nodnav.scenario.limits import MAX_ROBOTS, RANGES
+from nodnav.scenario.limits import MAX_ROBOTS
+from nodnav.scenario.params import OpinionParams
 from nodnav.sim import METHODS
 
 STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families", "set")
@@ -151,7 +152,7 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
         entry = f"{where}: {name}" if where.startswith("--") else f"{where}.{name}"
         if v is None:
             raise StudyError(f"{entry}: expected a number, got {shown(number)}")
-        low, high, _ = RANGES["opinion.bias"]
+        low, high, _ = range_of(OpinionParams, "bias")
         if not low <= v <= high:  # also refuses nan and inf
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((j, name, v))

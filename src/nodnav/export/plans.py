@@ -45,26 +45,34 @@ class Plans:
     """Plans in decision order, robots in index order within a decision."""
 
 
+class _RecordingPlans:
+    """The trial's method, keeping each robot's own reference path at every decision; the
+    simulator sees the same method (it calls only ``name``, ``decide`` and ``act``)."""
+
+    def __init__(self, method, sim: Simulation, plans: list[RobotPlan]):
+        self.inner, self.name, self.sim, self.plans = method, method.name, sim, plans
+
+    def decide(self, views):
+        decisions = self.inner.decide(views)
+        for i in sorted(decisions):
+            trajectory = decisions[i].plan.trajectory
+            own = trajectory.positions[:, 0] if trajectory.positions.size else np.zeros((0, 2))
+            self.plans.append(RobotPlan(int(i), float(self.sim.t), np.asarray(trajectory.times, dtype=float).copy(),
+                                        np.asarray(own, dtype=float).copy()))
+        return decisions
+
+    def act(self, t, views):
+        return self.inner.act(t, views)
+
+
 def replay_plans(history: History) -> Plans:
     """Re-run ``history``'s trial and collect the plans (module docstring); a few seconds to a minute."""
     try:
         sim = Simulation(history.scenario, history.method, history.seed)
     except NodnavError as exc:  # e.g. a plugin's method that is not installed here
         return Plans(False, f"cannot replay the trial ({exc}); plans left out")
-    method = sim.method
-    inner = method.decide
     plans: list[RobotPlan] = []
-
-    def decide(views):
-        decisions = inner(views)
-        for i in sorted(decisions):
-            trajectory = decisions[i].plan.trajectory
-            own = trajectory.positions[:, 0] if trajectory.positions.size else np.zeros((0, 2))
-            plans.append(RobotPlan(int(i), float(sim.t), np.asarray(trajectory.times, dtype=float).copy(),
-                                   np.asarray(own, dtype=float).copy()))
-        return decisions
-
-    method.decide = decide  # type: ignore[method-assign]  # the simulator calls this instance's decide
+    sim.method = _RecordingPlans(sim.method, sim, plans)
     while not sim.step():
         pass
     recorded = np.asarray(history.positions, dtype=float)

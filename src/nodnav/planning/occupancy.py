@@ -143,12 +143,12 @@ class Motion:
     """Positions at steps ``0..T-1`` ``(T, 2)``, on the polyline (m)."""
     arc: np.ndarray
     """Arc length along the polyline at each step ``(T,)``, non-decreasing (m)."""
-    segments: tuple = field(default=None, repr=False, compare=False)  # type: ignore[arg-type]  # set in __post_init__
+    segments: tuple = field(default=(), repr=False, compare=False)
     """Start points, unit directions, lengths and start arc lengths of the non-empty segments
-    (:func:`polyline_segments`; computed when not given)."""
+    (:func:`polyline_segments`; computed in ``__post_init__`` when not given)."""
 
     def __post_init__(self):
-        if self.segments is None:
+        if not self.segments:
             object.__setattr__(self, "segments", polyline_segments(self.path))
 
     @property

@@ -36,7 +36,7 @@ How a query is answered
    way (its path had to ignore them) or in the door zone it will come out of (below) first
    moves to a nearby spot clear of the ways of every robot still to plan, waits there, and
    later goes on from there; the robot being planned waits until the way is free. A robot
-   that is itself boxed in first has the robots in its way move (up to :data:`_CASCADE` deep),
+   that is itself boxed in first has the robots in its way move (up to ``planner.cascade`` deep),
    and one pinned where only the planned robot's own place would let it out gets that room:
    the planned robot backs off first. Finally a robot that an earlier robot's motion corners
    anyway backs out of the way when its turn comes.

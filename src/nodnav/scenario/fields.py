@@ -2,10 +2,10 @@
 
 Every reader raises one :class:`ScenarioError` line naming the key path the user wrote
 (``planner.dt``, ``robots[2].origin``) and how to fix the value. :func:`read_params` reads any
-flat frozen dataclass from a mapping by its type hints, so that a parameter class (a planner's,
-say, registered by a plugin) is validated without code of its own: numbers against
-:data:`~nodnav.scenario.limits.RANGES` (or the range in the field's ``metadata``), choices
-against their ``Literal`` type.
+flat frozen dataclass from a mapping by its type hints, so that a parameter class (a built-in
+one or a plugin's) is validated without code of its own: numbers against the range in the
+field's ``metadata`` (:func:`~nodnav.scenario.limits.accepted`), choices against their
+``Literal`` type.
 """
 
 from __future__ import annotations
@@ -47,9 +47,8 @@ def check_keys(data: dict, valid, where: str) -> None:
 _EXPONENT = re.compile(r"[+-]?([0-9]{1,20}\.?[0-9]{0,20}|\.[0-9]{1,20})[eE][+-]?[0-9]{1,3}")
 
 
-def number(value: Any, where: str, bound: str | Range | None = None) -> float:
-    """A finite real number; with ``bound`` (a key of :data:`~nodnav.scenario.limits.RANGES`, or a
-    range ``(least, greatest, least_included)``) in its range."""
+def number(value: Any, where: str, bound: Range | None = None) -> float:
+    """A finite real number; with ``bound``, a range ``(least, greatest, least_included)``, in it."""
     if isinstance(value, str) and _EXPONENT.fullmatch(value.strip()):
         value = float(value)  # YAML 1.1 reads 1e-6 (no dot) as text; it is a number all the same
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -123,14 +122,21 @@ def choices_text(options: tuple) -> str:
     return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"
 
 
-def _bound(field: dataclasses.Field, key: str) -> str | Range | None:
-    """The range of a field: its own (``metadata["range"]``), else the one of ``key`` in
-    :data:`~nodnav.scenario.limits.RANGES`, else none."""
+def field_range(field: dataclasses.Field) -> Range | None:
+    """The accepted range a parameter field declares (``metadata["range"]``), else ``None``."""
     own = field.metadata.get("range")
-    return tuple(own) if own is not None else key if key in limits.RANGES else None
+    return None if own is None else (own[0], own[1], own[2])
 
 
-def read_value(hint: Any, value: Any, name: str, bound: str | Range | None) -> Any:
+def range_of(cls: type, name: str) -> Range:
+    """The accepted range that field ``name`` of the dataclass ``cls`` declares."""
+    bound = field_range(next(f for f in dataclasses.fields(cls) if f.name == name))
+    if bound is None:
+        raise ValueError(f"{cls.__name__}.{name} declares no range")
+    return bound
+
+
+def read_value(hint: Any, value: Any, name: str, bound: Range | None) -> Any:
     """One value of a parameter dataclass, read and checked by its type hint."""
     if hint is float:
         return number(value, name, bound)
@@ -174,14 +180,13 @@ def read_value(hint: Any, value: Any, name: str, bound: str | Range | None) -> A
     raise TypeError(f"{name}: parameter fields of type {hint!r} cannot be read from a scenario file")
 
 
-def read_params(cls: type, data: Any, where: str, section: str, ignored: dict[str, type] | None = None) -> Any:
-    """Build the flat frozen parameter dataclass ``cls`` from a mapping, checking keys, types and ranges.
+def read_params(cls: type, data: Any, where: str, ignored: dict[str, type] | None = None) -> Any:
+    """Build the flat frozen parameter dataclass ``cls`` from a mapping, checking keys, types and
+    the ranges its fields declare.
 
-    ``section`` is the part of :data:`~nodnav.scenario.limits.RANGES` the fields' ranges are
-    looked up in (``planner``: ``planner.dt``). ``ignored`` maps keys that are not fields of
-    ``cls`` but are accepted all the same (another implementation's settings, which files
-    written before the parameters were split name) to a class that has them: they are checked
-    as that class would, then dropped.
+    ``ignored`` maps keys that are not fields of ``cls`` but are accepted all the same (another
+    implementation's settings, which files written before the parameters were split name) to a
+    class that has them: they are checked as that class would, then dropped.
     """
     data = mapping(data, where)
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -192,7 +197,7 @@ def read_params(cls: type, data: Any, where: str, section: str, ignored: dict[st
         owner = cls if key in fields else ignored[key]
         field = next(f for f in dataclasses.fields(owner) if f.name == key)
         hint = typing.get_type_hints(owner)[key]
-        checked = read_value(hint, value, f"{where}.{key}", _bound(field, f"{section}.{key}"))
+        checked = read_value(hint, value, f"{where}.{key}", field_range(field))
         if owner is cls:
             kwargs[key] = checked
     return cls(**kwargs)

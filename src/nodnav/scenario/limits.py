@@ -1,17 +1,20 @@
-"""What a scenario may ask for: the accepted range of every number and the size limits.
+"""What a scenario may ask for: the size limits, and how a number's accepted range is declared.
 
 A scenario outside these bounds is refused when it is loaded (:mod:`nodnav.scenario.schema`),
 with one line naming the key and the bound, so that nothing downstream can be asked for
 something it cannot do: a control step so small that the clock overflows, an acceleration so
 small that the controller divides by nearly zero, a horizon that needs terabytes, more passing
-orders than memory holds. The README lists the same bounds; the values were chosen from what
-the code does with each number (see each docstring), not from taste: the paper's values and
-the built-in scenarios sit well inside every range.
+orders than memory holds. The size limits are here; the range of every number is declared on
+its parameter field (:func:`accepted`, in :mod:`nodnav.scenario.params`), as a plugin's are, and
+``docs/reference-bounds.md`` is generated from both (:mod:`nodnav.scenario.bounds`). The values
+were chosen from what the code does with each number (see each docstring and reason), not from
+taste: the paper's values and the built-in scenarios sit well inside every range.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 MAX_STRATEGIES = 720
 """Most passing orders a robot may weigh at once: the ``(k+1)!`` orders of its game, itself and
@@ -64,95 +67,25 @@ MAX_LIST = 100
 Range = tuple[float, float, bool]
 """An accepted range ``(least, greatest, least_included)``; the greatest is always included."""
 
-#: Accepted range of every number of a scenario, by key (``robots`` keys apply to
-#: ``robot_defaults`` and to every robot alike; a list's range applies to each of its numbers).
-RANGES: dict[str, Range] = {
-    # The opinion layer. The discrete update (8) multiplies z by (1 - alpha d) with alpha(0) = 1:
-    # d above 2 makes it diverge; u, b, z0 far above the paper's values only overflow.
-    "opinion.u": (0.0, 1e4, True),
-    "opinion.d": (0.0, 2.0, False),
-    "opinion.eta": (1e-3, 1e3, True),
-    "opinion.K1": (0.0, 1e3, True),
-    "opinion.T": (0.0, 60.0, False),
-    "opinion.alpha_min": (0.0, 1.0, False),
-    "opinion.K2": (0.0, 1e3, True),
-    "opinion.delta": (1e-3, 1e3, True),
-    "opinion.bias": (-1e6, 1e6, True),
-    "opinion.z0": (-1e6, 1e6, True),
-    "opinion.standoff_patience": (0.0, 600.0, True),
-    # Robots. Below 0.1 m/s^2 the controller brakes over tens of metres and fails every step;
-    # above 5 m/s a robot crosses the corridor in a few control steps.
-    "robots.radius": (0.01, 5.0, True),
-    "robots.max_speed": (0.05, 5.0, True),
-    "robots.max_accel": (0.1, 50.0, True),
-    # The planner.
-    "planner.dt": (0.01, 1.0, True),
-    "planner.margin": (0.0, 0.5, True),
-    "planner.door_clearance": (0.0, 10.0, True),
-    "planner.clearing_radii": (0.01, MAX_WORLD_SIZE, True),
-    "planner.clearing_directions": (1, 360, True),
-    "planner.w1": (0.0, 1e3, True),
-    "planner.varsigma": (0.0, 1.0, True),
-    "planner.roadmap_vertices": (10, 10_000, True),
-    "planner.connect_factor": (1, 100, True),
-    "planner.link_widening": (1, 100, True),
-    # The fast planner's ways of making room: spots up to a world's side away, in rings of a few
-    # dozen directions; each try and each level of the cascade replans robots, so both stay small.
-    "planner.retreat_radii": (0.01, MAX_WORLD_SIZE, True),
-    "planner.retreat_angles": (1, 360, True),
-    "planner.retreat_tries": (1, 100, True),
-    "planner.cascade": (0, 6, True),
-    # The controller: the MPC needs dt <= horizon; its constraint grid has horizon / 0.05 s pieces.
-    "controller.dt": (0.01, 1.0, True),
-    "controller.horizon": (0.01, 5.0, True),
-    "controller.w2": (0.0, 1e3, True),
-    "controller.safety_margin": (0.0, 0.5, True),
-    "controller.samples": (1, 100, True),
-    # The MPC's numerical settings: its QP has 2 (segments + 3) - 4 variables and rows for every
-    # interval of at least max_interval over the horizon, every polygon side and terminal piece.
-    "controller.segments": (2, 64, True),
-    "controller.max_interval": (0.01, 1.0, True),
-    "controller.speed_polygon_sides": (4, 64, True),
-    "controller.accel_polygon_sides": (4, 64, True),
-    "controller.terminal_pieces": (1, 32, True),
-    "controller.terminal_decel": (0.0, 1.0, False),
-    "controller.sqp_iterations": (1, 10, True),
-    "controller.sqp_tolerance": (0.0, 1.0, True),
-    "controller.qp_tolerance": (1e-12, 1e-3, True),
-    "controller.evasive_penalty": (1.0, 1e9, True),
-    "controller.evasive_curvature": (1e-6, 1e9, True),
-    "controller.check_tolerance": (0.0, 0.1, True),
-    "controller.contact_tolerance": (0.0, 0.1, True),
-    # The simulation.
-    "sim.goal_tolerance": (0.0, 1.0, False),
-    "sim.collision_tolerance": (0.0, 0.1, True),
-    "sim.deadlock_time": (0.0, 3600.0, False),
-    "sim.progress_epsilon": (0.0, 10.0, True),
-    "sim.observation_noise": (0.0, 1.0, True),
-    # Execution: precedences reach back a lag of at least one control step when it is positive.
-    "execution.lag": (0.0, 10.0, True),
-    "execution.tolerance": (0.0, 1.0, True),
-    "execution.surprise": (0.0, 1.0, False),
-    "execution.surprise_memory": (0.0, 60.0, True),
-    "execution.reaction_slack": (0.0, 0.1, True),
-    # The baselines.
-    "baselines.closest_first_tie": (0.0, 10.0, False),
-    "baselines.orca_neighbor_dist": (0.0, 1e3, False),
-    "baselines.orca_time_horizon": (0.0, 60.0, False),
-    "baselines.orca_time_horizon_obst": (0.0, 60.0, False),
-    "baselines.orca_radius_margin": (0.0, 1.0, True),
-    "baselines.orca_route_margin": (0.0, 1.0, True),
-    "time_limit": (0.0, 3600.0, False),
-}
+
+def accepted(low: float, high: float, low_included: bool = True, why: str = "") -> dict[str, Any]:
+    """A parameter field's ``metadata`` declaring its accepted range: ``field(default=1.0,
+    metadata=accepted(0.0, 2.0, False, why="..."))`` is ``metadata={"range": (0.0, 2.0, False)}``
+    with the reason for the bound, which the bounds table shows (:mod:`nodnav.scenario.bounds`).
+
+    Every number a scenario may hold declares its range so, on the field of its parameter
+    dataclass; a list's or a mapping's range applies to each of its numbers.
+    """
+    return {"range": (low, high, low_included), **({"why": why} if why else {})}
 
 
-def range_text(key: str | Range) -> str:
-    """The range of ``key`` (or a range) in words, e.g. ``from 0.01 to 1`` or ``above 0 and at most 2``."""
-    low, high, closed = RANGES[key] if isinstance(key, str) else key
+def range_text(bound: Range) -> str:
+    """A range in words, e.g. ``from 0.01 to 1`` or ``above 0 and at most 2``."""
+    low, high, closed = bound
     return f"from {low:g} to {high:g}" if closed else f"above {low:g} and at most {high:g}"
 
 
-def in_range(key: str | Range, value: float) -> bool:
-    """Whether ``value`` lies in the range of ``key`` (or in a range)."""
-    low, high, closed = RANGES[key] if isinstance(key, str) else key
+def in_range(bound: Range, value: float) -> bool:
+    """Whether ``value`` lies in the range."""
+    low, high, closed = bound
     return (value >= low if closed else value > low) and value <= high

@@ -4,7 +4,8 @@ Planners and controllers each have their own parameter class, derived from
 :class:`PlannerParams` or :class:`ControllerParams` and chosen by ``name`` in the scenario file;
 the built-in ones are declared here, in the registries of :mod:`nodnav.registry`, so that a
 scenario is validated when it is loaded without importing any planner or controller. Every
-number's accepted range is in :mod:`nodnav.scenario.limits`.
+number declares its accepted range on its field (``metadata=accepted(...)``, :mod:`nodnav.scenario.limits`),
+as a plugin's parameters do; the size limits and the rules between fields are in :mod:`nodnav.scenario.schema`.
 """
 
 from __future__ import annotations
@@ -16,38 +17,39 @@ import numpy as np
 
 from nodnav.registry import CONTROLLERS, PLANNERS
 from nodnav.scenario.fields import strategy_name_index
+from nodnav.scenario.limits import MAX_WORLD_SIZE, accepted
 
 
 @dataclass(frozen=True)
 class OpinionParams:
     """Parameters of the opinion layer (Sections II-B and III)."""
 
-    u: float = 100.0
+    u: float = field(default=100.0, metadata=accepted(0.0, 1e4))
     """Attention u_i to the social term (dimensionless); paper: 100 (10 for Fig. 2b/2c)."""
-    d: float = 1.0
+    d: float = field(default=1.0, metadata=accepted(0.0, 2.0, False, why="the update (8) diverges above 2"))
     """Resistance d_i, the inverse time constant of the opinion (1/s); paper: 1."""
-    eta: float = 1.0
+    eta: float = field(default=1.0, metadata=accepted(0.001, 1e3))
     """Softmax temperature eta of eq. (3) (dimensionless); paper: 1."""
-    K1: float = 5.0
+    K1: float = field(default=5.0, metadata=accepted(0.0, 1e3))
     """Scaling K_1 of the observed-versus-planned deviation in eq. (4) (1/(m^2 s)); paper: 5."""
-    T: float = 1.0
+    T: float = field(default=1.0, metadata=accepted(0.0, 60.0, False, why="a whole multiple of controller.dt"))
     """Opinion period T: decisions and the estimation window of eq. (4) (s); paper: 1."""
-    alpha_min: float = 0.05
+    alpha_min: float = field(default=0.05, metadata=accepted(0.0, 1.0, False))
     """Lower bound h of the step size alpha(t) = max(1/(t+1), h) of eq. (8); paper: 0.05."""
     init: Literal["zero", "distance", "given"] = "zero"
     """Initial opinions: ``zero`` (z_ij(0) = 0), ``distance`` (eqs. (10)-(11)) or ``given`` (``z0``); paper: zero."""
-    z0: tuple[tuple[float, ...], ...] = ()
+    z0: tuple[tuple[float, ...], ...] = field(default=(), metadata=accepted(-1e6, 1e6))
     """With ``init: given``, the initial opinions z_i(0) of every robot, one row per robot (dimensionless)."""
-    K2: float = 10.0
+    K2: float = field(default=10.0, metadata=accepted(0.0, 1e3))
     """Scaling K_2 of the distance-based initial opinions, eq. (11) (dimensionless); paper: 10."""
-    delta: float = 1.0
+    delta: float = field(default=1.0, metadata=accepted(0.001, 1e3))
     """Offset delta of the conflict likelihood, eq. (6) (m); paper: 1."""
-    bias: dict[str, float] = field(default_factory=dict)
+    bias: dict[str, float] = field(default_factory=dict, metadata=accepted(-1e6, 1e6, why="keys ``S1`` .. ``S<N_r!>``"))
     """Bias b_ij per strategy name, e.g. ``{S3: 150, S5: 150}`` (dimensionless); paper: none."""
     conflict: Literal["paper", "undecided"] = "paper"
     """Game-player selection, eqs. (6)-(7): ``paper`` (every other robot a candidate) or
     ``undecided`` (robots seen in the corridor only when too few others are left)."""
-    standoff_patience: float = 2.0
+    standoff_patience: float = field(default=2.0, metadata=accepted(0.0, 600.0))
     """After how long a standoff with a game player (neither progressing, although the robot's
     plan has one of them progress) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
     nonplayers: Literal["static", "entered"] = "entered"
@@ -76,11 +78,11 @@ class RobotSpec:
     """Origin O_i (m)."""
     destination: tuple[float, float]
     """Destination D_i (m)."""
-    radius: float = 0.2
+    radius: float = field(default=0.2, metadata=accepted(0.01, 5.0, why="below the corridor's clearance"))
     """Body radius r_robot (m); paper: not given, 0.2 chosen (see README)."""
-    max_speed: float = 1.0
+    max_speed: float = field(default=1.0, metadata=accepted(0.05, 5.0))
     """Speed limit (m/s); paper: 1."""
-    max_accel: float = 2.0
+    max_accel: float = field(default=2.0, metadata=accepted(0.1, 50.0, why="below, the MPC brakes over tens of metres"))
     """Acceleration limit used by the MPC (m/s^2); paper: not given."""
     opinion: OpinionParams | None = None
     """This robot's own opinion parameters; ``None`` means the scenario's ``opinion``."""
@@ -96,16 +98,17 @@ class PlannerParams:
 
     name: str = "fast"
     """Planner name, one of :data:`~nodnav.registry.PLANNERS` (``fast``, ``prm``, or a plugin's)."""
-    dt: float = 0.1
+    dt: float = field(default=0.1, metadata=accepted(0.01, 1.0, why="at most MAX_PLAN_STEPS steps across the world"))
     """Time step of the planned joint trajectory (s)."""
-    margin: float = 0.05
+    margin: float = field(default=0.05, metadata=accepted(0.0, 0.5))
     """Extra separation kept by the planner beyond 2 r_robot (m)."""
-    door_clearance: float = 1.0
+    door_clearance: float = field(default=1.0, metadata=accepted(0.0, 10.0))
     """Radius of the zone around a corridor entrance kept clear while a robot comes out of it,
     and that a robot with no plan gets out of (:mod:`nodnav.planning.clearing`) (m)."""
-    clearing_radii: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
+    clearing_radii: tuple[float, ...] = field(default=(0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0),
+                                              metadata=accepted(0.01, MAX_WORLD_SIZE))
     """Radii of the rings of spots a robot with no plan tries to clear the way to, nearest first (m)."""
-    clearing_directions: int = 16
+    clearing_directions: int = field(default=16, metadata=accepted(1, 360))
     """Spots per ring of ``clearing_radii``."""
 
 
@@ -116,14 +119,15 @@ class FastPlannerParams(PlannerParams):
 
     waiting: Literal["early", "late"] = "early"
     """A yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
-    retreat_radii: tuple[float, ...] = (0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0)
+    retreat_radii: tuple[float, ...] = field(default=(0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0),
+                                             metadata=accepted(0.01, MAX_WORLD_SIZE))
     """Radii of the rings of candidate spots a cornered robot may back out to (m); the largest
     reaches a room from anywhere in a corridor of the paper's length."""
-    retreat_angles: int = 16
+    retreat_angles: int = field(default=16, metadata=accepted(1, 360))
     """Directions per ring of candidate spots."""
-    retreat_tries: int = 8
+    retreat_tries: int = field(default=8, metadata=accepted(1, 100))
     """How many of the nearest candidate spots are tried before giving up."""
-    cascade: int = 2
+    cascade: int = field(default=2, metadata=accepted(0, 6))
     """How many robots deep a robot that must get out of the way may first move others out of its way."""
 
 
@@ -132,17 +136,17 @@ class FastPlannerParams(PlannerParams):
 class PRMParams(PlannerParams):
     """PRM*'s settings (:mod:`nodnav.planning.prm`, appendix)."""
 
-    w1: float = 0.4
+    w1: float = field(default=0.4, metadata=accepted(0.0, 1e3))
     """Weight w_1 of the proximity penalty in the PRM* path cost (1/m); paper: 0.4."""
-    varsigma: float = 0.1
+    varsigma: float = field(default=0.1, metadata=accepted(0.0, 1.0))
     """Safety margin varsigma of Phi_proximity (m); paper: 0.1."""
-    roadmap_vertices: int = 2000
+    roadmap_vertices: int = field(default=2000, metadata=accepted(10, 10000))
     """Roadmap size is this times the number of robots (vertices); 500 already answers every built-in query."""
     cache_dir: str = ""
     """Roadmap cache directory; empty means ``$NODNAV_CACHE`` or ``~/.cache/nodnav``."""
-    connect_factor: int = 3
+    connect_factor: int = field(default=3, metadata=accepted(1, 100))
     """A query's start and goal are offered this many times PRM*'s k nearest roadmap vertices."""
-    link_widening: int = 8
+    link_widening: int = field(default=8, metadata=accepted(1, 100))
     """When none of those can be linked, this many times as many are tried, then all."""
 
 
@@ -156,13 +160,17 @@ class ControllerParams:
 
     name: str = "mpc"
     """Controller name, one of :data:`~nodnav.registry.CONTROLLERS` (``mpc``, or a plugin's)."""
-    dt: float = 0.1
+    dt: float = field(default=0.1, metadata=accepted(0.01, 1.0, why="at most controller.horizon"))
     """Control and physics step (s)."""
-    horizon: float = 0.8
+    horizon: float = field(default=0.8, metadata=accepted(0.01, 5.0))
     """Horizon over which the controller is given the others' predicted motion, T_MPC (s); paper: 0.8."""
-    samples: int = 8
+    samples: int = field(default=8, metadata=accepted(1, 100))
     """Instants over the horizon at which the others' predicted motion is given (evenly spaced, the
     last at the horizon); the MPC keeps clear of the predictions there and between them."""
+    safety_margin: float = field(default=0.02, metadata=accepted(0.0, 0.5))
+    """Separation the controller keeps beyond 2 r_robot (m), which the simulation's reaction margin
+    leaves free too; below the planner's ``margin`` so that plans that keep exactly that can be
+    tracked (not in the paper)."""
 
 
 @CONTROLLERS.declare("mpc", help="the B-spline model predictive controller of the appendix (default)")
@@ -171,45 +179,42 @@ class MPCParams(ControllerParams):
     """The B-spline MPC (:mod:`nodnav.control.mpc`, appendix): the paper's weights, then its
     numerical choices (not in the paper; the defaults are the tested ones)."""
 
-    w2: float = 1e-6
+    w2: float = field(default=1e-6, metadata=accepted(0.0, 1e3))
     """Velocity weight w_2 of the MPC cost (s^2); paper: 1e-6."""
-    safety_margin: float = 0.02
-    """Separation kept by the MPC beyond 2 r_robot (m); below the planner's ``margin`` so that the
-    MPC can track plans that keep exactly that (not in the paper)."""
-    segments: int = 8
+    segments: int = field(default=8, metadata=accepted(2, 64))
     """Knot spans of the cubic B-spline over the horizon (one per 0.1 s for T_MPC = 0.8 s)."""
-    max_interval: float = 0.05
+    max_interval: float = field(default=0.05, metadata=accepted(0.01, 1.0))
     """Longest time between separation / wall constraint samples (s)."""
-    speed_polygon_sides: int = 16
+    speed_polygon_sides: int = field(default=16, metadata=accepted(4, 64))
     """Sides of the inscribed polygon bounding the velocity (98 % of the limit across a face)."""
-    accel_polygon_sides: int = 8
+    accel_polygon_sides: int = field(default=8, metadata=accepted(4, 64))
     """Sides of the inscribed polygon bounding the acceleration (92 % of the limit across a face)."""
-    terminal_pieces: int = 4
+    terminal_pieces: int = field(default=4, metadata=accepted(1, 32))
     """Secants approximating the stopping-distance parabola of the terminal constraint."""
-    terminal_decel: float = 0.7
+    terminal_decel: float = field(default=0.7, metadata=accepted(0.0, 1.0, False))
     """Fraction of the available deceleration assumed by the terminal constraint (headroom for
     the approximations of the next step)."""
-    sqp_iterations: int = 2
+    sqp_iterations: int = field(default=2, metadata=accepted(1, 10))
     """QPs solved per step at most after a cold start (each re-linearised about the previous
     QP's solution); one otherwise."""
-    sqp_tolerance: float = 0.02
+    sqp_tolerance: float = field(default=0.02, metadata=accepted(0.0, 1.0))
     """A further QP is solved when the solution moved farther than this from its linearisation (m)."""
-    qp_tolerance: float = 1e-9
+    qp_tolerance: float = field(default=1e-9, metadata=accepted(1e-12, 0.001))
     """Largest row violation the QP solver accepts (DAQP's primal tolerance, m); every inequality
     is tightened by it. DAQP's default (1e-6) left rows violated by up to 1e-6 m."""
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
-    evasive_penalty: float = 1e3
+    evasive_penalty: float = field(default=1e3, metadata=accepted(1.0, 1e9))
     """Cost of the evasive QP per metre of intrusion into another robot's required separation
     at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above
     the tracking cost's sensitivity (below about 10 per metre), so the penalty is exact: no
     intrusion that can be avoided is made."""
-    evasive_curvature: float = 1e3
+    evasive_curvature: float = field(default=1e3, metadata=accepted(1e-06, 1e9))
     """Quadratic cost of an intrusion (per m^2), which keeps the evasive QP strictly convex."""
-    check_tolerance: float = 1e-4
+    check_tolerance: float = field(default=1e-4, metadata=accepted(0.0, 0.1))
     """Violation of a constraint, checked exactly, that makes a solution unacceptable (m, m/s, m/s^2)."""
-    contact_tolerance: float = 1e-3
+    contact_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """Penetration of the current state into a wall (the robot then brakes at once) or into another
     robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
 
@@ -221,10 +226,10 @@ class ExecutionParams:
     mode: Literal["gated", "timed"] = "gated"
     """``gated``: by the plan's precedences, waiting for the robots it depends on to move on
     (:mod:`nodnav.sim.execution`); ``timed``: by the clock, as the appendix."""
-    lag: float = 0.3
+    lag: float = field(default=0.3, metadata=accepted(0.0, 10.0))
     """Least time between the two samples of a precedence (s); rules out waiting cycles between
     robots that pass each other closely."""
-    tolerance: float = 0.05
+    tolerance: float = field(default=0.05, metadata=accepted(0.0, 1.0))
     """Distance within which an observed robot counts as still at the earliest of its nearest
     planned samples (m): how far it must move before it counts as having moved on."""
     reaction_margin: Literal["always", "moving", "surprised", "conflict", "off"] = "moving"
@@ -233,13 +238,13 @@ class ExecutionParams:
     ``moving`` (default) every robot that moves, that came at this one unexpectedly
     (``unexpected_approach``) within the last second, and every robot while this one cannot
     follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""
-    surprise: float = 5e-3
+    surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as
     moving (m); half of what 2 m/s^2 gives in 0.1 s."""
-    surprise_memory: float = 1.0
+    surprise_memory: float = field(default=1.0, metadata=accepted(0.0, 60.0))
     """For how long a robot that came at this one unexpectedly stays unexpected (s)."""
-    reaction_slack: float = 1e-3
+    reaction_slack: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """How much of the present gap to another robot the reaction margin leaves free (m), so that
     switching the margin on never puts a robot inside the other's braking disc at once."""
 
@@ -248,18 +253,18 @@ class ExecutionParams:
 class BaselineParams:
     """Settings of the methods NOD is compared with (``nodnav run --method``); NOD reads none."""
 
-    closest_first_tie: float = 0.01
+    closest_first_tie: float = field(default=0.01, metadata=accepted(0.0, 10.0, False))
     """closest-first: distances to the entrance that round to the same multiple of this are a tie,
     which the lower robot number wins (m)."""
-    orca_neighbor_dist: float = 5.0
+    orca_neighbor_dist: float = field(default=5.0, metadata=accepted(0.0, 1e3, False))
     """orca: centre distance within which other robots are taken into account (m)."""
-    orca_time_horizon: float = 2.0
+    orca_time_horizon: float = field(default=2.0, metadata=accepted(0.0, 60.0, False))
     """orca: time for which velocities are kept safe with respect to other robots (s)."""
-    orca_time_horizon_obst: float = 1.0
+    orca_time_horizon_obst: float = field(default=1.0, metadata=accepted(0.0, 60.0, False))
     """orca: time for which velocities are kept safe with respect to walls (s)."""
-    orca_radius_margin: float = 0.02
+    orca_radius_margin: float = field(default=0.02, metadata=accepted(0.0, 1.0))
     """orca: added to each robot's radius in RVO2, so contacts stay clear of the simulator's tolerance (m)."""
-    orca_route_margin: float = 0.05
+    orca_route_margin: float = field(default=0.05, metadata=accepted(0.0, 1.0))
     """orca: clearance beyond the radius kept by the route the preferred velocity follows (m);
     larger than ``orca_radius_margin`` so that the preferred velocity does not press against a wall."""
 
@@ -268,14 +273,14 @@ class BaselineParams:
 class SimParams:
     """How a trial is simulated and judged."""
 
-    goal_tolerance: float = 0.15
+    goal_tolerance: float = field(default=0.15, metadata=accepted(0.0, 1.0, False))
     """A robot has arrived when it is this close to its destination (m)."""
-    collision_tolerance: float = 1e-3
+    collision_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """Penetration beyond which a contact counts as a collision (m)."""
-    deadlock_time: float = 10.0
+    deadlock_time: float = field(default=10.0, metadata=accepted(0.0, 3600.0, False))
     """A trial is a deadlock when no robot has progressed for this long (s)."""
-    progress_epsilon: float = 0.2
+    progress_epsilon: float = field(default=0.2, metadata=accepted(0.0, 10.0))
     """Decrease of a robot's distance-to-go below its best so far that counts as progress (m); a
     robot radius, so that robots creeping a few centimetres at a time in a jam do not count."""
-    observation_noise: float = 0.0
+    observation_noise: float = field(default=0.0, metadata=accepted(0.0, 1.0))
     """Standard deviation of the position noise in what each robot observes of the others (m)."""

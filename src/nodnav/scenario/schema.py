@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,11 +28,13 @@ from nodnav.scenario.fields import (
     mapping,
     number,
     point,
+    range_of,
     read_params,
     strategy_number,
     text,
     vector,
 )
+from nodnav.scenario.limits import accepted
 from nodnav.scenario.params import (
     BaselineParams,
     ControllerParams,
@@ -41,6 +43,7 @@ from nodnav.scenario.params import (
     MPCParams,
     OpinionParams,
     PlannerParams,
+    PRMParams,
     RobotSpec,
     SimParams,
 )
@@ -65,7 +68,8 @@ class Scenario:
     """Opinion-layer parameters, shared by every robot unless overridden per robot."""
     game_players: int | None = None
     """Number k of game players per robot (eq. (7)); ``None`` means all other robots."""
-    time_limit: float = 60.0
+    time_limit: float = field(default=60.0, metadata=accepted(0.0, 3600.0, False,
+                                                           why="at most MAX_CONTROL_STEPS control steps"))
     """Simulated time after which a trial is a timeout (s)."""
     planner: PlannerParams = FastPlannerParams()
     """The multi-robot path planner."""
@@ -130,7 +134,7 @@ class Scenario:
 
 # ---------------------------------------------------------------------------------------------
 # Loading. Every check names the key path the user wrote (``robot_defaults.radius``,
-# ``robots[2].origin``) and, where a number is out of range, the range (nodnav.scenario.limits).
+# ``robots[2].origin``) and, where a number is out of range, the range its field declares.
 
 
 def _box(value: Any, where: str) -> tuple[float, float, float, float]:
@@ -211,12 +215,12 @@ def _component(registry: Registry, base: type[PlannerParams] | type[ControllerPa
                    f"{base.__name__}; register it with params=...")
     others = {f.name: e.params for e in reversed(registry.entries()) if e.params is not None and e.params is not cls
               for f in dataclasses.fields(e.params)}
-    return read_params(cls, data, where, where, ignored=others)
+    return read_params(cls, data, where, ignored=others)
 
 
 def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
     """Opinion parameters from a mapping, with their cross-field checks."""
-    opinion = read_params(OpinionParams, data, where, "opinion")
+    opinion = read_params(OpinionParams, data, where)
     n_s = math.factorial(n_robots)
     if opinion.init == "given" and (len(opinion.z0) != n_robots or any(len(row) != n_s for row in opinion.z0)):
         raise fail(f"{where}.z0", f"with init 'given', give {n_robots} rows of {n_s} numbers (one row per robot)")
@@ -257,7 +261,7 @@ def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, .
                 source[key], value = f"robot_defaults.{key}", defaults[key]
             else:  # the default, which the user did not write
                 source[key], value = None, getattr(RobotSpec, key)
-            body[key] = number(value, source[key] or f"{where}.{key}", f"robots.{key}")
+            body[key] = number(value, source[key] or f"{where}.{key}", range_of(RobotSpec, key))
         own = entry.get("opinion")
         robots.append(RobotSpec(
             origin=point(entry["origin"], f"{where}.origin"),
@@ -388,18 +392,18 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
         raise fail("game_players", f"{'all' if game_players is None else game_players} game players make every robot "
                    f"weigh {game}! = {math.factorial(game)} passing orders, more than {limits.MAX_STRATEGIES}; "
                    f"give game_players: {limits.MAX_GAME - 1} or fewer")
-    time_limit = number(data.get("time_limit", 60.0), "time_limit", "time_limit")
+    time_limit = number(data.get("time_limit", 60.0), "time_limit", range_of(Scenario, "time_limit"))
     planner = _component(PLANNERS, PlannerParams, data.get("planner"), "planner")
     controller = _component(CONTROLLERS, ControllerParams, data.get("controller"), "controller")
-    if "\0" in getattr(planner, "cache_dir", ""):
+    if isinstance(planner, PRMParams) and "\0" in planner.cache_dir:
         raise fail("planner.cache_dir", "a directory name cannot hold a NUL character")
     _check_sizes(time_limit, controller, planner, robots, world)
     ratio = opinion.T / controller.dt
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
         raise fail("opinion.T", f"{opinion.T:g} s must be a whole multiple of controller.dt ({controller.dt:g} s)")
-    sim = read_params(SimParams, data.get("sim"), "sim", "sim")
-    execution = read_params(ExecutionParams, data.get("execution"), "execution", "execution")
-    baselines = read_params(BaselineParams, data.get("baselines"), "baselines", "baselines")
+    sim = read_params(SimParams, data.get("sim"), "sim")
+    execution = read_params(ExecutionParams, data.get("execution"), "execution")
+    baselines = read_params(BaselineParams, data.get("baselines"), "baselines")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,
                     game_players=game_players, time_limit=time_limit, planner=planner,
                     controller=controller, sim=sim, execution=execution, baselines=baselines)

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from nodnav.bench.scaling import measure_trial, plan_cells
 from nodnav.cli import main
 from nodnav.scenario.crowds import door_crowd
-from nodnav.sim.bench_scaling import measure_trial, plan_cells
 
 
 def test_cells_leave_out_impossible_games_and_refuse_all_players_above_six_robots():

@@ -2,8 +2,8 @@
 
 import numpy as np
 
+from nodnav.bench.closed_loop import benchmark_closed_loop
 from nodnav.scenario.loading import load_scenario
-from nodnav.sim.bench import benchmark_closed_loop
 from nodnav.sim.simulator import run_trial
 
 

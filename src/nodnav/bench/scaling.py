@@ -13,7 +13,7 @@ per cell, one cell at a time, single-threaded: one core. Per cell it measures
   calls*, what the planner computed (robots posing the same joint query share one call). Each
   robot asks for every order of its game, ``(k+1)!``, every decision, so requests are exactly
   ``N_r (k+1)!``; planner calls are ``(k+1)!`` per distinct joint query set, between ``(k+1)!``
-  and ``N_r (k+1)!`` (``tests/sim/test_bench_scaling.py`` checks both by hand);
+  and ``N_r (k+1)!`` (``tests/bench/test_scaling.py`` checks both by hand);
 * **peak memory**: the worker's peak resident set (``ru_maxrss``) after its trials, and the same
   before them (after loading the compiled kernels with a tiny trial), so that cells never
   share memory and the trials' own growth shows;
@@ -37,7 +37,13 @@ from typing import Callable
 
 import numpy as np
 
+from nodnav.control.base import ControlResult
+from nodnav.scenario.crowds import door_crowd
 from nodnav.scenario.limits import MAX_STRATEGIES
+from nodnav.scenario.loading import load_scenario
+from nodnav.sim.agent import Decision, RobotView
+from nodnav.sim.methods import PlannedMethod
+from nodnav.sim.simulator import Simulation, run_trial
 
 log = logging.getLogger(__name__)
 
@@ -66,27 +72,39 @@ class TrialCost:
     """The :class:`~nodnav.sim.simulator.TrialResult` (with its history), when kept."""
 
 
-def measure_trial(scenario, seed: int, keep_result: bool = False) -> TrialCost:
-    """Run one ``nod`` trial of ``scenario`` timing every call of :meth:`Method.decide`."""
-    from nodnav.sim.simulator import Simulation
+class _TimedDecisions:
+    """The trial's method with every decision round timed and its plan queries counted; the
+    simulator sees the same method (it calls only ``name``, ``decide`` and ``act``)."""
 
-    start = time.perf_counter()
-    sim = Simulation(scenario, "nod", seed)
-    method = sim.method
-    plans = method.plans  # type: ignore[attr-defined]  # every planning method has a plan cache
-    inner = method.decide
-    rounds: list[tuple[float, int, int]] = []
+    def __init__(self, method: PlannedMethod):
+        self.inner = method
+        self.name = method.name
+        self.rounds: list[tuple[float, int, int]] = []
+        """CPU time, planner calls and plan requests of each decision round."""
 
-    def decide(views):
+    def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
+        plans = self.inner.plans
         calls, asked, cpu = plans.misses, plans.hits + plans.misses, time.process_time()
-        out = inner(views)
-        rounds.append((time.process_time() - cpu, plans.misses - calls, plans.hits + plans.misses - asked))
+        out = self.inner.decide(views)
+        self.rounds.append((time.process_time() - cpu, plans.misses - calls, plans.hits + plans.misses - asked))
         return out
 
-    method.decide = decide  # type: ignore[method-assign]  # the simulator calls this instance's decide
+    def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
+        return self.inner.act(t, views)
+
+
+def measure_trial(scenario, seed: int, keep_result: bool = False) -> TrialCost:
+    """Run one ``nod`` trial of ``scenario`` timing every call of :meth:`Method.decide`."""
+    start = time.perf_counter()
+    sim = Simulation(scenario, "nod", seed)
+    if not isinstance(sim.method, PlannedMethod):  # every planning method has a plan cache
+        raise TypeError(f"method {sim.method.name!r} does not plan; nothing to measure")
+    timed = _TimedDecisions(sim.method)
+    sim.method = timed
     while not sim.step():
         pass
     result = sim.result(time.perf_counter() - start)
+    rounds = timed.rounds
     cpu, calls, asked = (np.array(c) for c in zip(*rounds)) if rounds else (np.zeros(0),) * 3
     return TrialCost(cpu=cpu.astype(float), planner_calls=calls.astype(int), plan_requests=asked.astype(int),
                      sim_time=result.sim_time, wall_time=result.wall_time, outcome=result.outcome,
@@ -104,10 +122,6 @@ def measure_cell(n_robots: int, players: int, seeds, time_limit: float | None = 
 
     ``players`` is ``k``; ``time_limit`` (s) shortens the trials when given.
     """
-    from nodnav.scenario.crowds import door_crowd
-    from nodnav.scenario.loading import load_scenario
-    from nodnav.sim.simulator import run_trial
-
     run_trial(load_scenario("2r-case1").with_overrides(time_limit=0.5), "nod", 1)  # load the compiled kernels
     baseline = peak_rss_bytes()
     scenario = door_crowd(n_robots, players)
@@ -237,7 +251,7 @@ def run_in_worker(n_robots: int, players: int, seeds, time_limit: float | None =
     with tempfile.TemporaryDirectory(prefix="nodnav-scaling-") as tmp:
         out = Path(tmp) / "cell.json"
         job = json.dumps({"n_robots": n_robots, "players": players, "seeds": list(seeds), "time_limit": time_limit})
-        done = subprocess.run([sys.executable, "-m", "nodnav.sim.bench_scaling", job, str(out)],
+        done = subprocess.run([sys.executable, "-m", "nodnav.bench.scaling", job, str(out)],
                               env={**os.environ, **ONE_THREAD}, capture_output=True, text=True)
         if done.returncode != 0 or not out.exists():
             last = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
@@ -275,7 +289,7 @@ def benchmark_scaling(robots=range(2, 9), players=("1", "2", "3", "all"), trials
 
 
 def _worker(argv: list[str]) -> int:
-    """Entry point of a worker: ``python -m nodnav.sim.bench_scaling JOB_JSON OUT_PATH``."""
+    """Entry point of a worker: ``python -m nodnav.bench.scaling JOB_JSON OUT_PATH``."""
     job = json.loads(argv[0])
     figures = measure_cell(job["n_robots"], job["players"], job["seeds"], job.get("time_limit"))
     Path(argv[1]).write_text(json.dumps(figures))

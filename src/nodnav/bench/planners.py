@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodnav.decision.strategies import passing_orders
 from nodnav.geometry import min_gap, min_pair_distance
 from nodnav.planning.base import PlanRequest, crossing_directions, feasible_order
 
@@ -100,8 +101,6 @@ def _percentile(values: list[float], q: float) -> float:
 
 
 def _requests(scenario) -> list[PlanRequest]:
-    from nodnav.decision.strategies import passing_orders
-
     return [PlanRequest(scenario.world, scenario.origins, np.zeros_like(scenario.origins), scenario.destinations,
                         scenario.radii, scenario.max_speeds, tuple(int(k) for k in order))
             for order in passing_orders(scenario.n_robots)]

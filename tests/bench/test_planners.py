@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
+from nodnav.bench.planners import format_benchmark, main_bench_planners, run_planner_benchmark
 from nodnav.planning import make_planner
 from nodnav.planning.base import PlanRequest
-from nodnav.planning.bench import format_benchmark, main_bench_planners, run_planner_benchmark
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import PRMParams
 

@@ -88,7 +88,7 @@ def chamfered_polygon_vertices(polygon: np.ndarray, inflation: float) -> np.ndar
     return np.array(out, dtype=float).reshape(-1, 2)
 
 
-def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, turn: float = 0.0) -> np.ndarray:
     """Where ``point`` leaves, moving straight away from each centre, the regular octagon that
     circumscribes the disc of radius ``radii[j]`` about ``centres[j]`` (:func:`chamfered_vertices`
     of a zero-size box), ``(m, 2)``; ``point`` itself for a disc whose octagon it is not in.
@@ -104,6 +104,8 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> 
     away = p - c
     d = np.hypot(away[:, 0], away[:, 1])
     angle = np.arctan2(away[:, 1], away[:, 0])
+    if turn:  # the octagon turned by ``turn`` (rad)
+        angle = angle - turn
     delta = angle - np.round(angle / (np.pi / 4.0)) * (np.pi / 4.0)
     boundary = r / np.cos(delta) + 2 * TOL
     inside = (d > 0) & (d < boundary)
@@ -336,9 +338,15 @@ class VisibilityGraph:
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
         outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
         base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
-        ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        turn = self.world.passage.angle  # octagons square with the passage, at any angle
+        if turn:
+            c, s = math.cos(turn), math.sin(turn)
+            offsets = chamfered_vertices(np.zeros((len(centres), 4)), radii).reshape(len(centres), -1, 2)
+            ring = (centres[:, None] + offsets @ np.array([[c, s], [-s, c]])).reshape(-1, 2)
+        else:
+            ring = chamfered_vertices(np.hstack([centres, centres]), radii)
         # A start or goal inside an octagon but not its disc first steps out of it radially.
-        ring = np.vstack([ring, octagon_exits(start, centres, radii), octagon_exits(goal, centres, radii)])
+        ring = np.vstack([ring, octagon_exits(start, centres, radii, turn), octagon_exits(goal, centres, radii, turn)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])

@@ -99,6 +99,13 @@ class Passage:
         return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
 
     @cached_property
+    def angle(self) -> float:
+        """Direction of the axis (rad); exactly 0 for the paper's corridor. Planners turn their
+        rings of candidate spots and the octagons around other robots by it, so that they keep
+        the same place relative to the passage at any angle."""
+        return 0.0 if self.along_x else math.atan2(self.axis[1], self.axis[0])
+
+    @cached_property
     def s_start(self) -> float:
         """Along-coordinate of the first mouth (m)."""
         return self.start[0] * self.axis[0] + self.start[1] * self.axis[1]

@@ -1,0 +1,108 @@
+"""The rotation check of issue 20: a scenario turned and moved as a whole must play out the same.
+
+A trial of a scenario and of the scenario turned by ``angle`` and moved by ``shift``
+(:func:`~nodnav.scenario.transform.transform_scenario`) are compared: outcome, entry order, and
+the trajectories turned back. The closed loop is chaotic (rounding differences of 1e-16 m grow,
+and NOD amplifies them on purpose where a scenario is symmetric: that is how it breaks a tie), so
+the comparison is stated as
+
+* the same outcome;
+* the same entry order, or the order of a mirror image of the trial when the scenario is
+  symmetric (a reflection of the passage's frame that maps the robots onto one another: then
+  both orders are equally right and which one happens is decided by rounding);
+* the trajectories turned back (and, for a mirror image, reflected and renumbered): the step up
+  to which they agree within ``1e-6`` m, the largest distance over the trial, and the difference
+  of the makespans.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.scenario.schema import Scenario
+from nodnav.scenario.transform import transform_scenario, untransform_points
+from nodnav.sim.simulator import run_trial
+
+#: Distance (m) under which two trajectories count as the same trajectory.
+SAME = 1e-6
+
+
+@dataclass(frozen=True)
+class RotationComparison:
+    """How a trial and the same trial turned compare."""
+
+    name: str
+    """Scenario name."""
+    angle: float
+    """Angle (degrees)."""
+    outcomes: tuple[str, str]
+    """Outcome of the trial and of the turned trial."""
+    entry_orders: tuple[tuple[int, ...], tuple[int, ...]]
+    """Entry orders (robots 0-based)."""
+    order_match: str
+    """``same``, ``mirror`` (the order of a mirror image of a symmetric scenario) or ``different``."""
+    same_until: float
+    """Time (s) up to which the trajectories agree within :data:`SAME` (the whole trial when they always do)."""
+    max_distance: float
+    """Largest distance (m) between a robot and its counterpart turned back, over the common samples."""
+    makespan_difference: float
+    """Difference of the makespans (s); NaN unless both succeeded."""
+
+    @property
+    def agrees(self) -> bool:
+        """Same outcome and the same entry order (up to the scenario's mirror symmetry)."""
+        return self.outcomes[0] == self.outcomes[1] and self.order_match != "different"
+
+
+def mirror_permutations(scenario: Scenario) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The reflections of the passage's frame that map the scenario's robots onto one another:
+    ``(matrix, permutation)`` with ``matrix`` the linear part about the passage's centre and
+    ``permutation[i]`` the robot that robot ``i``'s image is. Robots must match in every
+    setting but their places; the walls are assumed symmetric too (the built-ins' are)."""
+    g = scenario.world.passage
+    u, n = np.asarray(g.axis), np.asarray(g.normal)
+    centre = 0.5 * (np.asarray(g.start) + np.asarray(g.end))
+    reflections = [np.outer(u, u) - np.outer(n, n), np.outer(n, n) - np.outer(u, u), -np.eye(2)]
+    specs = [dataclasses.replace(r, origin=(0.0, 0.0), destination=(0.0, 0.0)) for r in scenario.robots]
+    ends = np.stack([scenario.origins, scenario.destinations], axis=1)  # (N, 2, 2)
+    out = []
+    for m in reflections:
+        image = (ends - centre) @ m.T + centre
+        perm = np.full(len(ends), -1)
+        for i in range(len(ends)):
+            match = np.flatnonzero(np.all(np.abs(ends - image[i]) < 1e-9, axis=(1, 2)))
+            if len(match) == 1 and specs[int(match[0])] == specs[i]:
+                perm[i] = int(match[0])
+        if (perm >= 0).all() and len(set(perm.tolist())) == len(perm) and not np.array_equal(perm, np.arange(len(perm))):
+            out.append((m, perm))
+    return out
+
+
+def compare_rotated(scenario: Scenario, angle: float, shift=(0.0, 0.0), seed: int = 1,
+                    method: str = "nod") -> RotationComparison:
+    """Run ``scenario`` and its turned and moved copy with the same seed and compare them."""
+    a = run_trial(scenario, method=method, seed=seed)
+    b = run_trial(transform_scenario(scenario, angle, shift), method=method, seed=seed)
+    pa = np.asarray(a.history.arrays()["positions"])
+    pb = untransform_points(np.asarray(b.history.arrays()["positions"]), angle, shift)
+    order_a, order_b = tuple(a.entry_order), tuple(b.entry_order)
+    match = "same" if order_a == order_b else "different"
+    if match == "different":
+        g = scenario.world.passage
+        centre = 0.5 * (np.asarray(g.start) + np.asarray(g.end))
+        for m, perm in mirror_permutations(scenario):
+            if tuple(int(perm[i]) for i in order_a) == order_b:
+                match = "mirror"
+                pb = ((pb - centre) @ m.T + centre)[:, perm]  # robot perm[i] played robot i's mirror image
+                break
+    k = min(len(pa), len(pb))
+    dist = np.linalg.norm(pa[:k] - pb[:k], axis=-1).max(axis=1)
+    times = np.asarray(a.history.arrays()["times"])[:k]
+    apart = np.flatnonzero(dist > SAME)
+    same_until = float(times[apart[0] - 1]) if len(apart) and apart[0] > 0 else (0.0 if len(apart) else float(times[-1]))
+    makespan = float(b.makespan - a.makespan) if a.outcome == b.outcome == "success" else float("nan")
+    return RotationComparison(scenario.name, float(angle), (a.outcome, b.outcome), (order_a, order_b), match,
+                              same_until, float(dist.max()), makespan)

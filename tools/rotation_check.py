@@ -4,9 +4,9 @@
     .venv/bin/python tools/rotation_check.py --sides 24 3r-case4  # controller polygons of 24 sides
 
 Prints one line per (scenario, angle): outcomes, entry orders and whether they match (``same``,
-``mirror`` for the mirror image of a symmetric scenario, or ``different``), the time up to which
-the trajectories agree within 1e-6 m, the largest distance between them, and the makespan
-difference (see :mod:`nodnav.sim.rotation`). Exit code 1 when any outcome or order differs.
+``symmetric`` when robots that are mirror images of each other swap places, or ``different``),
+the time up to which the trajectories agree within 1e-6 m, the largest and the mean distance
+between them, and the makespan difference (see :mod:`nodnav.sim.rotation`). Exit code 1 when any outcome or order differs.
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ def main() -> int:
             bad += not c.agrees
             print(f"{name:10s} {angle:5.0f}  {c.outcomes[0]}/{c.outcomes[1]}  {c.entry_orders[0]} {c.entry_orders[1]} "
                   f"{c.order_match:9s} same until {c.same_until:5.1f} s  max {c.max_distance:.2e} m  "
+                  f"mean {c.mean_distance:.2e} m  "
                   f"makespan {c.makespan_difference:+.2f} s", flush=True)
     return 1 if bad else 0
 

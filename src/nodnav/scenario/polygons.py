@@ -34,13 +34,18 @@ def polygon_problem(points: Sequence[Sequence[float]]) -> str:
         return f"at most {MAX_POLYGON_POINTS} points per polygon, got {len(pts)}"
     if not all(math.isfinite(c) for p in pts for c in p):
         return "every coordinate must be a finite number"
+    q = np.asarray(pts) - pts[0]
+    scale = max(float(np.ptp(q)), 1.0)
+    if np.abs(q[1:, 0] * q[1, 1] - q[1:, 1] * q[1, 0]).max() <= 1e-12 * scale * scale and len(pts) >= 3:
+        cross = q[:, 0, None] * q[None, :, 1] - q[:, 1, None] * q[None, :, 0]
+        if np.abs(cross).max() <= 1e-12 * scale * scale:
+            return "the polygon has zero area (its points are on one line)"
     poly = shapely.Polygon(pts)
-    if not poly.is_valid and poly.area > 1e-12:
-        return f"the polygon crosses itself ({shapely.is_valid_reason(poly)}); list its points round its boundary"
-    if poly.area <= 1e-12:
-        return "the polygon has zero area (its points are on one line or it folds back on itself)"
     if not poly.is_valid:
-        return f"the polygon crosses itself ({shapely.is_valid_reason(poly)}); list its points round its boundary"
+        return (f"the polygon crosses itself ({shapely.is_valid_reason(poly)}); "
+                f"list its points in order round its boundary")
+    if poly.area <= 1e-12 * scale * scale:
+        return "the polygon has zero area"
     return ""
 
 

@@ -7,12 +7,13 @@ and NOD amplifies them on purpose where a scenario is symmetric: that is how it 
 the comparison is stated as
 
 * the same outcome;
-* the same entry order, or the order of a mirror image of the trial when the scenario is
-  symmetric (a reflection of the passage's frame that maps the robots onto one another: then
-  both orders are equally right and which one happens is decided by rounding);
-* the trajectories turned back (and, for a mirror image, reflected and renumbered): the step up
-  to which they agree within ``1e-6`` m, the largest distance over the trial, and the difference
-  of the makespans.
+* the same entry order, or the same but for robots that are mirror images of each other (under
+  a reflection of the passage's frame that maps the scenario's robots onto one another) swapping
+  places: the built-ins are placed by hand, symmetric, with robots equally far from their
+  entrance; such a tie is broken by rounding, and either way round is equally right;
+* the trajectories turned back (a swapped robot compared with its stand-in's mirror image): the
+  time up to which they agree within ``1e-6`` m, the largest and the mean distance over the
+  trial, and the difference of the makespans.
 """
 
 from __future__ import annotations
@@ -43,11 +44,14 @@ class RotationComparison:
     entry_orders: tuple[tuple[int, ...], tuple[int, ...]]
     """Entry orders (robots 0-based)."""
     order_match: str
-    """``same``, ``mirror`` (the order of a mirror image of a symmetric scenario) or ``different``."""
+    """``same``, ``symmetric`` (the same but for robots that are mirror images of each other
+    swapping places) or ``different``."""
     same_until: float
     """Time (s) up to which the trajectories agree within :data:`SAME` (the whole trial when they always do)."""
     max_distance: float
     """Largest distance (m) between a robot and its counterpart turned back, over the common samples."""
+    mean_distance: float
+    """Mean distance (m) between a robot and its counterpart turned back, over robots and common samples."""
     makespan_difference: float
     """Difference of the makespans (s); NaN unless both succeeded."""
 
@@ -76,7 +80,8 @@ def mirror_permutations(scenario: Scenario) -> list[tuple[np.ndarray, np.ndarray
             match = np.flatnonzero(np.all(np.abs(ends - image[i]) < 1e-9, axis=(1, 2)))
             if len(match) == 1 and specs[int(match[0])] == specs[i]:
                 perm[i] = int(match[0])
-        if (perm >= 0).all() and len(set(perm.tolist())) == len(perm) and not np.array_equal(perm, np.arange(len(perm))):
+        bijective = (perm >= 0).all() and len(set(perm.tolist())) == len(perm)
+        if bijective and not np.array_equal(perm, np.arange(len(perm))):
             out.append((m, perm))
     return out
 
@@ -90,19 +95,33 @@ def compare_rotated(scenario: Scenario, angle: float, shift=(0.0, 0.0), seed: in
     pb = untransform_points(np.asarray(b.history.arrays()["positions"]), angle, shift)
     order_a, order_b = tuple(a.entry_order), tuple(b.entry_order)
     match = "same" if order_a == order_b else "different"
-    if match == "different":
+    mirrors = mirror_permutations(scenario)
+    if match == "different" and len(order_a) == len(order_b):
+        # Robots that are mirror images of each other may swap places in the order: the tie
+        # between them is broken by rounding. Compare each with its stand-in's mirror image.
         g = scenario.world.passage
         centre = 0.5 * (np.asarray(g.start) + np.asarray(g.end))
-        for m, perm in mirror_permutations(scenario):
-            if tuple(int(perm[i]) for i in order_a) == order_b:
-                match = "mirror"
-                pb = ((pb - centre) @ m.T + centre)[:, perm]  # robot perm[i] played robot i's mirror image
+        mapped = pb.copy()
+        ok = True
+        for i, j in zip(order_a, order_b):
+            if i == j:
+                continue
+            m = next((m for m, perm in mirrors if perm[i] == j), None)
+            if m is None:
+                ok = False
                 break
+            mapped[:, i] = (pb[:, j] - centre) @ m.T + centre
+        if ok:
+            match, pb = "symmetric", mapped
     k = min(len(pa), len(pb))
-    dist = np.linalg.norm(pa[:k] - pb[:k], axis=-1).max(axis=1)
+    apart_by = np.linalg.norm(pa[:k] - pb[:k], axis=-1)
+    dist = apart_by.max(axis=1)
     times = np.asarray(a.history.arrays()["times"])[:k]
     apart = np.flatnonzero(dist > SAME)
-    same_until = float(times[apart[0] - 1]) if len(apart) and apart[0] > 0 else (0.0 if len(apart) else float(times[-1]))
+    if len(apart):
+        same_until = float(times[apart[0] - 1]) if apart[0] > 0 else 0.0
+    else:
+        same_until = float(times[-1])
     makespan = float(b.makespan - a.makespan) if a.outcome == b.outcome == "success" else float("nan")
     return RotationComparison(scenario.name, float(angle), (a.outcome, b.outcome), (order_a, order_b), match,
-                              same_until, float(dist.max()), makespan)
+                              same_until, float(dist.max()), float(apart_by.mean()), makespan)

@@ -6,7 +6,8 @@
 Prints one line per (scenario, angle): outcomes, entry orders and whether they match (``same``,
 ``symmetric`` when robots that are mirror images of each other swap places, or ``different``),
 the time up to which the trajectories agree within 1e-6 m, the largest and the mean distance
-between them, and the makespan difference (see :mod:`nodnav.sim.rotation`). Exit code 1 when any outcome or order differs.
+between them, and the makespan difference (see :mod:`nodnav.sim.rotation`). Exit code 1 when
+any outcome or order differs.
 """
 
 from __future__ import annotations

@@ -178,10 +178,13 @@ class World:
     """Outer boundary ``(x_min, y_min, x_max, y_max)`` (m); robots stay inside it."""
     obstacles: tuple[tuple[float, float, float, float], ...]
     """Axis-aligned wall rectangles ``(x_min, y_min, x_max, y_max)`` (m)."""
-    corridor: Corridor | None = None
-    """The paper's shorthand for its horizontal passage; None for a passage given otherwise."""
-    entrances: tuple[tuple[float, float], tuple[float, float]] | None = None
-    """First and second entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0)."""
+    # Typed without None for the families' code, which builds and reads only shorthand worlds.
+    corridor: Corridor = None  # type: ignore[assignment]
+    """The paper's shorthand for its horizontal passage; None when the passage is given as
+    ``passages`` (code that may see such a world reads :attr:`passage`)."""
+    entrances: tuple[tuple[float, float], tuple[float, float]] = None  # type: ignore[assignment]
+    """First and second entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0).
+    Derived from the passage's mouths when not given."""
     passages: tuple[Passage, ...] = ()
     """The single-file passages (one for now; several are item 4 of issue 20)."""
     polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())

@@ -134,7 +134,6 @@ def read_world(data: Any) -> World:
             raise fail("world.corridor", "need x_min < x_max and y_min < y_max")
     else:
         corridor = default.corridor
-        assert corridor is not None
     inside = (bounds[0] <= corridor.x_min and corridor.x_max <= bounds[2]
               and bounds[1] <= corridor.y_min and corridor.y_max <= bounds[3])
     if not inside:

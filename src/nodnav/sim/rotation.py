@@ -91,8 +91,23 @@ def compare_rotated(scenario: Scenario, angle: float, shift=(0.0, 0.0), seed: in
     """Run ``scenario`` and its turned and moved copy with the same seed and compare them."""
     a = run_trial(scenario, method=method, seed=seed)
     b = run_trial(transform_scenario(scenario, angle, shift), method=method, seed=seed)
-    pa = np.asarray(a.history.arrays()["positions"])
     pb = untransform_points(np.asarray(b.history.arrays()["positions"]), angle, shift)
+    return _compare(scenario, float(angle), a, b, pb)
+
+
+def compare_perturbed(scenario: Scenario, eps: float, seed: int = 1, method: str = "nod") -> RotationComparison:
+    """The same comparison between ``scenario`` and ``scenario`` with every origin moved by
+    ``(eps, -eps)`` (m), unturned: how far rounding-sized differences alone carry a trial
+    (the ``angle`` of the result is NaN)."""
+    robots = tuple(dataclasses.replace(r, origin=(r.origin[0] + eps, r.origin[1] - eps)) for r in scenario.robots)
+    a = run_trial(scenario, method=method, seed=seed)
+    b = run_trial(dataclasses.replace(scenario, robots=robots), method=method, seed=seed)
+    return _compare(scenario, float("nan"), a, b, np.asarray(b.history.arrays()["positions"]))
+
+
+def _compare(scenario: Scenario, angle: float, a, b, pb: np.ndarray) -> RotationComparison:
+    """Compare trial ``a`` with trial ``b`` whose positions, mapped back, are ``pb``."""
+    pa = np.asarray(a.history.arrays()["positions"])
     order_a, order_b = tuple(a.entry_order), tuple(b.entry_order)
     match = "same" if order_a == order_b else "different"
     mirrors = mirror_permutations(scenario)

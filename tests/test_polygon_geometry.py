@@ -94,3 +94,13 @@ def test_grown_polygon_edges_keep_the_inflation():
 ])
 def test_bad_polygons_are_named(points, words):
     assert words in polygon_problem(points)
+
+
+def test_orca_gets_polygon_walls_counter_clockwise():
+    from nodnav.sim.baselines import wall_polygons
+
+    world = world_with([SHAPE])  # SHAPE is listed clockwise
+    polys = wall_polygons(world)
+    assert len(polys) == 2  # the polygon, then the boundary
+    assert shapely.LinearRing(polys[0]).is_ccw and not shapely.LinearRing(polys[1]).is_ccw
+    assert shapely.Polygon(polys[0]).equals(shapely.Polygon(SHAPE))

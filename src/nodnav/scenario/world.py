@@ -192,10 +192,13 @@ class World:
 
     def __post_init__(self) -> None:
         passages = tuple(self.passages)
-        if not passages:
-            if self.corridor is None:
-                raise ValueError("a world needs a passage: give passages or corridor")
-            passages = (Passage.of_corridor(self.corridor),)
+        if self.corridor is not None:
+            derived = (Passage.of_corridor(self.corridor),)
+            if passages and passages != derived:  # e.g. dataclasses.replace of the corridor alone
+                raise ValueError("give either passages or the corridor shorthand, not both")
+            passages = derived
+        elif not passages:
+            raise ValueError("a world needs a passage: give passages or corridor")
         object.__setattr__(self, "passages", passages)
         if len(passages) != 1:
             raise ValueError("several passages are not supported yet")

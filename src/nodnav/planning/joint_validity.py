@@ -10,7 +10,8 @@ it valid when every pair of robots is at least ``2 r_robot`` apart; here it is v
 Passing order at the level of a configuration
 ---------------------------------------------
 Robots are relabelled by their rank in the passing order: rank 0 passes first. Each robot has a
-crossing direction ``d`` (+1 left to right, -1 right to left, 0 it does not cross; see
+crossing direction ``d`` (+1 from the first mouth's side to the second's, the paper's left to
+right, -1 the other way, 0 it does not cross; see
 :func:`nodnav.planning.base.crossing_directions`) and, at every configuration, a *stage* that
 depends on its coordinate along the passage's axis only (x for the paper's corridor): BEFORE the
 corridor, INSIDE it (between the entrances,

@@ -104,3 +104,33 @@ def test_orca_gets_polygon_walls_counter_clockwise():
     assert len(polys) == 2  # the polygon, then the boundary
     assert shapely.LinearRing(polys[0]).is_ccw and not shapely.LinearRing(polys[1]).is_ccw
     assert shapely.Polygon(polys[0]).equals(shapely.Polygon(SHAPE))
+
+
+def test_controller_walls_as_pieces_agree_with_boxes():
+    # The MPC's per-wall state (nearest point, direction away, distance) and its exact plan check
+    # give the same for a box and for the same box as a convex piece.
+    from nodnav.control.mpc_rows import group_state, plan_extremes
+
+    rng = np.random.default_rng(6)
+    boxes = np.array([[-3.0, -2.5, 3.0, -0.35], [-3.0, 0.35, 3.0, 2.5]])
+    pieces = padded_pieces([np.array(box_polygon_ccw(b)) for b in boxes])
+    none_b, none_p = np.zeros((0, 4)), np.zeros((0, 3, 2))
+    n_end = 4
+    speed, intervals = np.full(n_end, 0.5), np.full(n_end, 0.1)
+    pred = np.zeros((0, n_end + 2, 2))
+    full = np.full(2, 0.2)
+    bounds = np.array([-7.0, -2.5, 7.0, 2.5])
+    for p0 in rng.uniform([-6.0, -2.4], [6.0, 2.4], size=(50, 2)):
+        a = group_state(pred, n_end, p0, speed, intervals, boxes, none_p, full, 0.0, 10.0)
+        b = group_state(pred, n_end, p0, speed, intervals, none_b, pieces, full, 0.0, 10.0)
+        for x, y in zip(a, b):
+            np.testing.assert_allclose(x, y, atol=1e-12)
+    values = rng.uniform(-6.0, 6.0, size=(30, 2))
+    ca = plan_extremes(values, 20, 5, boxes, none_p, bounds, np.zeros((0, 20, 2)))[0]
+    cb = plan_extremes(values, 20, 5, none_b, pieces, bounds, np.zeros((0, 20, 2)))[0]
+    assert ca == pytest.approx(cb, abs=1e-12)
+
+
+def box_polygon_ccw(box):
+    x0, y0, x1, y1 = box
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]

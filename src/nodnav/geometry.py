@@ -1,8 +1,12 @@
-"""The geometry core: exact distances between points, segments, axis-aligned boxes and discs.
+"""The geometry core: exact distances between points, segments, axis-aligned boxes, convex
+polygons and discs.
 
 Everything here works on arrays; nothing knows of scenarios, robots' plans or opinions. A wall is
-a closed rectangle ``(x_min, y_min, x_max, y_max)``; the world's outer boundary is a box the
-robots stay inside. Every routine that the compiled kernels of the planners need exists twice: a
+a closed rectangle ``(x_min, y_min, x_max, y_max)`` or a closed convex polygon (a *piece*: a
+polygon wall is the union of its convex pieces), given as its vertices counter-clockwise in a
+``(P, K, 2)`` array padded by repeating the last vertex (a zero-length edge changes no distance
+and no inside test). Boxes keep their own, faster arithmetic. The world's outer boundary is a box
+the robots stay inside. Every routine that the compiled kernels of the planners need exists twice: a
 vectorised function for NumPy callers and its compiled scalar twin (``*_one``), written once
 (the vectorised function loops over its twin), so that both give the same answer to the last
 bit. Distances are exact, never sampled: a segment is clear of a box when the least of its
@@ -28,6 +32,11 @@ class Walls(Protocol):
     @property
     def obstacle_array(self) -> np.ndarray:
         """Wall rectangles ``(M, 4)`` (m)."""
+        ...
+
+    @property
+    def piece_array(self) -> np.ndarray:
+        """Convex wall pieces ``(P, K, 2)`` counter-clockwise, padded by repeating the last vertex (m)."""
         ...
 
     @property
@@ -177,22 +186,24 @@ def segment_clearance(walls: Walls, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     shape = np.shape(a)[:-1] if np.ndim(a) > 1 else (1,)
     a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
     b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
-    return _segment_clearance_kernel(a, b, walls.obstacle_array, walls.bounds_array).reshape(shape)
+    return _segment_clearance_kernel(a, b, walls.obstacle_array, walls.bounds_array,
+                                     walls.piece_array).reshape(shape)
 
 
 @compiled
-def _segment_clearance_kernel(a, b, walls, bounds):
+def _segment_clearance_kernel(a, b, walls, bounds, pieces):
     """The loop of :func:`segment_clearance` over segments."""
     out = np.empty(a.shape[0])
     for s in range(a.shape[0]):
-        out[s] = segment_clearance_one(a[s, 0], a[s, 1], b[s, 0], b[s, 1], walls, bounds)
+        out[s] = segment_clearance_one(a[s, 0], a[s, 1], b[s, 0], b[s, 1], walls, bounds, pieces)
     return out
 
 
 @compiled
-def segment_clearance_one(ax, ay, bx, by, walls, bounds):
+def segment_clearance_one(ax, ay, bx, by, walls, bounds, pieces):
     """:func:`segment_clearance` of the one segment ``(ax, ay) -> (bx, by)`` among the rectangles
-    ``walls`` ``(M, 4)`` inside the box ``bounds`` ``(4,)``: the compiled twin, for other kernels."""
+    ``walls`` ``(M, 4)`` and the convex pieces ``pieces`` ``(P, K, 2)`` inside the box ``bounds``
+    ``(4,)``: the compiled twin, for other kernels."""
     x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
     d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
     if walls.shape[0]:
@@ -209,7 +220,108 @@ def segment_clearance_one(ax, ay, bx, by, walls, bounds):
                 d2 = 0.0
             nearest = min(nearest, d2)
         d = min(d, math.sqrt(nearest))
+    if pieces.shape[0]:
+        nearest = np.inf
+        for w in range(pieces.shape[0]):
+            nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
+        d = min(d, math.sqrt(nearest))
     return d
+
+
+@compiled
+def _point_piece_d2_one(px, py, piece):
+    """Squared distance from a point to the boundary of a convex piece ``(K, 2)``, and whether
+    the point is inside the closed piece."""
+    k = piece.shape[0]
+    d2 = np.inf
+    inside = True
+    for v in range(k):
+        ax, ay = piece[v, 0], piece[v, 1]
+        w = v + 1 if v + 1 < k else 0
+        dx, dy = piece[w, 0] - ax, piece[w, 1] - ay
+        d2 = min(d2, _segment_point_d2_one(ax, ay, dx, dy, px, py))
+        if dx * (py - ay) - dy * (px - ax) < 0.0:
+            inside = False
+    return d2, inside
+
+
+@compiled
+def piece_signed_distance_one(px, py, piece):
+    """Signed distance from a point to a closed convex piece ``(K, 2)``: negative inside."""
+    d2, inside = _point_piece_d2_one(px, py, piece)
+    return -math.sqrt(d2) if inside else math.sqrt(d2)
+
+
+@compiled
+def piece_closest_point_one(px, py, piece):
+    """The point of a closed convex piece ``(K, 2)`` nearest to ``(px, py)``: the point itself
+    when inside, else the nearest point of its boundary."""
+    k = piece.shape[0]
+    best, qx, qy = np.inf, px, py
+    inside = True
+    for v in range(k):
+        ax, ay = piece[v, 0], piece[v, 1]
+        w = v + 1 if v + 1 < k else 0
+        dx, dy = piece[w, 0] - ax, piece[w, 1] - ay
+        rx, ry = px - ax, py - ay
+        if dx * ry - dy * rx < 0.0:
+            inside = False
+        t = min(max((rx * dx + ry * dy) / max(dx * dx + dy * dy, 1e-300), 0.0), 1.0)
+        cx, cy = ax + t * dx, ay + t * dy
+        e2 = (px - cx) ** 2 + (py - cy) ** 2
+        if e2 < best:
+            best, qx, qy = e2, cx, cy
+    if inside:
+        return px, py
+    return qx, qy
+
+
+@compiled
+def _segment_hits_piece_one(ax, ay, dx, dy, piece):
+    """Whether the segment ``(ax, ay) -> (ax + dx, ay + dy)`` meets the closed convex piece
+    (Cyrus-Beck clipping against its edges' half-planes)."""
+    k = piece.shape[0]
+    t_in, t_out = 0.0, 1.0
+    for v in range(k):
+        w = v + 1 if v + 1 < k else 0
+        ex, ey = piece[w, 0] - piece[v, 0], piece[w, 1] - piece[v, 1]
+        nx, ny = ey, -ex  # outward normal of a counter-clockwise edge
+        num = nx * (piece[v, 0] - ax) + ny * (piece[v, 1] - ay)
+        den = nx * dx + ny * dy
+        if den == 0.0:
+            if num < 0.0:
+                return False
+        elif den > 0.0:
+            t_out = min(t_out, num / den)
+        else:
+            t_in = max(t_in, num / den)
+        if t_in > t_out:
+            return False
+    return True
+
+
+@compiled
+def _segment_piece_d2_one(ax, ay, bx, by, piece):
+    """Squared distance between a segment and a closed convex piece (0 when they meet): between
+    disjoint convex sets it is attained at a vertex of one of them."""
+    dx, dy = bx - ax, by - ay
+    if _segment_hits_piece_one(ax, ay, dx, dy, piece):
+        return 0.0
+    d2 = min(_point_piece_d2_one(ax, ay, piece)[0], _point_piece_d2_one(bx, by, piece)[0])
+    for v in range(piece.shape[0]):
+        d2 = min(d2, _segment_point_d2_one(ax, ay, dx, dy, piece[v, 0], piece[v, 1]))
+    return d2
+
+
+@compiled
+def piece_clearance(points: np.ndarray, pieces: np.ndarray) -> np.ndarray:
+    """Signed distance ``(N,)`` from each of ``points`` ``(N, 2)`` to the nearest convex piece
+    ``(P, K, 2)`` (inf without pieces); negative inside one."""
+    out = np.full(points.shape[0], np.inf)
+    for i in range(points.shape[0]):
+        for w in range(pieces.shape[0]):
+            out[i] = min(out[i], piece_signed_distance_one(points[i, 0], points[i, 1], pieces[w]))
+    return out
 
 
 @compiled

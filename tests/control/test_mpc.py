@@ -123,7 +123,7 @@ def testplan_extremes_agree_with_the_world_and_direct_norms():
     rates = rng.normal(size=(12, 2))
     preds = rng.normal(size=(3, 40, 2))
     clear, closest, fastest, hardest = plan_extremes(np.vstack([points, rates]), 40, 5, WORLD.obstacle_array,
-                                                      np.asarray(WORLD.bounds, dtype=float), preds)
+                                                      WORLD.piece_array, np.asarray(WORLD.bounds, dtype=float), preds)
     assert clear == pytest.approx(WORLD.clearance(points).min(), abs=1e-12)
     np.testing.assert_allclose(closest, np.linalg.norm(points[None] - preds, axis=-1).min(axis=1))
     assert fastest == pytest.approx(np.linalg.norm(rates[:5], axis=1).max())

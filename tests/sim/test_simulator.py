@@ -107,7 +107,8 @@ def test_deadlock_is_declared_when_nobody_progresses():
 def _contacts(previous, current, radii=(0.2, 0.2), tol=1e-6):
     world = paper_world()
     path = straight_substeps(np.array(previous, float), np.array(current, float), np.array([0.25, 0.5, 0.75, 1.0]))
-    return contact_counts(path, np.array(radii, float), tol, world.bounds_array, world.obstacle_array)
+    return contact_counts(path, np.array(radii, float), tol, world.bounds_array, world.obstacle_array,
+                          world.piece_array)
 
 
 def test_contacts_between_control_steps_are_caught():
@@ -134,9 +135,11 @@ def test_contacts_are_checked_on_the_curve_the_robot_drives_not_its_chord():
     angles = np.radians([185.0, 205.0, 225.0, 245.0, 265.0])  # start, then the four sub-steps
     curve = corner + 0.21 * np.stack([np.cos(angles), np.sin(angles)], axis=1)
     radii, tol = np.array([0.2]), 1e-6
-    on_curve = contact_counts(curve[1:, None, :], radii, tol, world.bounds_array, world.obstacle_array)
+    on_curve = contact_counts(curve[1:, None, :], radii, tol, world.bounds_array, world.obstacle_array,
+                          world.piece_array)
     chord = straight_substeps(curve[:1], curve[-1:], np.array([0.25, 0.5, 0.75, 1.0]))
-    on_chord = contact_counts(chord, radii, tol, world.bounds_array, world.obstacle_array)
+    on_chord = contact_counts(chord, radii, tol, world.bounds_array, world.obstacle_array,
+                          world.piece_array)
     assert on_curve == (0, 0) and on_chord == (0, 1)
 
 

@@ -264,7 +264,7 @@ class BSplineMPC:
         speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
         full, contact = self._clearances(m_w, other_radii)
         x_now, away, dist_now, need, delta_sq, far = group_state(
-            pred, n_end, p0, speed, prob.intervals, self.obstacles, full, prob.eps[0], self._reach)
+            pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, full, prob.eps[0], self._reach)
         gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
         need_box = np.minimum(r, gap - prob.eps[0])
         return StepData(

@@ -119,6 +119,8 @@ class MPCSetup:
     """Gram matrix of the tracking cost (position plus ``w_2`` velocity) on the control points."""
     obstacles: np.ndarray
     """Wall rectangles ``(M, 4)``."""
+    pieces: np.ndarray
+    """Convex pieces of polygon walls ``(P, K, 2)`` (:attr:`nodnav.scenario.world.World.piece_array`)."""
     world_bounds: np.ndarray
     """World bounds ``(x0, y0, x1, y1)``."""
     b_step: np.ndarray
@@ -151,7 +153,8 @@ class MPCSetup:
         return MPCSetup(
             robot=robot, settings=params, horizon=horizon, dt=dt, knots=knots,
             nullspace=initial_state_nullspace(knots, DEGREE), greville=bspline.greville_abscissae(knots, DEGREE),
-            cost_hessian=cost_hessian, obstacles=world.obstacle_array, world_bounds=world.bounds_array,
+            cost_hessian=cost_hessian, obstacles=world.obstacle_array, pieces=world.piece_array,
+            world_bounds=world.bounds_array,
             b_step=bspline.basis_derivative([dt], knots, DEGREE, 0)[0],
             # Where the robot passes within a step: the spline is curved, the chord is not it.
             b_substeps=bspline.basis_derivative(dt * STEP_FRACTIONS, knots, DEGREE, 0),
@@ -177,7 +180,7 @@ class MPCProblem:
         knots, horizon = setup.knots, setup.horizon
         self.setup = setup
         self.n_others = n_others
-        self.n_walls = len(setup.obstacles)
+        self.n_walls = len(setup.obstacles) + len(setup.pieces)
         self.sample_times = sample_times
         grid = constraint_grid(sample_times, horizon, s.max_interval)
         self.ends = grid[1:]
@@ -357,7 +360,8 @@ class MPCProblem:
         lower = np.empty(self.n_rows)
         lower[:self.n_static] = data.static_lower
         marked = np.zeros(self.n_groups, dtype=bool) if keep_arrangement is None else keep_arrangement
-        separation_rows(lin, data.x_now, self.setup.obstacles, self.n_walls, data.p0, data.v0, data.contact,
+        separation_rows(lin, data.x_now, self.setup.obstacles, self.setup.pieces, self.n_walls, data.p0, data.v0,
+                        data.contact,
                         np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
                         self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
                         self.dyn_line, self.rows, lower, self.n_static)
@@ -370,7 +374,8 @@ class MPCProblem:
         setup = self.setup
         tol = setup.settings.check_tolerance
         clear, closest, speed, accel = plan_extremes(self.b_check_rates @ c, len(self.check_times), setup.n_speed,
-                                                      setup.obstacles, setup.world_bounds, data.pred_check)
+                                                      setup.obstacles, setup.pieces, setup.world_bounds,
+                                                      data.pred_check)
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
         if separation and self.n_others:

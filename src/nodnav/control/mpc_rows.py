@@ -4,11 +4,12 @@ Separation and walls at every instant. The horizon is cut into intervals no long
 ``settings.max_interval`` whose ends include every sample time (:func:`constraint_grid`), so
 predictions are linear on each interval. At every interval end, a half-plane
 ``n^T (p(tau_e) - x(tau_e)) >= R'`` with ``n`` the unit vector from the other robot (or from the
-nearest point of the wall rectangle) to the linearisation point there: the previous plan moved
-on by one step, or the reference when there is none. A half-plane outside a disc (or a convex
-rectangle) implies the true non-convex constraint at the sample; between samples, a chord whose
-ends are ``R'`` from a point and which moves by ``delta`` stays ``sqrt(R'^2 - delta^2 / 4)`` from
-it, and the curve leaves its chord by at most ``max_accel dt^2 / 8`` (:func:`chord_inflation`);
+nearest point of the wall rectangle, or of the convex piece of a polygon wall) to the
+linearisation point there: the previous plan moved on by one step, or the reference when there is
+none. A half-plane outside a disc (or a convex rectangle or piece) implies the true non-convex
+constraint at the sample; between samples, a chord whose ends are ``R'`` from a point and which
+moves by ``delta`` stays ``sqrt(R'^2 - delta^2 / 4)`` from it, and the curve leaves its chord by at
+most ``max_accel dt^2 / 8`` (:func:`chord_inflation`);
 ``R'`` is inflated accordingly. Every accepted plan is therefore safe at every instant with
 respect to the predictions. The linearisation trajectory satisfies its own tangent half-planes,
 so a feasible previous plan stays feasible.
@@ -35,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.compiled import compiled
+from nodnav.geometry import piece_closest_point_one, piece_signed_distance_one
 
 
 def constraint_grid(sample_times: np.ndarray, horizon: float, max_interval: float) -> np.ndarray:
@@ -95,7 +97,7 @@ def stopping_rows(span: float, decel: float, max_closing_speed: float,
 
 
 @compiled
-def separation_rows(lin, x_now, boxes, n_walls, p0, v0, contact, need, cold, keep_arrangement, eps_end,
+def separation_rows(lin, x_now, boxes, pieces, n_walls, p0, v0, contact, need, cold, keep_arrangement, eps_end,
                     delta_sq, group_point, group_wv, term_offset, vel, far, away, dyn_phi, dyn_line, rows, lower,
                     row0):
     """Write the wall and separation rows (see :meth:`~nodnav.control.mpc_problem.MPCProblem.write_separation`)
@@ -110,9 +112,11 @@ def separation_rows(lin, x_now, boxes, n_walls, p0, v0, contact, need, cold, kee
                 normal[e, 0], normal[e, 1] = away[g, 0], away[g, 1]
                 point[e, 0], point[e, 1] = x_now[g, e, 0], x_now[g, e, 1]
                 continue
-            if g < n_walls:  # the wall rectangle's nearest point to the linearisation point
+            if g < boxes.shape[0]:  # the wall rectangle's nearest point to the linearisation point
                 qx = min(max(lin[e, 0], boxes[g, 0]), boxes[g, 2])
                 qy = min(max(lin[e, 1], boxes[g, 1]), boxes[g, 3])
+            elif g < n_walls:  # the convex wall piece's nearest point
+                qx, qy = piece_closest_point_one(lin[e, 0], lin[e, 1], pieces[g - boxes.shape[0]])
             else:
                 qx, qy = x_now[g, e, 0], x_now[g, e, 1]
             vx, vy = lin[e, 0] - qx, lin[e, 1] - qy
@@ -151,15 +155,15 @@ def separation_rows(lin, x_now, boxes, n_walls, p0, v0, contact, need, cold, kee
 
 
 @compiled
-def plan_extremes(values, n_points, n_speed, boxes, bounds, preds):
+def plan_extremes(values, n_points, n_speed, boxes, pieces, bounds, preds):
     """What the exact check of a plan (:meth:`~nodnav.control.mpc_problem.MPCProblem.violation`)
     compares, as a compiled loop.
 
     ``values`` stacks the plan's positions at the ``n_points`` check times, then the points whose
     hulls hold its velocity (``n_speed``) and its acceleration. Returns the smallest clearance of
     the positions (the world's signed distance, as :meth:`World.clearance`: to the bounds
-    ``(x0, y0, x1, y1)`` and the rectangles ``boxes``), the closest distance to each prediction
-    ``preds`` ``(m, n_points, 2)``, the largest speed and the largest acceleration.
+    ``(x0, y0, x1, y1)``, the rectangles ``boxes`` and the convex pieces ``pieces``), the closest
+    distance to each prediction ``preds`` ``(m, n_points, 2)``, the largest speed and the largest acceleration.
     """
     clear = np.inf
     for i in range(n_points):
@@ -169,6 +173,8 @@ def plan_extremes(values, n_points, n_speed, boxes, bounds, preds):
             dx = max(boxes[b, 0] - x, x - boxes[b, 2])
             dy = max(boxes[b, 1] - y, y - boxes[b, 3])
             c = min(c, np.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0))
+        for b in range(pieces.shape[0]):
+            c = min(c, piece_signed_distance_one(x, y, pieces[b]))
         clear = min(clear, c)
     closest = np.full(preds.shape[0], np.inf)
     for j in range(preds.shape[0]):
@@ -184,7 +190,7 @@ def plan_extremes(values, n_points, n_speed, boxes, bounds, preds):
 
 
 @compiled
-def group_state(pred, n_end, p0, speed, intervals, boxes, full, eps0, reach):
+def group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, reach):
     """The per-group quantities of a step's :class:`~nodnav.control.mpc_problem.StepData` as a compiled loop.
 
     ``pred`` holds each other robot's prediction at 0 and at the ``n_end`` interval ends first
@@ -192,7 +198,8 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, full, eps0, reach):
     ``(G, N, 2)``, the unit vectors ``away`` ``(G, 2)``, ``dist_now`` ``(G,)``, ``need`` ``(G,)``,
     ``delta_sq`` ``(G, N)`` and ``far`` ``(G,)`` as documented on :class:`~nodnav.control.mpc_problem.StepData`.
     """
-    n_walls, n_others = boxes.shape[0], pred.shape[0]
+    n_boxes, n_others = boxes.shape[0], pred.shape[0]
+    n_walls = n_boxes + pieces.shape[0]
     n_groups = n_walls + n_others
     x_now = np.empty((n_groups, n_end, 2))
     away = np.empty((n_groups, 2))
@@ -203,8 +210,11 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, full, eps0, reach):
     delta = np.empty(n_end)
     for g in range(n_groups):
         if g < n_walls:
-            qx = min(max(p0[0], boxes[g, 0]), boxes[g, 2])
-            qy = min(max(p0[1], boxes[g, 1]), boxes[g, 3])
+            if g < n_boxes:
+                qx = min(max(p0[0], boxes[g, 0]), boxes[g, 2])
+                qy = min(max(p0[1], boxes[g, 1]), boxes[g, 3])
+            else:  # a convex piece of a polygon wall
+                qx, qy = piece_closest_point_one(p0[0], p0[1], pieces[g - n_boxes])
             for e in range(n_end):
                 x_now[g, e, 0], x_now[g, e, 1] = qx, qy
                 delta[e] = speed[e] * intervals[e]

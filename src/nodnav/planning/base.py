@@ -198,7 +198,8 @@ def feasible_order(order: tuple[int, ...], entered: tuple[int, ...]) -> tuple[in
 
 
 def crossing_directions(world: World, positions: np.ndarray, destinations: np.ndarray) -> np.ndarray:
-    """Direction each robot crosses the corridor in: +1 left to right, -1 right to left, 0 none.
+    """Direction each robot crosses the passage in: +1 from its first mouth's side to its second's
+    (the paper's left to right), -1 the other way, 0 none.
 
     A robot inside the corridor crosses towards its destination's side.
     """

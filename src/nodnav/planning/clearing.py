@@ -22,10 +22,12 @@ from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polylin
 from nodnav.scenario.params import PlannerParams
 
 
-def clearing_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int) -> np.ndarray:
+def clearing_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, turn: float = 0.0) -> np.ndarray:
     """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
-    nearest first, ``(M, 2)``."""
+    nearest first, the first of each ring at angle ``turn`` (rad; the passage's), ``(M, 2)``."""
     angles = 2.0 * np.pi * np.arange(directions) / directions
+    if turn:
+        angles = angles + turn
     ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
 
@@ -62,7 +64,7 @@ def clear_the_way(request: PlanRequest, robot: int, reason: str, settings: Plann
     failure = PlanResult.failure(request, reason)
     if clear(me[None])[0]:
         return failure  # already out of everybody's way: wait here
-    spots = clearing_spots(me, settings.clearing_radii, settings.clearing_directions)
+    spots = clearing_spots(me, settings.clearing_radii, settings.clearing_directions, world.passage.angle)
     spots = spots[clear(spots)]
     for spot in spots:
         way = graph.shortest_path(me, spot, pos[others], radii[others] + r)

@@ -10,9 +10,11 @@ it valid when every pair of robots is at least ``2 r_robot`` apart; here it is v
 Passing order at the level of a configuration
 ---------------------------------------------
 Robots are relabelled by their rank in the passing order: rank 0 passes first. Each robot has a
-crossing direction ``d`` (+1 left to right, -1 right to left, 0 it does not cross; see
+crossing direction ``d`` (+1 from the first mouth's side to the second's, the paper's left to
+right, -1 the other way, 0 it does not cross; see
 :func:`nodnav.planning.base.crossing_directions`) and, at every configuration, a *stage* that
-depends on its x-coordinate only: BEFORE the corridor, INSIDE it (between the entrances,
+depends on its coordinate along the passage's axis only (x for the paper's corridor): BEFORE the
+corridor, INSIDE it (between the entrances,
 inclusive), or AFTER it, read along its own direction. Taking the crossing robots (``d != 0``) in
 rank order, a configuration respects the order when, for each robot and its predecessor:
 
@@ -75,7 +77,8 @@ def separation_thresholds(radii: np.ndarray, margin: float) -> np.ndarray:
 
 
 def stages(x: np.ndarray, directions: np.ndarray, world: World) -> np.ndarray:
-    """Stage (BEFORE, INSIDE, AFTER) of each robot from its x-coordinate, shape of ``x`` ``(..., n)``.
+    """Stage (BEFORE, INSIDE, AFTER) of each robot from its coordinate along the passage's axis
+    (:meth:`World.along`; the paper's x), shape of ``x`` ``(..., n)``.
 
     INSIDE is the closed interval between the entrances (as :meth:`World.in_corridor`); AFTER is
     beyond the far entrance along the robot's direction. Robots with direction 0 are BEFORE or
@@ -83,14 +86,15 @@ def stages(x: np.ndarray, directions: np.ndarray, world: World) -> np.ndarray:
     """
     x = np.asarray(x, dtype=float)
     d = np.asarray(directions)
-    c = world.corridor
-    inside = (x >= c.x_min) & (x <= c.x_max)
-    after = ((d > 0) & (x > c.x_max)) | ((d < 0) & (x < c.x_min))
+    s0, s1 = world.passage.s_start, world.passage.s_end
+    inside = (x >= s0) & (x <= s1)
+    after = ((d > 0) & (x > s1)) | ((d < 0) & (x < s0))
     return np.where(inside, INSIDE, np.where(after, AFTER, BEFORE))
 
 
 def order_holds(x: np.ndarray, directions: np.ndarray, world: World) -> np.ndarray:
-    """Whether the passing order can still hold at configurations with robot x-coordinates ``x``.
+    """Whether the passing order can still hold at configurations with robot coordinates ``x``
+    along the passage (:meth:`World.along`).
 
     ``x`` is ``(..., n)`` with robots listed by rank; ``directions`` ``(n,)``. The rule is the one
     in the module docstring: for consecutive crossing robots, same direction means
@@ -131,7 +135,7 @@ def configurations_valid(world: World, configs: np.ndarray, radii: np.ndarray, d
     a, b = pair_indices(len(r))
     if len(a):
         ok &= np.all(np.linalg.norm(p[..., a, :] - p[..., b, :], axis=-1) >= min_separation - TOL, axis=-1)
-    return ok & order_holds(p[..., 0], directions, world)
+    return ok & order_holds(world.along(p), directions, world)
 
 
 def segment_pair_distance(start: np.ndarray, end: np.ndarray, n: int) -> np.ndarray:
@@ -157,7 +161,7 @@ def _order_event_times(xa: np.ndarray, xb: np.ndarray, directions: np.ndarray, w
     dx = xb - xa
     cols = []
     with np.errstate(divide="ignore", invalid="ignore"):
-        for bound in (world.corridor.x_min, world.corridor.x_max):
+        for bound in (world.passage.s_start, world.passage.s_end):
             cols.append((bound - xa) / dx)
         chain = np.flatnonzero(d != 0)
         for p, c in zip(chain[:-1], chain[1:]):
@@ -168,12 +172,12 @@ def _order_event_times(xa: np.ndarray, xb: np.ndarray, directions: np.ndarray, w
 
 
 def edge_order_holds(xa: np.ndarray, xb: np.ndarray, directions: np.ndarray, world: World) -> np.ndarray:
-    """Whether the order rule holds all along straight edges, given robot x-coordinates ``(E, n)``
-    at both ends.
+    """Whether the order rule holds all along straight edges, given robot coordinates along the
+    passage ``(E, n)`` at both ends (linear along an edge, as x was for the paper's corridor).
 
-    Stages are piecewise constant along an edge and change only where an x-coordinate crosses an
+    Stages are piecewise constant along an edge and change only where a coordinate crosses an
     entrance; the relative position of two consecutive same-direction robots changes only where
-    their x-coordinates meet. Checking both ends and one point inside every interval between
+    their coordinates meet. Checking both ends and one point inside every interval between
     those events is therefore exact (an instant at which two events coincide, of probability
     zero, is not examined on its own).
     """
@@ -207,7 +211,7 @@ def edges_valid(world: World, start: np.ndarray, end: np.ndarray, radii: np.ndar
         ok = np.all(segment_clearance(world, pa, pb) >= need - TOL, axis=1)
         if n > 1:
             ok &= np.all(segment_pair_distance(a, b, n) >= min_separation - TOL, axis=1)
-        ok &= edge_order_holds(pa[..., 0], pb[..., 0], directions, world)
+        ok &= edge_order_holds(world.along(pa), world.along(pb), directions, world)
         out[lo:lo + chunk] = ok
     return out
 
@@ -248,12 +252,12 @@ def _order_ok(xs, dirs, cx0, cx1):
 
 
 @_njit
-def _state_ok(x, clear, dirs, sep, box, rects, cx0, cx1):
+def _state_ok(x, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
     """Rules 1-3 at one configuration (scalar :func:`configurations_valid`); ``clear`` is the
     required wall clearance per robot (the radii), ``sep`` the required distance per pair."""
     n = clear.shape[0]
     for i in range(n):
-        if segment_clearance_one(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], rects, box) < clear[i] - TOL:
+        if segment_clearance_one(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], rects, box, pieces) < clear[i] - TOL:
             return False
     k = 0
     for a in range(n):
@@ -264,16 +268,26 @@ def _state_ok(x, clear, dirs, sep, box, rects, cx0, cx1):
             k += 1
     xs = np.empty(n)
     for i in range(n):
-        xs[i] = x[2 * i]
+        xs[i] = _along(x, i, ux, uy)
     return _order_ok(xs, dirs, cx0, cx1)
 
 
 @_njit
-def _motion_ok(xa, xb, clear, dirs, sep, box, rects, cx0, cx1):
+def _along(x, i, ux, uy):
+    """Robot ``i``'s coordinate along the passage's axis in configuration ``x``; exactly its x
+    for the paper's axis ``(1, 0)``."""
+    if ux == 1.0 and uy == 0.0:
+        return x[2 * i]
+    return x[2 * i] * ux + x[2 * i + 1] * uy
+
+
+@_njit
+def _motion_ok(xa, xb, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
     """Rules 1-3 all along one straight edge (scalar :func:`edges_valid`)."""
     n = clear.shape[0]
     for i in range(n):
-        if segment_clearance_one(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], rects, box) < clear[i] - TOL:
+        if (segment_clearance_one(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], rects, box, pieces)
+                < clear[i] - TOL):
             return False
     k = 0
     for a in range(n):
@@ -288,11 +302,14 @@ def _motion_ok(xa, xb, clear, dirs, sep, box, rects, cx0, cx1):
             if math.sqrt((cx + t * ex) ** 2 + (cy + t * ey) ** 2) < sep[k] - TOL:
                 return False
             k += 1
+    sa, sb = np.empty(n), np.empty(n)
+    for i in range(n):
+        sa[i], sb[i] = _along(xa, i, ux, uy), _along(xb, i, ux, uy)
     events = np.ones(3 * n + 1)
     m = 0
     prev = -1
     for i in range(n):
-        x0, x1 = xa[2 * i], xb[2 * i]
+        x0, x1 = sa[i], sb[i]
         if x1 != x0:
             for bound in (cx0, cx1):
                 t = (bound - x0) / (x1 - x0)
@@ -301,9 +318,9 @@ def _motion_ok(xa, xb, clear, dirs, sep, box, rects, cx0, cx1):
                     m += 1
         if dirs[i] != 0:
             if prev >= 0 and dirs[prev] == dirs[i]:
-                den = (xb[2 * prev] - xa[2 * prev]) - (x1 - x0)
+                den = (sb[prev] - sa[prev]) - (x1 - x0)
                 if den != 0.0:
-                    t = (x0 - xa[2 * prev]) / den
+                    t = (x0 - sa[prev]) / den
                     if 0.0 < t < 1.0:
                         events[m] = t
                         m += 1
@@ -320,19 +337,17 @@ def _motion_ok(xa, xb, clear, dirs, sep, box, rects, cx0, cx1):
         else:
             t = 0.5 * (last + 1.0)
         for i in range(n):
-            xs[i] = (1.0 - t) * xa[2 * i] + t * xb[2 * i]
+            xs[i] = (1.0 - t) * sa[i] + t * sb[i]
         if not _order_ok(xs, dirs, cx0, cx1):
             return False
-    for i in range(n):
-        xs[i] = xb[2 * i]
-    return _order_ok(xs, dirs, cx0, cx1)
+    return _order_ok(sb, dirs, cx0, cx1)
 
 
 @_njit
-def _motions_ok(starts, ends, clear, dirs, sep, box, rects, cx0, cx1):
+def _motions_ok(starts, ends, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
     out = np.empty(starts.shape[0], dtype=np.bool_)
     for e in range(starts.shape[0]):
-        out[e] = _motion_ok(starts[e], ends[e], clear, dirs, sep, box, rects, cx0, cx1)
+        out[e] = _motion_ok(starts[e], ends[e], clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy)
     return out
 
 
@@ -343,7 +358,8 @@ class CompiledRules:
     :func:`edges_valid`, one state or edge at a time without NumPy's per-call overhead."""
 
     args: tuple
-    """Kernel arguments: clearance, directions, separations, bounds, walls, corridor ends."""
+    """Kernel arguments: clearance, directions, separations, bounds, wall boxes, convex wall
+    pieces, the passage's mouths along its axis, and its axis."""
 
     @staticmethod
     def of(world: World, clearance: np.ndarray, directions: np.ndarray, min_separation: np.ndarray) -> "CompiledRules":
@@ -351,8 +367,9 @@ class CompiledRules:
         return CompiledRules((np.ascontiguousarray(clearance, dtype=np.float64),
                               np.ascontiguousarray(directions, dtype=np.int64),
                               np.ascontiguousarray(min_separation, dtype=np.float64),
-                              world.bounds_array, world.obstacle_array,
-                              float(world.corridor.x_min), float(world.corridor.x_max)))
+                              world.bounds_array, world.obstacle_array, world.piece_array,
+                              float(world.passage.s_start), float(world.passage.s_end),
+                              float(world.passage.axis[0]), float(world.passage.axis[1])))
 
     def state_ok(self, x: np.ndarray) -> bool:
         """Whether configuration ``x`` ``(2n,)`` is valid."""

@@ -36,9 +36,12 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
-def retreat_spots(centre: np.ndarray, radii: tuple[float, ...], angles: int) -> np.ndarray:
-    """Candidate spots to move to: rings of ``angles`` points at ``radii`` around ``centre``, ``(M, 2)``."""
+def retreat_spots(centre: np.ndarray, radii: tuple[float, ...], angles: int, turn: float = 0.0) -> np.ndarray:
+    """Candidate spots to move to: rings of ``angles`` points at ``radii`` around ``centre``, ``(M, 2)``,
+    the first of each ring at angle ``turn`` (rad; the passage's, :attr:`Passage.angle`)."""
     ang = 2.0 * np.pi * np.arange(angles) / angles
+    if turn:
+        ang = ang + turn
     ring = np.stack([np.cos(ang), np.sin(ang)], axis=1)
     return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
 
@@ -156,7 +159,7 @@ class MakingWay(FastPlannerHooks):
         out of its door zone."""
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
         graph = self.graph(world, radius)
-        spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles)
+        spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
         ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.in_corridor(spots)
         if door:
             ok &= ~self._in_door(world, spots, state.door[mover])

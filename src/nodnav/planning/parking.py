@@ -53,7 +53,8 @@ class DeferredParking(FastPlannerHooks):
             others = [m for m in range(len(goals)) if m != i]
             graph = self.graph(world, state.radii[i])
             # Where it stands now is a candidate too: a robot already waiting aside need not move.
-            rings = retreat_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles)
+            rings = retreat_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles,
+                                  world.passage.angle)
             spots = np.vstack([state.positions[i][None], rings])
             ok = (world.clearance(spots) >= graph.clearance - TOL) & (world.side_of(spots) == world.side_of(goals[i]))
             ok &= ~world.in_corridor(spots)

@@ -62,7 +62,7 @@ from nodnav.planning.joint_validity import (
     pair_indices,
     separation_thresholds,
 )
-from nodnav.scenario.world import World
+from nodnav.scenario.world import LEFT, RIGHT, Passage, World
 
 log = logging.getLogger(__name__)
 
@@ -133,6 +133,11 @@ class RoadmapKey:
     def canonical(self) -> str:
         """A canonical JSON text of the key (floats in shortest round-trip form)."""
         data = dataclasses.asdict(self)
+        w = self.world
+        if not w.polygons and w.corridor is not None and w.passages == (Passage.of_corridor(w.corridor),):
+            # the paper's shorthand world as it was written before passages and polygons existed:
+            # the same text, hence the same seed and the same roadmaps
+            del data["world"]["passages"], data["world"]["polygons"]
         data["radii"] = [float(r) for r in self.radii]
         data["directions"] = [int(d) for d in self.directions]
         return json.dumps(data, sort_keys=True, separators=(",", ":"))
@@ -279,8 +284,8 @@ def sample_candidates(rng: np.random.Generator, key: RoadmapKey, count: int) -> 
     out = rng.uniform(box[:, :2], box[:, 2:], size=(count, n, 2))
     crossing = np.flatnonzero(d != 0)
     n_lane = int(round(count * (1.0 - UNIFORM_FRACTION))) if len(crossing) else 0
-    c = key.world.corridor
-    yc = 0.5 * (c.y_min + c.y_max)
+    g = key.world.passage  # lanes in the passage's frame: s along its axis, t across
+    yc = g.t_centre
     for lo in range(0, n_lane, ANCHOR_REUSE):
         rows = slice(lo, min(lo + ANCHOR_REUSE, n_lane))
         m = rows.stop - rows.start
@@ -296,19 +301,29 @@ def sample_candidates(rng: np.random.Generator, key: RoadmapKey, count: int) -> 
             # Earlier robots wait after the corridor, later ones before it, along their direction.
             after = j < train[0]
             go_right = (d[j] > 0) == after
-            xlo, xhi = (c.x_max, box[j, 2]) if go_right else (box[j, 0], c.x_min)
-            anchor[j, 0] = rng.uniform(min(xlo, xhi), max(xlo, xhi))
+            if g.along_x:  # the room's x range beyond the mouth, as the paper's corridor always had it
+                xlo, xhi = (g.s_end, box[j, 2]) if go_right else (box[j, 0], g.s_start)
+                anchor[j, 0] = rng.uniform(min(xlo, xhi), max(xlo, xhi))
+            else:
+                anchor[j] = _anchor_beyond(rng, box[j], g, RIGHT if go_right else LEFT)
         out[rows] = anchor
-        x = rng.uniform(c.x_min - LANE_OVERHANG, c.x_max + LANE_OVERHANG, size=m)
+        x = rng.uniform(g.s_start - LANE_OVERHANG, g.s_end + LANE_OVERHANG, size=m)
         for i, j in enumerate(train[::-1]):
             if i:
                 ahead = train[::-1][i - 1]
                 gap = radii[j] + radii[ahead] + key.margin + rng.uniform(0.0, TRAIN_SLACK, size=m)
                 x = x + d[j] * gap
-            half = max(0.5 * c.width - radii[j], 0.0)
-            out[rows, j, 0] = x
-            out[rows, j, 1] = rng.uniform(yc - half, yc + half, size=m)
+            half = max(0.5 * g.width - radii[j], 0.0)
+            out[rows, j] = g.to_world(x, rng.uniform(yc - half, yc + half, size=m))
     return out.reshape(count, 2 * n)
+
+
+def _anchor_beyond(rng: np.random.Generator, box: np.ndarray, passage: Passage, side: int,
+                   tries: int = 32) -> np.ndarray:
+    """A point uniform in ``box`` on ``side`` of the passage (rejection); the last draw if none is."""
+    p = rng.uniform(box[:2], box[2:], size=(tries, 2))
+    on_side = np.flatnonzero(passage.side_of_along(passage.along(p)) == side)
+    return p[on_side[0] if len(on_side) else -1]
 
 
 def prm_star_k(n_vertices: int, dim: int) -> int:

@@ -1,4 +1,4 @@
-"""Shortest paths of a disc robot among axis-aligned walls: visibility graphs, polylines and
+"""Shortest paths of a disc robot among walls (boxes and polygons): visibility graphs, polylines and
 arc-length grids (the distances they are built on are :mod:`nodnav.geometry`'s).
 
 A disc robot of radius ``r`` fits at a point when the point is at least ``r`` from every wall
@@ -9,7 +9,9 @@ whose chamfer is tangent to the arc), so a shortest path is a polyline through s
 found on a visibility graph. Visibility is decided with exact segment-to-rectangle and
 segment-to-point distances, never by sampling, so a polyline returned here is collision-free
 along its whole length. Other robots standing still are discs, handled the same way (a disc is
-a rectangle of zero size).
+a rectangle of zero size). A polygon wall's convex corners are chamfered the same way
+(:func:`chamfered_polygon_vertices`: the arc around a corner is circumscribed by pieces of at
+most 45 degrees, which gives the octagon's vertices for a right angle).
 
 The walls-only graph of one (world, radius, inflation) never changes, so
 :class:`VisibilityGraph` builds it once and keeps its all-pairs shortest paths; a query without
@@ -53,7 +55,40 @@ def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.n
     return np.stack([xs, ys], axis=-1).reshape(-1, 2)
 
 
-def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+def chamfered_polygon_vertices(polygon: np.ndarray, inflation: float) -> np.ndarray:
+    """Vertices ``(V, 2)`` circumscribing the polygon grown by ``inflation`` at its convex corners.
+
+    At a convex corner ``W`` the grown polygon follows an arc of radius ``R`` from the outward
+    normal of the edge before it to that of the edge after it (the exterior angle ``theta``).
+    The arc is cut into ``k = ceil(theta / 45 degrees)`` equal pieces and circumscribed by their
+    tangents, whose meeting points ``W + R / cos(theta / 2k) (cos, sin)(phi_1 + (j + 1/2) theta / k)``
+    are the vertices: the first and last lie on the grown edges, so consecutive vertices of one
+    polygon are joined by segments at least ``R`` from it. Reflex corners give none.
+    """
+    p = np.asarray(polygon, dtype=float)
+    area2 = np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+    if area2 < 0:
+        p = p[::-1]
+    out = []
+    r = float(inflation)
+    for i in range(len(p)):
+        w, before, after = p[i], p[i - 1], p[(i + 1) % len(p)]
+        e1, e2 = w - before, after - w
+        # directions of the outward normals (ey, -ex) of the counter-clockwise edges before and after
+        n1 = math.atan2(-e1[0], e1[1])
+        n2 = math.atan2(-e2[0], e2[1])
+        theta = (n2 - n1 + math.pi) % (2.0 * math.pi) - math.pi
+        if theta <= 1e-12:
+            continue  # reflex or straight: no arc
+        k = max(1, math.ceil(theta / (math.pi / 4.0) - 1e-9))
+        reach = r / math.cos(theta / (2 * k))
+        for j in range(k):
+            a = n1 + (j + 0.5) * theta / k
+            out.append((w[0] + reach * math.cos(a), w[1] + reach * math.sin(a)))
+    return np.array(out, dtype=float).reshape(-1, 2)
+
+
+def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, turn: float = 0.0) -> np.ndarray:
     """Where ``point`` leaves, moving straight away from each centre, the regular octagon that
     circumscribes the disc of radius ``radii[j]`` about ``centres[j]`` (:func:`chamfered_vertices`
     of a zero-size box), ``(m, 2)``; ``point`` itself for a disc whose octagon it is not in.
@@ -69,6 +104,8 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> 
     away = p - c
     d = np.hypot(away[:, 0], away[:, 1])
     angle = np.arctan2(away[:, 1], away[:, 0])
+    if turn:  # the octagon turned by ``turn`` (rad)
+        angle = angle - turn
     delta = angle - np.round(angle / (np.pi / 4.0)) * (np.pi / 4.0)
     boundary = r / np.cos(delta) + 2 * TOL
     inside = (d > 0) & (d < boundary)
@@ -175,6 +212,8 @@ class VisibilityGraph:
         self.clearance = self.radius + self.inflation
         walls = world.obstacle_array
         v = chamfered_vertices(walls, self.clearance) if len(walls) else np.zeros((0, 2))
+        if world.polygons:
+            v = np.vstack([v] + [chamfered_polygon_vertices(np.array(poly), self.clearance) for poly in world.polygons])
         v = v[world.clearance(v) >= self.clearance - TOL] if len(v) else v
         self.vertices = np.unique(np.round(v, 12), axis=0) if len(v) else v
         m = len(self.vertices)
@@ -299,9 +338,15 @@ class VisibilityGraph:
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
         outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
         base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
-        ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        turn = self.world.passage.angle  # octagons square with the passage, at any angle
+        if turn:
+            c, s = math.cos(turn), math.sin(turn)
+            offsets = chamfered_vertices(np.zeros((len(centres), 4)), radii).reshape(len(centres), -1, 2)
+            ring = (centres[:, None] + offsets @ np.array([[c, s], [-s, c]])).reshape(-1, 2)
+        else:
+            ring = chamfered_vertices(np.hstack([centres, centres]), radii)
         # A start or goal inside an octagon but not its disc first steps out of it radially.
-        ring = np.vstack([ring, octagon_exits(start, centres, radii), octagon_exits(goal, centres, radii)])
+        ring = np.vstack([ring, octagon_exits(start, centres, radii, turn), octagon_exits(goal, centres, radii, turn)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])

@@ -23,7 +23,6 @@ from nodnav.scenario import limits
 from nodnav.scenario.fields import (
     ScenarioError,
     check_keys,
-    coordinate,
     fail,
     mapping,
     number,
@@ -32,7 +31,6 @@ from nodnav.scenario.fields import (
     read_params,
     strategy_number,
     text,
-    vector,
 )
 from nodnav.scenario.limits import accepted
 from nodnav.scenario.params import (
@@ -47,7 +45,8 @@ from nodnav.scenario.params import (
     RobotSpec,
     SimParams,
 )
-from nodnav.scenario.world import Corridor, World, paper_world
+from nodnav.scenario.world import World
+from nodnav.scenario.world_schema import check_single_file, read_world
 
 __all__ = ["Scenario", "ScenarioError", "scenario_from_dict", "scenario_to_dict"]
 
@@ -135,68 +134,6 @@ class Scenario:
 # ---------------------------------------------------------------------------------------------
 # Loading. Every check names the key path the user wrote (``robot_defaults.radius``,
 # ``robots[2].origin``) and, where a number is out of range, the range its field declares.
-
-
-def _box(value: Any, where: str) -> tuple[float, float, float, float]:
-    x0, y0, x1, y1 = vector(value, 4, where)
-    if x0 >= x1 or y0 >= y1:
-        raise fail(where, f"need x_min < x_max and y_min < y_max, got {[x0, y0, x1, y1]}")
-    return x0, y0, x1, y1
-
-
-def _world(data: Any) -> World:
-    data = mapping(data, "world")
-    valid = ("bounds", "obstacles", "corridor", "entrances", "corridor_width")
-    check_keys(data, valid, "world")
-    if "corridor_width" in data and "corridor" in data:
-        raise fail("world.corridor_width", "give either corridor_width (the paper's layout) or corridor, not both")
-    width = number(data.get("corridor_width", 0.7), "world.corridor_width")
-    if not 0.0 < width < 5.0:
-        raise fail("world.corridor_width", f"must be above 0 and below the rooms' height (5 m), got {shown(width)}")
-    default = paper_world(corridor_width=width)
-    bounds = _box(data["bounds"], "world.bounds") if "bounds" in data else default.bounds
-    if max(bounds[2] - bounds[0], bounds[3] - bounds[1]) > limits.MAX_WORLD_SIZE:
-        raise fail("world.bounds", f"sides of at most {limits.MAX_WORLD_SIZE:g} m, got {list(bounds)}")
-    if "obstacles" in data:
-        raw = data["obstacles"]
-        if not isinstance(raw, list) or len(raw) > limits.MAX_OBSTACLES:
-            raise fail("world.obstacles", f"expected a list of at most {limits.MAX_OBSTACLES} "
-                        f"[x_min, y_min, x_max, y_max] rectangles, got {shown(raw)}")
-        obstacles = tuple(_box(o, f"world.obstacles[{k}]") for k, o in enumerate(raw))
-    else:
-        obstacles = default.obstacles
-    if "corridor" in data:
-        c = mapping(data["corridor"], "world.corridor")
-        keys = ("x_min", "x_max", "y_min", "y_max")
-        check_keys(c, keys, "world.corridor")
-        missing = [k for k in keys if k not in c]
-        if missing:
-            raise fail("world.corridor", f"missing key '{missing[0]}' (give x_min, x_max, y_min, y_max)")
-        corridor = Corridor(**{k: coordinate(c[k], f"world.corridor.{k}") for k in keys})
-        if corridor.x_min >= corridor.x_max or corridor.y_min >= corridor.y_max:
-            raise fail("world.corridor", "need x_min < x_max and y_min < y_max")
-    else:
-        corridor = default.corridor
-    inside = (bounds[0] <= corridor.x_min and corridor.x_max <= bounds[2]
-              and bounds[1] <= corridor.y_min and corridor.y_max <= bounds[3])
-    if not inside:
-        raise fail("world.corridor", f"the corridor x {corridor.x_min:g}..{corridor.x_max:g}, y {corridor.y_min:g}.."
-                    f"{corridor.y_max:g} is not inside world.bounds {list(bounds)}")
-    if "entrances" in data:
-        ent = data["entrances"]
-        if not isinstance(ent, list) or len(ent) != 2:
-            raise fail("world.entrances", f"expected two points [[x, y], [x, y]] (left, right), got {shown(ent)}")
-        entrances = (point(ent[0], "world.entrances[0]"), point(ent[1], "world.entrances[1]"))
-        if entrances[0] == entrances[1]:
-            raise fail("world.entrances", f"the two entrances are the same point {list(entrances[0])}")
-        for k, (entrance, end, side) in enumerate(zip(entrances, (corridor.x_min, corridor.x_max), ("left", "right"))):
-            if abs(entrance[0] - end) > 1e-9 or not corridor.y_min <= entrance[1] <= corridor.y_max:
-                raise fail(f"world.entrances[{k}]", f"{list(entrance)} is not on the corridor's {side} end "
-                            f"(x = {end:g}, y from {corridor.y_min:g} to {corridor.y_max:g})")
-    else:
-        mid = 0.5 * (corridor.y_min + corridor.y_max)
-        entrances = ((corridor.x_min, mid), (corridor.x_max, mid))
-    return World(bounds=bounds, obstacles=obstacles, corridor=corridor, entrances=entrances)
 
 
 def _component(registry: Registry, base: type[PlannerParams] | type[ControllerParams], data: Any, where: str) -> Any:
@@ -372,14 +309,16 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     raw_robots = _robot_list(data)
     opinion_raw = mapping(data.get("opinion"), "opinion")
     opinion = _opinion(opinion_raw, len(raw_robots), "opinion")
-    world = _world(data.get("world"))
+    world = read_world(data.get("world"))
     robots, sources = _robots(raw_robots, data.get("robot_defaults"), opinion_raw)
     for k, r in enumerate(robots):
         if r.opinion is not None and r.opinion.T != opinion.T:
             raise fail(f"robots[{k}].opinion.T", "the opinion period is shared by every robot; set it in 'opinion'")
     world_raw = mapping(data.get("world"), "world")
-    corridor_key = "world.corridor" if "corridor" in world_raw else "world.corridor_width"
+    corridor_key = ("world.passages[0]" if "passages" in world_raw else
+                    "world.corridor" if "corridor" in world_raw else "world.corridor_width")
     _check_geometry(world, robots, sources, corridor_key)
+    check_single_file(world, np.array([r.radius for r in robots]), corridor_key)
     players = data.get("game_players", default_players(len(robots)))
     if players == "all" or players is None:
         game_players = None
@@ -426,18 +365,25 @@ def _listed(params: dict) -> dict:
     return {k: list(v) if isinstance(v, tuple) else v for k, v in params.items()}
 
 
+def _world_to_raw(w: World) -> dict:
+    """The ``world`` section that reads back as ``w``; the paper's shorthand stays as it was written."""
+    out: dict = {"bounds": list(w.bounds),
+                 "obstacles": [list(o) for o in w.obstacles] + [[list(p) for p in poly] for poly in w.polygons]}
+    if w.corridor is not None:
+        out["corridor"] = dataclasses.asdict(w.corridor)
+        out["entrances"] = [list(e) for e in w.entrances]
+    else:
+        out["passages"] = [{"from": list(g.start), "to": list(g.end), "width": g.width} for g in w.passages]
+    return out
+
+
 def _to_raw(scenario: Scenario) -> dict:
     """Inverse of :func:`scenario_from_dict`, for overrides and for storing a scenario with results."""
     w = scenario.world
     return {
         "name": scenario.name,
         "description": scenario.description,
-        "world": {
-            "bounds": list(w.bounds),
-            "obstacles": [list(o) for o in w.obstacles],
-            "corridor": dataclasses.asdict(w.corridor),
-            "entrances": [list(e) for e in w.entrances],
-        },
+        "world": _world_to_raw(w),
         "robots": [_robot_to_raw(r) for r in scenario.robots],
         "opinion": _opinion_to_raw(scenario.opinion),
         "game_players": "all" if scenario.game_players is None else scenario.game_players,

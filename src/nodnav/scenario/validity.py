@@ -112,7 +112,7 @@ def room_needs(radii_in_room, r_max: float, half_width: float) -> tuple[float, f
 
 def is_two_room_world(world: World) -> bool:
     """Whether ``world`` is the layout of :func:`~nodnav.scenario.world.corridor_world`."""
-    c = world.corridor
+    c = world.shorthand
     x0, y0, x1, y1 = world.bounds
     if not (c.y_min == -c.y_max and x0 < c.x_min < c.x_max < x1 and y0 < c.y_min and c.y_max < y1):
         return False
@@ -132,7 +132,7 @@ def check_layout(scenario: Scenario) -> Verdict:
     radii, origins, dests = scenario.radii, scenario.origins, scenario.destinations
     n = len(radii)
     lo, hi = single_file_interval(radii)
-    width = world.corridor.width
+    width = world.shorthand.width
     if not lo - 1e-9 <= width <= hi + 1e-9:
         return Verdict(False,
                        f"corridor width {width:.3f} m is outside the single-file interval [{lo:.3f}, {hi:.3f}] m")
@@ -161,9 +161,9 @@ def check_capacity(scenario: Scenario) -> Verdict:
     """The room-capacity rule of the module docstring, for both rooms."""
     world = scenario.world
     start, goal = _sides(world, scenario)
-    radii, r_max, half = scenario.radii, float(scenario.radii.max()), world.corridor.y_max
+    radii, r_max, half = scenario.radii, float(scenario.radii.max()), world.shorthand.y_max
     x0, y0, x1, y1 = world.bounds
-    for side, name, depth in ((LEFT, "left", world.corridor.x_min - x0), (RIGHT, "right", x1 - world.corridor.x_max)):
+    for side, name, depth in ((LEFT, "left", world.shorthand.x_min - x0), (RIGHT, "right", x1 - world.shorthand.x_max)):
         members = radii[(start == side) | (goal == side)]
         need_depth, need_height, need_area = room_needs(members, r_max, half)
         if depth < need_depth - 1e-9 or y1 - y0 < need_height - 1e-9 or depth * (y1 - y0) < need_area - 1e-9:
@@ -223,7 +223,7 @@ class _Search:
         self.n = scenario.n_robots
         self.radii = scenario.radii
         self.r_max = float(self.radii.max())
-        self.rho = mouth_zone_radius(self.world.corridor.y_max, self.r_max)
+        self.rho = mouth_zone_radius(self.world.shorthand.y_max, self.r_max)
         self.start, self.goal = _sides(self.world, scenario)
         self.mouths = np.asarray(self.world.entrances, dtype=float)
         self.waiting = scenario.origins.copy()

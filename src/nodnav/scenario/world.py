@@ -1,19 +1,27 @@
-"""The environment E of the paper: a bounded plane with rectangular walls and one narrow corridor.
+"""The environment E of the paper: a bounded plane with walls and single-file passages.
 
 Everything here is geometry on arrays; nothing knows about opinions, planners or controllers.
-Points are ``(..., 2)`` arrays in metres.
+Points are ``(..., 2)`` arrays in metres. Walls are axis-aligned boxes (the fast path every
+built-in scenario uses) and polygons, convex or not, kept as convex pieces
+(:mod:`nodnav.scenario.polygons`). A passage is a straight single-file corridor between two
+mouths at any angle; sides, mouths and order are reasoned about in its own frame
+(:class:`Passage`), never in raw x.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
-from nodnav.geometry import TOL, clearance_of, segment_clearance
+from nodnav.geometry import TOL, clearance_of, piece_clearance, segment_clearance
 
-#: Sides of the corridor, as returned by :meth:`World.side_of`.
+#: Sides of the passage, as returned by :meth:`World.side_of`: before its first mouth
+#: (``LEFT``, the paper's left room), between the mouths (``INSIDE``), beyond the second mouth
+#: (``RIGHT``). The names are the paper's horizontal corridor's; in general they mean "on the
+#: first mouth's side" and "on the second mouth's side".
 LEFT, INSIDE, RIGHT = -1, 0, 1
 
 
@@ -25,7 +33,7 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Corridor:
-    """The single-file passage, an axis-aligned box."""
+    """The paper's shorthand for its one passage: an axis-aligned box along x."""
 
     x_min: float
     """Left end of the passage (m); the paper's left entrance is at x = -3."""
@@ -48,26 +56,183 @@ class Corridor:
 
 
 @dataclass(frozen=True)
-class World:
-    """Free space ``E``: the box ``bounds`` minus the rectangles ``obstacles``, with one corridor.
+class Passage:
+    """A straight single-file passage: its centreline runs from the mouth ``start`` to ``end``.
 
-    The corridor is the passage between the two entrances; it is what the passing order is about.
-    Walls are given explicitly as ``obstacles`` so that a user can build other layouts.
+    Its frame has the unit ``axis`` from ``start`` to ``end`` and the unit ``normal`` (the axis
+    turned a quarter left). A point's coordinates in it are ``s = p . axis`` (along) and
+    ``t = p . normal`` (across); the mouths are at ``s_start < s_end``. The coordinates are
+    projections on the axis through the world's origin rather than offsets from ``start``: for
+    the paper's corridor (axis ``(1, 0)``) ``s`` is then exactly ``x`` and the mouths exactly
+    ``x_min`` and ``x_max``, so every comparison gives the bits the raw-x code gave.
+    """
+
+    start: tuple[float, float]
+    """Centre of the first mouth (m); the paper's left entrance (-3, 0)."""
+    end: tuple[float, float]
+    """Centre of the second mouth (m); the paper's right entrance (3, 0)."""
+    width: float
+    """Clear width (m); single file: less than two robots abreast."""
+
+    def __post_init__(self) -> None:
+        if not (self.width > 0.0 and math.isfinite(self.width)):
+            raise ValueError(f"a passage's width must be positive, got {self.width}")
+        if self.start == self.end:
+            raise ValueError(f"a passage's mouths must differ, got {self.start} twice")
+
+    @cached_property
+    def axis(self) -> tuple[float, float]:
+        """Unit vector from the first mouth to the second."""
+        dx, dy = self.end[0] - self.start[0], self.end[1] - self.start[1]
+        n = math.hypot(dx, dy)
+        return dx / n, dy / n
+
+    @cached_property
+    def normal(self) -> tuple[float, float]:
+        """Unit vector across the passage, the axis turned a quarter counter-clockwise."""
+        ux, uy = self.axis
+        return -uy, ux
+
+    @cached_property
+    def length(self) -> float:
+        """Distance between the mouths (m)."""
+        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
+
+    @cached_property
+    def angle(self) -> float:
+        """Direction of the axis (rad); exactly 0 for the paper's corridor. Planners turn their
+        rings of candidate spots and the octagons around other robots by it, so that they keep
+        the same place relative to the passage at any angle."""
+        return 0.0 if self.along_x else math.atan2(self.axis[1], self.axis[0])
+
+    @cached_property
+    def s_start(self) -> float:
+        """Along-coordinate of the first mouth (m)."""
+        return self.start[0] * self.axis[0] + self.start[1] * self.axis[1]
+
+    @cached_property
+    def s_end(self) -> float:
+        """Along-coordinate of the second mouth (m)."""
+        return self.end[0] * self.axis[0] + self.end[1] * self.axis[1]
+
+    @cached_property
+    def t_centre(self) -> float:
+        """Across-coordinate of the centreline (m)."""
+        return self.start[0] * self.normal[0] + self.start[1] * self.normal[1]
+
+    @cached_property
+    def along_x(self) -> bool:
+        """Whether the axis is exactly ``(1, 0)``: then ``s`` is ``x`` itself (the paper's case)."""
+        return self.axis == (1.0, 0.0)
+
+    def along(self, points: np.ndarray) -> np.ndarray:
+        """Along-coordinate ``s`` of each point, shape ``(...)``."""
+        p = np.asarray(points, dtype=float)
+        if self.along_x:
+            return p[..., 0]
+        return p[..., 0] * self.axis[0] + p[..., 1] * self.axis[1]
+
+    def across(self, points: np.ndarray) -> np.ndarray:
+        """Across-coordinate ``t`` of each point, shape ``(...)``."""
+        p = np.asarray(points, dtype=float)
+        return p[..., 0] * self.normal[0] + p[..., 1] * self.normal[1]
+
+    def to_world(self, s: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Points ``(..., 2)`` at frame coordinates ``(s, t)``; exact for the paper's axis."""
+        s, t = np.asarray(s, dtype=float), np.asarray(t, dtype=float)
+        if self.along_x:
+            return np.stack(np.broadcast_arrays(s, t), axis=-1)
+        (ux, uy), (nx, ny) = self.axis, self.normal
+        return np.stack([s * ux + t * nx, s * uy + t * ny], axis=-1)
+
+    def side_of_along(self, s: np.ndarray) -> np.ndarray:
+        """``LEFT`` before the first mouth, ``INSIDE`` between the mouths, ``RIGHT`` beyond the second."""
+        s = np.asarray(s, dtype=float)
+        return np.where(s < self.s_start, LEFT, np.where(s > self.s_end, RIGHT, INSIDE))
+
+    def outline(self) -> np.ndarray:
+        """The passage's clear rectangle, ``(4, 2)`` counter-clockwise (for figures and checks)."""
+        h = 0.5 * self.width
+        s = np.array([self.s_start, self.s_end, self.s_end, self.s_start])
+        t = self.t_centre + np.array([-h, -h, h, h])
+        return self.to_world(s, t)
+
+    @staticmethod
+    def of_corridor(c: Corridor) -> "Passage":
+        """The passage of the paper's shorthand: along x through the box's middle."""
+        yc = 0.5 * (c.y_min + c.y_max)
+        return Passage(start=(c.x_min, yc), end=(c.x_max, yc), width=c.width)
+
+
+@dataclass(frozen=True)
+class World:
+    """Free space ``E``: the box ``bounds`` minus the walls, with its single-file passages.
+
+    Walls are ``obstacles`` (axis-aligned boxes) and ``polygons`` (any simple polygons). The
+    passage is given either as ``passages`` or, as the paper does, as the axis-aligned
+    ``corridor`` with its two ``entrances``; the other form is derived. The entrances are the
+    points of eqs. (6) and (10): the mouths' centres unless the shorthand gave others.
     """
 
     bounds: tuple[float, float, float, float]
     """Outer boundary ``(x_min, y_min, x_max, y_max)`` (m); robots stay inside it."""
     obstacles: tuple[tuple[float, float, float, float], ...]
     """Axis-aligned wall rectangles ``(x_min, y_min, x_max, y_max)`` (m)."""
-    corridor: Corridor
-    """The single-file passage."""
-    entrances: tuple[tuple[float, float], tuple[float, float]]
-    """Left and right entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0)."""
+    corridor: Corridor | None = None
+    """The paper's shorthand for its horizontal passage; None when the passage is given as
+    ``passages`` (code that may see such a world reads :attr:`passage`)."""
+    entrances: tuple[tuple[float, float], ...] = ()
+    """First and second entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0).
+    Derived from the passage's mouths when not given."""
+    passages: tuple[Passage, ...] = ()
+    """The single-file passages (one for now; several are item 4 of issue 20)."""
+    polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
+    """Wall polygons, each its vertices ``((x, y), ...)`` in order (m), convex or not."""
+
+    def __post_init__(self) -> None:
+        passages = tuple(self.passages)
+        if self.corridor is not None:
+            derived = (Passage.of_corridor(self.corridor),)
+            if passages and passages != derived:  # e.g. dataclasses.replace of the corridor alone
+                raise ValueError("give either passages or the corridor shorthand, not both")
+            passages = derived
+        elif not passages:
+            raise ValueError("a world needs a passage: give passages or corridor")
+        object.__setattr__(self, "passages", passages)
+        if len(passages) != 1:
+            raise ValueError("several passages are not supported yet")
+        if not self.entrances:
+            p = passages[0]
+            object.__setattr__(self, "entrances", (tuple(p.start), tuple(p.end)))
+        object.__setattr__(self, "polygons", tuple(tuple(tuple(map(float, v)) for v in poly) for poly in self.polygons))
+
+    @property
+    def shorthand(self) -> Corridor:
+        """The axis-aligned corridor of the paper's shorthand, for code that reads only such worlds
+        (the families'); a world given as ``passages`` has none (ValueError)."""
+        if self.corridor is None:
+            raise ValueError("this world's passage is given as passages, not as the corridor shorthand")
+        return self.corridor
+
+    @property
+    def passage(self) -> Passage:
+        """The passage the passing order is about."""
+        return self.passages[0]
 
     @cached_property
     def obstacle_array(self) -> np.ndarray:
-        """Walls as an ``(M, 4)`` array (read-only: computed once and shared)."""
+        """Wall boxes as an ``(M, 4)`` array (read-only: computed once and shared)."""
         return _read_only(np.asarray(self.obstacles, dtype=float).reshape(-1, 4))
+
+    @cached_property
+    def piece_array(self) -> np.ndarray:
+        """The polygons' convex pieces ``(P, K, 2)``, counter-clockwise, padded by repeating the
+        last vertex (read-only; ``(0, 3, 2)`` without polygons)."""
+        if not self.polygons:
+            return _read_only(np.zeros((0, 3, 2)))
+        from nodnav.scenario.polygons import convex_pieces, padded_pieces
+
+        return _read_only(padded_pieces([q for poly in self.polygons for q in convex_pieces(poly)]))
 
     @cached_property
     def bounds_array(self) -> np.ndarray:
@@ -78,7 +243,10 @@ class World:
         """Signed distance (m) from each point to the nearest wall or boundary; negative inside a wall."""
         p = np.asarray(points, dtype=float)
         flat = np.ascontiguousarray(p.reshape(-1, 2))
-        return clearance_of(flat, self.bounds_array, self.obstacle_array).reshape(p.shape[:-1])
+        d = clearance_of(flat, self.bounds_array, self.obstacle_array)
+        if len(self.piece_array):
+            d = np.minimum(d, piece_clearance(flat, self.piece_array))
+        return d.reshape(p.shape[:-1])
 
     def segment_clearance(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Least clearance (m) along each segment ``a -> b`` (:func:`nodnav.geometry.segment_clearance`)."""
@@ -88,10 +256,16 @@ class World:
         """Whether a disc of ``radius`` centred at each point lies in free space."""
         return self.clearance(points) >= np.asarray(radius) - TOL
 
+    # -- the passage's frame ----------------------------------------------------------------------
+
+    def along(self, points: np.ndarray) -> np.ndarray:
+        """Along-coordinate of each point in the passage's frame (:meth:`Passage.along`)."""
+        return self.passage.along(points)
+
     def side_of(self, points: np.ndarray) -> np.ndarray:
-        """``LEFT`` (-1) left of the corridor, ``INSIDE`` (0) between the entrances, ``RIGHT`` (+1)."""
-        x = np.asarray(points, dtype=float)[..., 0]
-        return np.where(x < self.corridor.x_min, LEFT, np.where(x > self.corridor.x_max, RIGHT, INSIDE))
+        """``LEFT`` (-1) before the first mouth, ``INSIDE`` (0) between the mouths, ``RIGHT`` (+1)
+        beyond the second, along the passage's axis."""
+        return self.passage.side_of_along(self.passage.along(points))
 
     def entrance_for(self, side: np.ndarray) -> np.ndarray:
         """The entrance a robot approaching from ``side`` (-1 or +1) uses, shape ``(..., 2)``."""
@@ -108,9 +282,10 @@ class World:
         side = np.asarray(approach_side)
         ent = self.entrance_for(side)
         dist = np.linalg.norm(p - ent, axis=-1)
-        x = p[..., 0]
-        passed_entrance = np.where(side > 0, x <= self.corridor.x_max, x >= self.corridor.x_min)
-        not_exited = (x >= self.corridor.x_min) & (x <= self.corridor.x_max)
+        g = self.passage
+        s = g.along(p)
+        passed_entrance = np.where(side > 0, s <= g.s_end, s >= g.s_start)
+        not_exited = (s >= g.s_start) & (s <= g.s_end)
         return np.where(passed_entrance & not_exited, 0.0, dist)
 
     def in_corridor(self, points: np.ndarray) -> np.ndarray:

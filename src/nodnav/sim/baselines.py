@@ -138,9 +138,14 @@ def next_waypoint(points: np.ndarray, position: np.ndarray, eps: float = 1e-6) -
 
 
 def wall_polygons(world: World) -> list[np.ndarray]:
-    """Obstacles for RVO2: every wall rectangle counter-clockwise, then the world boundary
-    clockwise (RVO2's convention for a polygon that encloses the agents), each ``(4, 2)``."""
+    """Obstacles for RVO2: every wall rectangle counter-clockwise (``(4, 2)``), then every wall
+    polygon counter-clockwise (RVO2 takes non-convex ones), then the world boundary clockwise
+    (RVO2's convention for a polygon that encloses the agents)."""
     polys = [np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float) for x0, y0, x1, y1 in world.obstacles]
+    for poly in world.polygons:
+        p = np.array(poly, dtype=float)
+        area2 = np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1])
+        polys.append(p if area2 > 0 else p[::-1].copy())
     x0, y0, x1, y1 = world.bounds
     polys.append(np.array([[x0, y0], [x0, y1], [x1, y1], [x1, y0]], dtype=float))
     return polys

@@ -57,20 +57,21 @@ def min_separation(positions: np.ndarray) -> float:
 def corridor_crossings(times: np.ndarray, x: np.ndarray, world: World) -> tuple[np.ndarray, np.ndarray]:
     """Entry and exit times of every complete crossing of the corridor by one robot (s).
 
-    ``x`` ``(K,)`` is the robot's recorded abscissa. A crossing is a pair of consecutive recorded
-    samples outside the corridor, on opposite sides, with only samples inside the corridor between
-    them. Entry and exit are the times the straight segment between samples passes the entrance
-    line (x_min or x_max) it goes through, by linear interpolation. A robot that enters and backs
-    out, or starts inside, makes no crossing.
+    ``x`` ``(K,)`` is the robot's recorded coordinate along the passage's axis
+    (:meth:`~nodnav.scenario.world.World.along`; the abscissa for the paper's corridor). A
+    crossing is a pair of consecutive recorded samples outside the corridor, on opposite sides,
+    with only samples inside the corridor between them. Entry and exit are the times the straight
+    segment between samples passes the mouth it goes through, by linear interpolation. A robot
+    that enters and backs out, or starts inside, makes no crossing.
     """
-    side = world.side_of(np.stack([x, np.zeros_like(x)], axis=-1))
+    g = world.passage
+    side = g.side_of_along(x)
     outside = np.flatnonzero(side != INSIDE)
     k1, k2 = outside[:-1], outside[1:]
     crossing = side[k1] == -side[k2]
     k1, k2 = k1[crossing], k2[crossing]
-    c = world.corridor
-    entry_x = np.where(side[k1] < 0, c.x_min, c.x_max)
-    exit_x = np.where(side[k2] < 0, c.x_min, c.x_max)
+    entry_x = np.where(side[k1] < 0, g.s_start, g.s_end)
+    exit_x = np.where(side[k2] < 0, g.s_start, g.s_end)
 
     def cross_time(k: np.ndarray, line: np.ndarray) -> np.ndarray:
         w = (line - x[k]) / (x[k + 1] - x[k])
@@ -87,7 +88,7 @@ def flow_rate(times: np.ndarray, positions: np.ndarray, world: World) -> tuple[i
     """
     entries, exits, crossed = [], [], 0
     for i in range(positions.shape[1]):
-        t_in, t_out = corridor_crossings(times, positions[:, i, 0], world)
+        t_in, t_out = corridor_crossings(times, world.along(positions[:, i]), world)
         if len(t_in):
             crossed += 1
             entries.append(t_in.min())

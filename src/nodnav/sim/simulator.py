@@ -20,6 +20,7 @@ from nodnav.compiled import compiled
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import strategy_index
+from nodnav.geometry import piece_clearance
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
@@ -44,13 +45,17 @@ def straight_substeps(previous: np.ndarray, current: np.ndarray, weights: np.nda
 
 @compiled
 def contact_counts(path: np.ndarray, radii: np.ndarray, tol: float, bounds: np.ndarray,
-                   obstacles: np.ndarray) -> tuple[int, int]:
+                   obstacles: np.ndarray, pieces: np.ndarray) -> tuple[int, int]:
     """Pairs of robots that overlap, and robots that enter a wall, at some sub-step of a control
     step: ``path`` ``(S, N, 2)`` holds where the robots are at the step's sub-steps; contact is a
     distance ``tol`` (m) under the radii's sum, or a clearance
-    (:func:`~nodnav.scenario.world.clearance_of`) ``tol`` under the radius."""
+    (:func:`~nodnav.scenario.world.clearance_of`, and :func:`~nodnav.geometry.piece_clearance`
+    for the convex pieces of polygon walls) ``tol`` under the radius."""
     n_sub, n = path.shape[0], path.shape[1]
-    clear = clearance_of(np.ascontiguousarray(path.reshape(n_sub * n, 2)), bounds, obstacles)
+    flat = np.ascontiguousarray(path.reshape(n_sub * n, 2))
+    clear = clearance_of(flat, bounds, obstacles)
+    if pieces.shape[0]:
+        clear = np.minimum(clear, piece_clearance(flat, pieces))
     pairs, walls = 0, 0
     for i in range(n):
         hit_wall = False
@@ -198,10 +203,11 @@ class Simulation:
         corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
-        corridor = self.scenario.world.corridor
+        passage = self.scenario.world.passage
         seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
-        left_ahead = np.where(self.sides == RIGHT, seen[..., 0] - corridor.x_min, corridor.x_max - seen[..., 0])
-        sides = self.scenario.world.side_of(seen)
+        s = passage.along(seen)
+        left_ahead = np.where(self.sides == RIGHT, s - passage.s_start, passage.s_end - s)
+        sides = passage.side_of_along(s)
         for log_, side, ahead in zip([self.entered_true] + self.entered_seen, sides.tolist(), left_ahead):
             new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
             log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
@@ -296,7 +302,7 @@ class Simulation:
         :data:`STEP_FRACTIONS`, ending where they are now)."""
         s, world = self.scenario, self.scenario.world
         pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
-                                              world.obstacle_array)
+                                              world.obstacle_array, world.piece_array)
         if pair_hits or wall_hits:
             self.collisions = pair_hits + wall_hits
             self.collision_kind = collision_kind(pair_hits, wall_hits)

@@ -8,7 +8,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.patches import Circle, Rectangle
+from matplotlib.patches import Circle, Polygon, Rectangle
 
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
@@ -30,13 +30,15 @@ def new_figure(width: float, height: float) -> Figure:
 
 
 def draw_world(ax: Axes, world: World, *, entrances: bool = True) -> None:
-    """Walls in grey, the corridor shaded, entrances as small black diamonds."""
+    """Walls (boxes and polygons) in grey, the passage shaded, entrances as small black diamonds."""
     x0, y0, x1, y1 = world.bounds
     ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="0.2", linewidth=1.5))
     for ox0, oy0, ox1, oy1 in world.obstacles:
         ax.add_patch(Rectangle((ox0, oy0), ox1 - ox0, oy1 - oy0, facecolor="0.55", edgecolor="0.3"))
-    c = world.corridor
-    ax.add_patch(Rectangle((c.x_min, c.y_min), c.length, c.width, facecolor="#fff3c4", edgecolor="none", zorder=0))
+    for poly in world.polygons:
+        ax.add_patch(Polygon(np.asarray(poly), closed=True, facecolor="0.55", edgecolor="0.3"))
+    for passage in world.passages:
+        ax.add_patch(Polygon(passage.outline(), closed=True, facecolor="#fff3c4", edgecolor="none", zorder=0))
     if entrances:
         ent = np.asarray(world.entrances)
         ax.plot(ent[:, 0], ent[:, 1], "kD", markersize=4, zorder=3)

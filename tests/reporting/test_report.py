@@ -333,7 +333,7 @@ def test_report_rebuilt_from_a_database_without_running_trials(tmp_path, monkeyp
     # The planner study is absent: no section, and the one line says how to add it and the other two.
     assert STUDY_SUCCESS not in result.missing and "planners" in result.missing
     assert "## Does the planner matter?" not in text and text.count("Not in this database") == 1
-    assert "`nodnav reproduce --parts planners,reduction,scaling --planners fast,prm --db r.sqlite --out DIR`" in text
+    assert f"`nodnav reproduce --parts planners,reduction,scaling --planners fast,prm --db {db} --out DIR`" in text
     # Snapshots: no successful 3r-case4 / 4r-case4 trial is stored.
     assert all(not s.success for s in result.snapshots)
     # Methods: 'other' never succeeded; nod 1 of 2.
@@ -398,7 +398,7 @@ def test_report_of_ones_own_sweep_says_what_it_holds(tmp_path):
     assert "## Snapshots" not in text and "## What was run" not in text and "Fig. 2a" not in text
     assert text.count("Not in this database") == 1
     assert ("`nodnav reproduce --parts success,table1,table2,fig2c,planners,methods,reduction,scaling --planners "
-            "fast,prm --db r.sqlite --out DIR` adds them") in text
+            f"fast,prm --db {db} --out DIR` adds them") in text
     assert set(result.missing) == {STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, STUDY_FIG2C, STUDY_PLANNERS,
                                    STUDY_METHODS, "game-reduction-variants", "beyond-scaling"}
     assert result.figures == ()

@@ -78,7 +78,7 @@ def _section_overview(rep: ReportDocument, db_path: Path) -> None:
                if store.stale_count() else "")
             + ("). It holds:" if records_n else "). It holds no trials yet."), "")
     rep.add(*study_lines(store))
-    rep.add("", missing_line(missing_parts(store), db_path.name), "")
+    rep.add("", missing_line(missing_parts(store), str(db_path)), "")
     recomputed = ([] if not rep.has(STUDY_FIG2C) else ["the Fig. 2a/2b heatmaps (an ODE)"]) + (
         [] if not rep.has(STUDY_SUCCESS) else ["the snapshot trials (re-run from their stored seed)"])
     rep.add("Every number below is read from that database"

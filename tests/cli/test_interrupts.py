@@ -46,7 +46,8 @@ def test_interrupted_roadmap_build_prints_one_line(tmp_path, after_bar):
 
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="needs POSIX signal masks")
 def test_processes_started_inside_do_not_see_sigint():
-    probe = [sys.executable, "-c", "import signal; print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))"]
+    probe = [sys.executable, "-c",
+             "import signal; print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))"]
     with workers_ignore_interrupts():
         inside = subprocess.run(probe, capture_output=True, text=True).stdout.strip()
     outside = subprocess.run(probe, capture_output=True, text=True).stdout.strip()

@@ -60,3 +60,13 @@ def test_tracker_warnings_are_switched_off_once(monkeypatch):
     quiet_resource_trackers()
     quiet_resource_trackers()
     assert os.environ["PYTHONWARNINGS"] == f"default::DeprecationWarning,{QUIET_TRACKERS}"
+
+
+def test_a_reader_that_goes_away_is_no_error():
+    # nodnav scenarios | head -1: the pipe closes before nodnav writes; nothing on stderr, exit 141 as cat's.
+    read, write = os.pipe()
+    os.close(read)
+    proc = subprocess.run([sys.executable, "-m", "nodnav.cli", "scenarios"], stdout=write, stderr=subprocess.PIPE,
+                          text=True, timeout=60)
+    os.close(write)
+    assert (proc.returncode, proc.stderr) == (141, "")

@@ -421,7 +421,7 @@ def test_a_study_cut_short_and_one_stored_without_its_specification(tmp_path):
     assert text.startswith("# nodnav report: 3 studies (`fam`, `mine`, `paper-table1`)\n")
     assert ("- Sweep `mine`: 2 scenarios (3r-case2, 3r-case4) x 2 player settings (1, all) x 3 of 5 seeds, "
             "12 trials") in text
-    assert ("- Sweep `fam`: family `mixed` (2 draws) x 2 seeds, 2 trials (every other robot a game player, method "
+    assert ("- Sweep `fam`: family `mixed` (2 draws), 2 trials (every other robot a game player, method "
             "closest-first, fast planner).") in text
     assert ("- Study `paper-table1` (the paper's evaluation: Table I (initial opinions)): 1 scenario (3r-case2) x 2 "
             "seeds, 2 trials (every other robot a game player, method nod, fast planner, initial opinions "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import sys
 import traceback
 
@@ -40,6 +41,9 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
     except KeyboardInterrupt:
         print("nodnav: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (nodnav scenarios | head): stop quietly, as cat does
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # what is still buffered goes nowhere
+        return 141
     except Exception as exc:  # a bug: still one line, the traceback only when asked for
         if args.verbose:
             traceback.print_exc()

@@ -85,13 +85,13 @@ def _players(record: TrialRecord) -> str:
 def describe_trials(records: list[TrialRecord], seeds_asked: int | None = None) -> str:
     """What a study's trials vary, e.g. ``2 scenarios (2r-case1, 3r-case4) x 2 player settings (1, all)
     x 10 seeds, 40 trials``; settings every trial shares are named after the axes."""
-    draws = [m["family"] for r in records if (m := _DRAW.fullmatch(r.scenario))]
+    draws = {(m["family"], r.seed) for r in records if (m := _DRAW.fullmatch(r.scenario))}
     scenarios = {r.scenario for r in records if not _DRAW.fullmatch(r.scenario)}
     axes = []
     if scenarios:
         axes.append(_axis(scenarios, "scenario"))
-    for family in sorted(set(draws)):
-        axes.append(f"family `{family}` ({_counted(draws.count(family), 'draw')})")
+    for family in sorted({f for f, _ in draws}):  # trial seed s runs draw s: a family's draws are its seeds
+        axes.append(f"family `{family}` ({_counted(sum(f == family for f, _ in draws), 'draw')})")
     fixed = []
     players = {_players(r) for r in records}
     if len(players) > 1:
@@ -112,7 +112,9 @@ def describe_trials(records: list[TrialRecord], seeds_asked: int | None = None) 
     seeds = len({r.seed for r in records})
     cut = seeds_asked is not None and seeds < seeds_asked
     seeds_text = f"{seeds} of {seeds_asked} seeds" if cut else _counted(seeds, "seed")
-    text = " x ".join(axes + [seeds_text]) + f", {_counted(len(records), 'trial')}"
+    if not scenarios:  # a family sweep only: its draws are its seeds
+        seeds_text = f"{seeds} of {seeds_asked} seeds" if cut else ""
+    text = " x ".join(axes + [seeds_text] if seeds_text else axes) + f", {_counted(len(records), 'trial')}"
     return text + (f" ({', '.join(fixed)})" if fixed else "")
 
 

@@ -73,3 +73,14 @@ def test_the_scenarios_shown_in_the_docs_load():
     for block in blocks:
         scenario = build_scenario(yaml.safe_load(block))
         assert scenario.n_robots >= 2
+
+
+def test_the_family_and_study_files_shown_in_the_docs_load():
+    from nodnav.experiments.study import study_from_dict
+    from nodnav.scenario.families import family_from_dict
+
+    (family,) = _yaml_blocks(DOCS / "families.md")
+    assert family_from_dict(yaml.safe_load(family)).name == "my-family"
+    (study,) = _yaml_blocks(DOCS / "studies.md")
+    spec = study_from_dict(yaml.safe_load(study))
+    assert (spec.name, spec.scenarios, spec.trials) == ("mine", ("2r-case1", "3r-case4"), 10)

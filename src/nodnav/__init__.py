@@ -100,7 +100,7 @@ if TYPE_CHECKING:
         SimParams,
     )
     from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
-    from nodnav.scenario.world import Corridor, World, paper_world
+    from nodnav.scenario.world import Corridor, Passage, World, paper_world
     from nodnav.sim.history import History
     from nodnav.sim.methods import Method
     from nodnav.sim.simulator import TrialResult

@@ -111,7 +111,8 @@ def test_report_opens_with_the_breakdown(db, tmp_path):
     result = build_report(db, tmp_path / "out", heatmap_grid=3, rerun_snapshots=False)
     text = result.path.read_text()
     assert result.success
-    assert text.index("## What this database holds") < text.index("## Success rates")
+    assert text.index("## What this database holds") < text.index("## Cost of a trial")
+    assert "## Success rates" not in text  # a sweep of one's own holds none of the paper's studies
     assert "### Failure classes" in text and "`jam`" in text
 
 

@@ -310,9 +310,15 @@ def test_report_rebuilt_from_a_database_without_running_trials(tmp_path, monkeyp
     assert result.success, result.reason
     text = result.path.read_text()
     for heading in ("## What was run", "## Success rates (Fig. 3)", "## Table I", "## Table II", "## Fig. 2",
-                    "### Fig. 2c", "## Snapshots (Figs. 4 and 5)", "## Does the planner matter?", "## Methods compared",
-                    "## Cost of a trial"):
+                    "### Fig. 2c", "## Snapshots (Figs. 4 and 5)", "## Methods compared", "## Cost of a trial"):
         assert heading in text
+    # Written by nodnav reproduce, with five of its eight parts: the title says which.
+    assert text.startswith("# nodnav: the paper's evaluation, in part: the success rates (Fig. 3) and the snapshots "
+                           "(Figs. 4 and 5); Table I (initial opinions); Table II (bias); Fig. 2 (strategy selection "
+                           "over initial opinions); the navigation methods compared\n")
+    assert "- Study `paper-table1` (the paper's evaluation: Table I (initial opinions)): 1 scenario (3r-case2) x 2 " \
+           "initial opinion settings (distance, zero) x 8 seeds, 12 trials (every other robot a game player, " \
+           "method nod, fast planner)." in text
     # Success rates: 0 of 2 and 1 of 2 with their Wilson intervals (hand values above: [0, 65.8], [9.5, 90.5]).
     assert "| 2r-case1 | 0.0 [0.0, 65.8] (2) | 50.0 [9.5, 90.5] (2) |" in text
     assert "Without game players, 0 of 2 trials succeeded" in text
@@ -324,9 +330,10 @@ def test_report_rebuilt_from_a_database_without_running_trials(tmp_path, monkeyp
     # Fig. 2c and the cut reported by the metadata.
     assert "In 2 of 2 cells off the anti-diagonal with a majority" in text
     assert "Cut: the budget ran out" in text
-    # The planner study is absent and the report says how to add it.
+    # The planner study is absent: no section, and the one line says how to add it and the other two.
     assert STUDY_SUCCESS not in result.missing and "planners" in result.missing
-    assert "--planners fast,prm" in text
+    assert "## Does the planner matter?" not in text and text.count("Not in this database") == 1
+    assert f"`nodnav reproduce --parts planners,reduction,scaling --planners fast,prm --db {db} --out DIR`" in text
     # Snapshots: no successful 3r-case4 / 4r-case4 trial is stored.
     assert all(not s.success for s in result.snapshots)
     # Methods: 'other' never succeeded; nod 1 of 2.
@@ -358,3 +365,68 @@ def test_snapshot_picks_the_lowest_successful_seed(tmp_path):
 def test_report_of_a_missing_database(tmp_path):
     result = build_report(tmp_path / "none.sqlite", tmp_path / "out")
     assert not result.success and "no such results database" in result.reason
+
+
+# -- what a database holds: title, opening and the paper's sections --------------------------------
+
+
+def _sweep_db(path, spec=None):
+    """A sweep of one's own: two 3-robot scenarios x players 1 and all x seeds 1..3."""
+    with ResultStore(path) as store:
+        for name in ("3r-case4", "3r-case2"):
+            for players in (1, 2):
+                cfg = _config(name, game_players=players)
+                for seed in (1, 2, 3):
+                    _add(store, "mine", cfg, seed, "success" if seed < 3 else "deadlock", makespan=20.0)
+        if spec:
+            store.save_study("mine", spec)
+
+
+def test_report_of_ones_own_sweep_says_what_it_holds(tmp_path):
+    db = tmp_path / "r.sqlite"
+    _sweep_db(db, {"name": "mine", "scenarios": ["3r-case4", "3r-case2"], "players": [1, "all"], "methods": ["nod"],
+                   "trials": 3})
+    result = build_report(db, tmp_path / "out", heatmap_grid=3, rerun_snapshots=False)
+    text = result.path.read_text()
+    lines = text.splitlines()
+    assert lines[0] == "# nodnav report: sweep `mine`"
+    assert "It holds:" in lines[2]
+    assert lines[4] == ("- Sweep `mine`: 2 scenarios (3r-case2, 3r-case4) x 2 player settings (1, all) x 3 seeds, "
+                        "12 trials (method nod, fast planner).")
+    # None of the paper's sections, and one line naming them with the command that adds them.
+    assert "reproduced" not in text and "## Success rates" not in text and "## Table I" not in text
+    assert "## Snapshots" not in text and "## What was run" not in text and "Fig. 2a" not in text
+    assert text.count("Not in this database") == 1
+    assert ("`nodnav reproduce --parts success,table1,table2,fig2c,planners,methods,reduction,scaling --planners "
+            f"fast,prm --db {db} --out DIR` adds them") in text
+    assert set(result.missing) == {STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, STUDY_FIG2C, STUDY_PLANNERS,
+                                   STUDY_METHODS, "game-reduction-variants", "beyond-scaling"}
+    assert result.figures == ()
+    # What it holds: 8 of 12 succeeded (seed 3 of every cell deadlocked), in the breakdown.
+    assert "## What this database holds" in text and "| `3r-case4` | 1 | nod | fast | 66.7 [20.8, 93.9] (3) |" in text
+    assert "## Cost of a trial" in text
+
+
+def test_a_study_cut_short_and_one_stored_without_its_specification(tmp_path):
+    db = tmp_path / "r.sqlite"
+    _sweep_db(db, {"name": "mine", "scenarios": ["3r-case4", "3r-case2"], "players": [1, "all"], "trials": 5})
+    with ResultStore(db) as store:
+        for seed in (1, 2):  # a family sweep, no specification stored: described from its trials
+            config = trial_config(scenario_to_dict(load_scenario(f"mixed:{seed}")), "closest-first")
+            _add(store, "fam", config, seed, "success")
+        for seed, s in enumerate([3, 4], start=1):
+            _add(store, STUDY_TABLE1, _config("3r-case2", **{"opinion.init": "distance"}), seed, strategy=s)
+    result = build_report(db, tmp_path / "out", heatmap_grid=3, rerun_snapshots=False)
+    text = result.path.read_text()
+    assert text.startswith("# nodnav report: 3 studies (`fam`, `mine`, `paper-table1`)\n")
+    assert ("- Sweep `mine`: 2 scenarios (3r-case2, 3r-case4) x 2 player settings (1, all) x 3 of 5 seeds, "
+            "12 trials") in text
+    assert ("- Sweep `fam`: family `mixed` (2 draws), 2 trials (every other robot a game player, method "
+            "closest-first, fast planner).") in text
+    assert ("- Study `paper-table1` (the paper's evaluation: Table I (initial opinions)): 1 scenario (3r-case2) x 2 "
+            "seeds, 2 trials (every other robot a game player, method nod, fast planner, initial opinions "
+            "distance).") in text
+    # Table I is there, so is its section; the rest of the paper is one line.
+    assert "## Table I: initial opinions (3-Robot Case-2)" in text and "## Table II" not in text
+    assert STUDY_TABLE1 not in result.missing
+    assert "--parts success,table2,fig2c,planners,methods,reduction,scaling --planners fast,prm" in text

@@ -77,5 +77,7 @@ def test_section_says_how_to_add_missing_trials(tmp_path):
         pass
     result = build_report(db, tmp_path / "out", heatmap_grid=3, rerun_snapshots=False)
     assert STUDY_SCALING in result.missing
-    assert "nodnav reproduce --parts scaling" in result.path.read_text()
+    assert "## Beyond the paper" not in result.path.read_text()
+    assert "nodnav reproduce --parts success,table1,table2,fig2c,planners,methods,reduction,scaling" in \
+        result.path.read_text()
 

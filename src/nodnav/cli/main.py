@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import logging
+import os
 import sys
 import traceback
 
+from nodnav.cli.interrupts import quiet_resource_trackers
 from nodnav.cli.parser import build_parser
 from nodnav.cli.terminal import compile_notice
 from nodnav.errors import NodnavError, one_line
@@ -16,9 +18,12 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
 
     With ``execute`` false every check runs and the command stops before its work.
     """
-    parser = build_parser()
+    quiet_resource_trackers()
     try:
-        args = parser.parse_args(argv)
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:  # while the command's modules load
+        print("nodnav: interrupted", file=sys.stderr)
+        return 130
     except NodnavError as exc:
         print(f"nodnav: error: {one_line(exc)}", file=sys.stderr)
         return 2
@@ -36,6 +41,9 @@ def main(argv: list[str] | None = None, *, execute: bool = True) -> int:
     except KeyboardInterrupt:
         print("nodnav: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (nodnav scenarios | head): stop quietly, as cat does
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # what is still buffered goes nowhere
+        return 141
     except Exception as exc:  # a bug: still one line, the traceback only when asked for
         if args.verbose:
             traceback.print_exc()

@@ -6,6 +6,7 @@ import argparse
 import re
 import sys
 
+from nodnav.cli.interrupts import workers_ignore_interrupts
 from nodnav.cli.terminal import jobs, plural, whole
 from nodnav.errors import NodnavError, shown
 from nodnav.paths import output_dir
@@ -38,7 +39,8 @@ def _cmd_roadmaps(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     start = time.perf_counter()
-    with tqdm(total=1, unit="vertex", file=sys.stderr, dynamic_ncols=True, desc="roadmaps",
+    # Ctrl-C stops the command alone: its build processes do not see it (nodnav.cli.interrupts).
+    with workers_ignore_interrupts(), tqdm(total=1, unit="vertex", file=sys.stderr, dynamic_ncols=True, desc="roadmaps",
               bar_format="{desc}: {percentage:3.0f}% of the vertices |{bar}| [{elapsed}<{remaining}]{postfix}") as bar:
         ready = 0
 

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
+from nodnav.cli.interrupts import workers_ignore_interrupts
 from nodnav.cli.settings import add_set_option, parse_settings
 from nodnav.cli.terminal import jobs, note, plural, real, warm_kernels, whole
 from nodnav.errors import NodnavError, shown_path
@@ -40,8 +42,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         said.append(text)
         note(text)
 
-    summary = run_sweep(spec, db, jobs=args.jobs, scheduler=args.scheduler, quiet=args.quiet,
-                        retry_errors=args.retry_errors, allow_mixed=args.allow_mixed, notify=notify)
+    # Ctrl-C stops the command alone, not its local workers (nodnav.cli.interrupts); a Dask cluster's are remote.
+    with workers_ignore_interrupts() if args.scheduler is None else contextlib.nullcontext():
+        summary = run_sweep(spec, db, jobs=args.jobs, scheduler=args.scheduler, quiet=args.quiet,
+                            retry_errors=args.retry_errors, allow_mixed=args.allow_mixed, notify=notify)
     for line in summary.notes:
         if line not in said:
             print(f"note: {line}", file=sys.stderr)
@@ -92,7 +96,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         return 0
     if args.jobs > 1:
         warm_kernels()
-    result = reproduce(options, notify=note)
+    with workers_ignore_interrupts():  # Ctrl-C stops the command alone, not its workers
+        result = reproduce(options, notify=note)
     for cut in result.cuts:
         print(f"cut: {cut}", file=sys.stderr)
     print(result.reason)

@@ -8,6 +8,7 @@ import numpy as np
 
 from nodnav.scenario.schema import Scenario
 from nodnav.viz.scenario import draw_scenario, new_figure
+from nodnav.viz.text import set_suptitle, set_title
 
 
 def short_title(scenario: Scenario) -> str:
@@ -24,11 +25,11 @@ def save_family_gallery(title: str, scenarios: list[Scenario], path: str | Path,
     for k, scenario in enumerate(scenarios):
         ax = fig.add_subplot(rows, columns, k + 1)
         draw_scenario(ax, scenario)
-        ax.set_title(short_title(scenario), fontsize=8)
+        set_title(ax, short_title(scenario), 8)
         ax.set_xlabel("x [m]", fontsize=7)
         ax.set_ylabel("y [m]", fontsize=7)
         ax.tick_params(labelsize=7)
-    fig.suptitle(title, fontsize=10)
+    set_suptitle(fig, title, 10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return Path(path)

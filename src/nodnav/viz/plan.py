@@ -10,6 +10,7 @@ from nodnav.decision.strategies import order_label
 from nodnav.planning.base import PlanResult, corridor_entry_order
 from nodnav.scenario.schema import Scenario
 from nodnav.viz.scenario import draw_scenario, new_figure, robot_color
+from nodnav.viz.text import set_title
 
 
 def save_plan_figure(scenario: Scenario, result: PlanResult, path: str | Path) -> Path:
@@ -35,8 +36,8 @@ def save_plan_figure(scenario: Scenario, result: PlanResult, path: str | Path) -
         ax.annotate(str(rank), entry, ha="center", va="center", fontsize=8, fontweight="bold", zorder=6,
                     color=robot_color(k), bbox={"boxstyle": "circle,pad=0.2", "fc": "white", "ec": robot_color(k)})
     status = "" if result.success else f"  FAILED: {result.reason}"
-    ax.set_title(f"{scenario.name}: order {order_label(result.order_planned)}, duration "
-                 f"{traj.duration:.1f} s, cost {result.cost:.1f}{status}", fontsize=8)
+    set_title(ax, f"{scenario.name}: order {order_label(result.order_planned)}, duration "
+              f"{traj.duration:.1f} s, cost {result.cost:.1f}{status}", 8)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     return Path(path)

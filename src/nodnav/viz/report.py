@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from nodnav.viz.scenario import new_figure
+from nodnav.viz.text import set_suptitle, set_title
 
 #: Bar colours of the series of a grouped bar chart (colour-blind safe, Okabe-Ito).
 SERIES_COLORS = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#56B4E9", "#D55E00", "#F0E442", "#000000")
@@ -50,7 +51,7 @@ def plot_rate_bars(groups: list[str], series: list[str], rates: np.ndarray, path
     # Beside the axes, so that it never hides a bar.
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     if title:
-        ax.set_title(title, fontsize=9)
+        set_title(ax, title, 9)
     fig.tight_layout()
     return _save(fig, path)
 
@@ -74,13 +75,13 @@ def plot_strategy_frequencies(rows, paper: list[tuple[float, ...]], labels: list
             ax.errorbar(x + 0.2, r, yerr=[r - lo, hi - r], fmt="none", ecolor="0.2", elinewidth=0.9, capsize=2)
         ax.set_xticks(x, [f"S{j + 1}" for j in x])
         ax.set_ylim(0, 100)
-        ax.set_title(label, fontsize=9)
+        set_title(ax, label, 9)
         ax.grid(axis="y", alpha=0.3)
         if c == 0:
             ax.set_ylabel("share of realised orders [%]")
         ax.legend(fontsize=7, loc="upper left")
     if title:
-        fig.suptitle(title, fontsize=10)
+        set_suptitle(fig, title, 10)
     fig.tight_layout()
     return _save(fig, path)
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from nodnav.viz.report import SERIES_COLORS
 from nodnav.viz.scenario import new_figure
+from nodnav.viz.text import set_suptitle, set_title
 
 MARKERS = ("o", "s", "^", "D", "v", "P")
 
@@ -50,7 +51,7 @@ def _lines(ax, series: dict[str, tuple[np.ndarray, np.ndarray]], *, log: bool, y
         ax.set_yscale("log")
     ax.set_xlabel("robots $N_r$")
     ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=9)
+    set_title(ax, title, 9)
     ax.grid(alpha=0.3, which="both" if log else "major")
     ax.xaxis.get_major_locator().set_params(integer=True)
     ax.legend(fontsize=7, title="game players k", title_fontsize=7)
@@ -79,8 +80,8 @@ def plot_scaling_benchmark(bench: dict, path: str | Path) -> Path:
     for k, (value, log, ylabel, title) in enumerate(panels):
         _lines(fig.add_subplot(2, 2, k + 1), series(value), log=log, ylabel=ylabel, title=title)
     seeds = ", ".join(map(str, bench.get("seeds", [])))
-    fig.suptitle(f"nodnav bench scaling: head-on door crowds, nod with the fast planner, one core (seeds {seeds})",
-                 fontsize=10)
+    set_suptitle(fig, f"nodnav bench scaling: head-on door crowds, nod with the fast planner, one core (seeds {seeds})",
+                 10)
     fig.tight_layout()
     return _save(fig, path)
 

@@ -12,6 +12,7 @@ from matplotlib.patches import Circle, Polygon, Rectangle
 
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
+from nodnav.viz.text import set_title
 
 #: Robot colours in the paper's order: robot 1 red, 2 blue, 3 green, 4 orange, then more.
 ROBOT_COLORS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf")
@@ -59,15 +60,23 @@ def draw_scenario(ax: Axes, scenario: Scenario, *, labels: bool = True) -> None:
         if labels:
             ax.annotate(str(k + 1), robot.origin, ha="center", va="center", color="white", fontsize=8,
                         fontweight="bold", zorder=5)
-    ax.set_title(scenario.name + (f"\n{scenario.description}" if scenario.description else ""), fontsize=8)
+    set_title(ax, scenario.name + (f"\n{scenario.description}" if scenario.description else ""), 8)
+
+
+def scenario_figure(scenario: Scenario) -> Figure:
+    """One scenario drawn in a figure 7 inches wide, made taller by the lines its title needs."""
+    fig = new_figure(7.0, 3.2)
+    ax = fig.add_subplot(1, 1, 1)
+    draw_scenario(ax, scenario)
+    lines = ax.title.get_text().count("\n") + 1
+    fig.set_figheight(3.2 + 0.16 * max(0, lines - 2))  # a line of 8 pt text with its spacing
+    fig.tight_layout()
+    return fig
 
 
 def save_scenario_figure(scenario: Scenario, path: str | Path) -> Path:
     """Write a PNG of one scenario."""
-    fig = new_figure(7.0, 3.2)
-    draw_scenario(fig.add_subplot(1, 1, 1), scenario)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
+    scenario_figure(scenario).savefig(path, dpi=130)
     return Path(path)
 
 

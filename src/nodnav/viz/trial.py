@@ -19,6 +19,7 @@ from PIL import Image
 from nodnav.decision.strategies import order_label, strategy_index, strategy_label
 from nodnav.sim.history import History
 from nodnav.viz.scenario import draw_world, new_figure, robot_color
+from nodnav.viz.text import set_suptitle, set_title, wrap_text
 
 log = logging.getLogger(__name__)
 
@@ -153,9 +154,9 @@ def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) ->
     ax.legend(handles, labels, title="chosen passing order", fontsize=7, title_fontsize=7,
               loc="upper left", bbox_to_anchor=(1.0, -0.02), frameon=False,
               ncol=1 if len(handles) <= 6 else 2)
-    ax.set_title("Chosen passing order of each robot at each decision (colour; beside: the orders it chose and how "
-                 "often), bar height = its probability (full band = 1)"
-                 + ("; hatched: the method gives no probability" if no_probability else ""), fontsize=8)
+    set_title(ax, "Chosen passing order of each robot at each decision (colour; beside: the orders it chose and how "
+              "often), bar height = its probability (full band = 1)"
+              + ("; hatched: the method gives no probability" if no_probability else ""), 8)
 
 
 def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
@@ -191,9 +192,9 @@ def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
     handles, labels = _marks_legend(has_players)
     fig.legend(handles, labels, loc="outside lower center", ncol=len(handles), fontsize=7, frameon=False,
                title="marks of the top row", title_fontsize=7, handler_map={FancyArrowPatch: _ArrowHandler()})
-    fig.suptitle(f"{scenario.name}, method {history.method}, seed {history.seed}: {history.outcome}"
+    set_suptitle(fig, f"{scenario.name}, method {history.method}, seed {history.seed}: {history.outcome}"
                  + ("" if opinions else f" (method {history.method} chooses no passing order: no opinions to show)"),
-                 fontsize=10)
+                 10)
     fig.savefig(path, dpi=110)
     return Path(path)
 
@@ -221,7 +222,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     draw_world(ax, scenario.world, entrances=False)
     for i, robot in enumerate(scenario.robots):
         ax.plot(*robot.destination, marker="x", color=robot_color(i), markersize=8, markeredgewidth=2)
-    ax.set_title(" ", fontsize=8)
+    ax.set_title(" \n ", fontsize=8)  # room for a title of two lines
     fig.tight_layout()
     canvas = fig.canvas
     assert isinstance(canvas, FigureCanvasAgg)  # new_figure renders with Agg
@@ -234,6 +235,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
     for disc in discs:
         ax.add_patch(disc)
     title = ax.set_title("", fontsize=8, animated=True)
+    width = 1.1 * ax.get_position().width * fig.get_figwidth()
     has_opinions = len(arrays["decision_times"]) > 0 and (arrays["ranks"] >= 0).any()
     selected = selected_orders(arrays["ranks"])
     steps = list(range(0, len(arrays["times"]), stride))
@@ -256,7 +258,7 @@ def save_animation(history: History, path: str | Path, fps: int = 10, stride: in
                         "arrowstyle": "->", "color": robot_color(i), "lw": 1.2, "shrinkA": 6, "shrinkB": 6}))
             if has_opinions:
                 label = "  ".join(f"{i + 1}:{order_label(o)}" for i, o in enumerate(selected[d]) if o)
-        title.set_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}")
+        title.set_text(wrap_text(f"{scenario.name}  t = {arrays['times'][k]:4.1f} s   {label}", width, 8, max_lines=2))
         for artist in artists + [title]:
             ax.draw_artist(artist)
         frames.append(np.asarray(canvas.buffer_rgba())[..., :3].copy())

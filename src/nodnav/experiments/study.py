@@ -11,6 +11,7 @@ A study file::
     methods: [nod]                # optional; default: [nod]
     trials: 40                    # seeds 1..40 for every combination
     families: [mixed]             # optional: generated families; seed s runs draw s (FAMILY:s)
+    roles: [none, {1: person}, {last: closest-first}]   # optional: robots running another method
 
 Any single value may stand for a one-element list. The command line builds the same
 :class:`SweepSpec` through :func:`study_from_dict`, so both are checked by the same code and
@@ -33,12 +34,16 @@ from nodnav.scenario.files import builtin_names, read_yaml
 from nodnav.scenario.limits import MAX_ROBOTS, RANGES
 from nodnav.sim import METHODS
 
-STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families")
+STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families", "roles")
 
 INIT_MODES = ("zero", "distance")
 
 Bias = tuple[tuple[str, float], ...]
 """A bias as ``(("S3", 150.0), ("S5", 150.0))``, sorted by strategy; ``()`` is no bias."""
+
+Roles = tuple[tuple[str, str], ...]
+"""Robots that run their own method, as ``(("1", "person"), ("last", "orca"))``: a robot number
+from 1 or ``last``, and a method name; ``()`` is none (every robot runs the trial's method)."""
 
 
 class StudyError(NodnavError, ValueError):
@@ -70,6 +75,8 @@ class SweepSpec:
     """Number of seeds: every combination runs with seeds 1..trials."""
     families: tuple[str, ...] = ()
     """Generated families (built-in names or family files): seed s runs the family's draw s."""
+    roles: tuple[Roles, ...] = ((),)
+    """Role assignments (``robots[i].method`` for some robots), one axis of the cross product."""
 
     def to_dict(self) -> dict:
         """The spec as a study-file mapping that :func:`study_from_dict` reads back unchanged."""
@@ -83,6 +90,8 @@ class SweepSpec:
         out["trials"] = self.trials
         if self.families:
             out["families"] = list(self.families)
+        if self.roles != ((),):
+            out["roles"] = [dict(r) if r else "none" for r in self.roles]
         return out
 
 
@@ -147,6 +156,26 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((j, name, v))
     return tuple((name, v) for _, name, v in sorted(out, key=lambda e: e[0]))
+
+
+def parse_roles(value: Any, where: str = "roles") -> Roles:
+    """One role assignment: ``none`` or a mapping from a robot (a number from 1, or ``last``) to a
+    method name, e.g. ``{1: person}``."""
+    if value in ("none", None):
+        return ()
+    if not isinstance(value, dict) or not value:
+        raise StudyError(f"{where}: expected 'none' or a mapping like {{1: person}} or {{last: orca}}, "
+                         f"got {shown(value)}")
+    out: dict[str, str] = {}
+    for robot, method in value.items():
+        key = str(robot).strip()
+        if key != "last" and not (_WHOLE.fullmatch(key) and int(key) >= 1):
+            raise StudyError(f"{where}: expected a robot number from 1 or 'last', got {shown(robot)}")
+        if method not in known_methods():
+            raise StudyError(f"{where}.{key}: unknown method {shown(method)}"
+                             f"{nearest_hint(str(method), known_methods(), 'methods')}")
+        out[key] = method
+    return tuple(sorted(out.items()))
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -235,12 +264,14 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
         changes["planners"] = _choices(data["planners"], PLANNERS, at("planners"), "planner")
     if "families" in data:
         changes["families"] = _family_names(data["families"], at("families"))
+    if "roles" in data:
+        changes["roles"] = tuple(dict.fromkeys(parse_roles(v, at("roles")) for v in _listed(data["roles"])))
     for key, values in changes.items():
         if not values:
             raise StudyError(f"{at(key)}: expected at least one value")
     spec = dataclasses.replace(spec, **changes)
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
-                                            spec.methods)) * spec.trials
+                                            spec.methods, spec.roles)) * spec.trials
     if size > MAX_SWEEP_TRIALS:
         raise StudyError(f"{at('trials')}: the study expands to {size} trials, more than one sweep may run "
                          f"({MAX_SWEEP_TRIALS}); split it into several studies")

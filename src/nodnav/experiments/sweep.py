@@ -43,7 +43,7 @@ from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import PACKAGE_VERSION, code_version
 from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
-from nodnav.scenario.schema import Scenario, scenario_to_dict
+from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)
@@ -133,7 +133,7 @@ class SweepSummary:
 
 
 def expand(spec: SweepSpec) -> Expansion:
-    """Every trial of ``spec``: scenarios x players x init x bias x planners x methods x seeds 1..trials.
+    """Every trial of ``spec``: scenarios x players x init x bias x planners x roles x methods x seeds 1..trials.
 
     A family (``spec.families``) contributes its draws 1..trials, draw s with seed s only, so that
     ``nodnav run FAMILY:s --seed s`` redoes any of its trials.
@@ -175,17 +175,36 @@ def expand(spec: SweepSpec) -> Expansion:
                 changes["opinion.bias"] = dict(bias)
             if planner is not None:
                 changes["planner.name"] = planner
-            scenario = base.with_overrides(**changes) if changes else base
-            mapping = scenario_to_dict(scenario)
-            for method in spec.methods:
-                config = trial_config(mapping, method)
-                for seed in seeds:
-                    key = trial_key(config, seed)
-                    trials.setdefault(key, TrialSpec(key, scenario, method, seed, config))
+            plain = base.with_overrides(**changes) if changes else base
+            for roles in spec.roles:
+                scenario = with_roles(plain, roles)
+                if scenario is None:
+                    notes[f"{label}: roles {dict(roles)} skipped ({n} robots)"] += 1
+                    continue
+                mapping = scenario_to_dict(scenario)
+                for method in spec.methods:
+                    config = trial_config(mapping, method)
+                    for seed in seeds:
+                        key = trial_key(config, seed)
+                        trials.setdefault(key, TrialSpec(key, scenario, method, seed, config))
     lines = tuple(text if count == 1 else f"{text} in {count} draws" for text, count in notes.items())
     for note in lines:
         log.info("%s", note)
     return Expansion(trials=tuple(trials.values()), notes=lines)
+
+
+def with_roles(scenario: Scenario, roles: tuple[tuple[str, str], ...]) -> Scenario | None:
+    """``scenario`` with ``robots[i].method`` set for the robots ``roles`` names (a number from 1,
+    or ``last``); ``None`` when it names a robot the scenario does not have."""
+    if not roles:
+        return scenario
+    raw = scenario_to_dict(scenario)
+    for robot, method in roles:
+        k = scenario.n_robots if robot == "last" else int(robot)
+        if k > scenario.n_robots:
+            return None
+        raw["robots"][k - 1]["method"] = method
+    return scenario_from_dict(raw, scenario.name)
 
 
 def _bases(spec: SweepSpec):

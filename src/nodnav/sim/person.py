@@ -17,7 +17,12 @@ social force model, Phys. Rev. E 51, 4282, 1995)::
 with ``g(x) = max(x, 0)`` (the body forces act only in contact), ``r_ij = r_i + r_j``, ``d_ij``
 the distance between centres, ``n_ij`` the unit vector from ``j`` to ``i``, ``t_ij`` its normal
 and ``dv_ji.t_ij = (v_j - v_i).t_ij``; ``d_iW``, ``n_iW`` and ``t_iW`` likewise for the nearest point
-of wall ``W``. The weight ``w_ij`` is Helbing and Molnar's (1995) field of view: 1 for someone within
+of wall ``W``. The walls of a nodnav world and its boundary form one connected border around free
+space, and Helbing and Molnar (1995) take, for each border, the piece of it nearest to the
+pedestrian: so one wall point acts, the nearest (:func:`nearest_border_point`). Summing over the
+wall blocks instead would make the two corners of a 0.7 m corridor's mouth push a person of
+radius 0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person
+whose preferred speed is 1 m/s: it would stand at the mouth for ever. The weight ``w_ij`` is Helbing and Molnar's (1995) field of view: 1 for someone within
 ``fov / 2`` of the person's heading, ``c`` behind it; it scales the social (exponential) term only,
 since pushing in contact is felt from every side. The parameters, :class:`SocialForceParams`,
 are the published ones; only the person's speed limit and acceleration limit come from its
@@ -156,6 +161,15 @@ def nearest_wall_points(world: World, point: np.ndarray) -> np.ndarray:
     return np.concatenate([inside, sides])
 
 
+def nearest_border_point(world: World, point: np.ndarray) -> np.ndarray:
+    """The point of the walls nearest to ``point`` ``(2,)``: the walls and the boundary form one
+    connected border around free space, and Helbing and Molnar (1995) take, for each border, its
+    piece nearest to the pedestrian."""
+    q = np.asarray(point, dtype=float)
+    candidates = nearest_wall_points(world, q)
+    return candidates[int(np.argmin(np.linalg.norm(candidates - q, axis=1)))]
+
+
 def wall_forces(p_i: np.ndarray, v_i: np.ndarray, r_i: float, wall_points: np.ndarray,
                 p: SocialForceParams) -> np.ndarray:
     """HFV's force ``f_iW`` ``(W, 2)`` (N) on a person at ``p_i`` (velocity ``v_i``, radius
@@ -291,10 +305,9 @@ class PersonMethod:
                 weights = view_weights(e, p, pj, prm)
                 forces -= ((1.0 - weights)[:, None] * social_part(p, float(radii[i]), pj, rj, prm))
                 force = force + forces.sum(axis=0)
-            walls = nearest_wall_points(s.world, p)
-            near = np.linalg.norm(walls - p, axis=1) < prm.range + radii[i]
-            if near.any():
-                force = force + wall_forces(p, v, float(radii[i]), walls[near], prm).sum(axis=0)
+            wall = nearest_border_point(s.world, p)
+            if np.linalg.norm(wall - p) < prm.range + radii[i]:
+                force = force + wall_forces(p, v, float(radii[i]), wall[None], prm)[0]
             accel = clip_norm(force / prm.mass, float(s.robots[i].max_accel))
             v_new = clip_norm(v + accel * self.dt, float(s.max_speeds[i]))
             step = clip_against_walls(s.world, p, v_new * self.dt, float(radii[i]))

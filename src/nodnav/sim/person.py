@@ -24,8 +24,8 @@ wall blocks instead would make the two corners of a 0.7 m corridor's mouth push 
 radius 0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person
 whose preferred speed is 1 m/s: it would stand at the mouth for ever. The weight ``w_ij`` is
 Helbing and Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of the person's
-heading, ``c`` behind it; it scales the social (exponential) term only, since pushing in contact is felt from every side. The parameters, :class:`SocialForceParams`,
-are the published ones; only the person's speed limit and acceleration limit come from its
+heading, ``c`` behind it; it scales the social (exponential) term only, since pushing in
+contact is felt from every side. The parameters, :class:`SocialForceParams`, are the published ones; only the person's speed limit and acceleration limit come from its
 :class:`~nodnav.scenario.params.RobotSpec` (``max_speed``, ``max_accel``): the force gives the
 acceleration, which is clipped to ``max_accel``, then the velocity to ``max_speed``.
 

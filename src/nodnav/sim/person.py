@@ -14,20 +14,21 @@ social force model, Phys. Rev. E 51, 4282, 1995)::
     f_ij = [A exp((r_ij - d_ij) / B) + k g(r_ij - d_ij)] n_ij + kappa g(r_ij - d_ij) dv_ji.t_ij t_ij
     f_iW = [A exp((r_i - d_iW) / B) + k g(r_i - d_iW)] n_iW - kappa g(r_i - d_iW) (v_i.t_iW) t_iW
 
-with ``g(x) = max(x, 0)`` (the body forces act only in contact), ``r_ij = r_i + r_j``, ``d_ij``
-the distance between centres, ``n_ij`` the unit vector from ``j`` to ``i``, ``t_ij`` its normal
-and ``dv_ji.t_ij = (v_j - v_i).t_ij``; ``d_iW``, ``n_iW`` and ``t_iW`` likewise for the nearest point
+with ``g(x) = max(x, 0)`` (the body forces act only in contact), ``r_ij = r_i + r_j``, ``d_ij`` the
+distance between centres, ``n_ij`` the unit vector from ``j`` to ``i``, ``t_ij`` its normal and
+``dv_ji.t_ij = (v_j - v_i).t_ij``; ``d_iW``, ``n_iW`` and ``t_iW`` likewise for the nearest point
 of wall ``W``. The walls of a nodnav world and its boundary form one connected border around free
 space, and Helbing and Molnar (1995) take, for each border, the piece of it nearest to the
 pedestrian: so one wall point acts, the nearest (:func:`nearest_border_point`). Summing over the
-wall blocks instead would make the two corners of a 0.7 m corridor's mouth push a person of
-radius 0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person
-whose preferred speed is 1 m/s: it would stand at the mouth for ever. The weight ``w_ij`` is
-Helbing and Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of the person's
-heading, ``c`` behind it; it scales the social (exponential) term only, since pushing in
-contact is felt from every side. The parameters, :class:`SocialForceParams`, are the published ones; only the person's speed limit and acceleration limit come from its
-:class:`~nodnav.scenario.params.RobotSpec` (``max_speed``, ``max_accel``): the force gives the
-acceleration, which is clipped to ``max_accel``, then the velocity to ``max_speed``.
+wall blocks instead would make the two corners of a 0.7 m corridor's mouth push a person of radius
+0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person whose
+preferred speed is 1 m/s: it would stand at the mouth for ever. The weight ``w_ij`` is Helbing and
+Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of the person's heading, ``c``
+behind it; it scales the social (exponential) term only, since pushing in contact is felt from
+every side. The parameters, :class:`SocialForceParams`, are the published ones; only the person's
+speed limit and acceleration limit come from its :class:`~nodnav.scenario.params.RobotSpec`
+(``max_speed``, ``max_accel``): the force gives the acceleration, which is clipped to
+``max_accel``, then the velocity to ``max_speed``.
 
 Why the social force model and not ORCA with human parameters: ORCA's agents never touch by
 construction (they pick collision-free velocities), so it cannot produce the contacts a person

@@ -32,3 +32,19 @@ def test_a_role_for_a_robot_a_scenario_lacks_is_left_out_with_a_note():
 def test_bad_roles_are_one_line(roles, message):
     with pytest.raises(StudyError, match=message):
         study_from_dict({"scenarios": ["2r-case1"], "roles": [roles]})
+
+
+def test_a_stored_mixed_team_is_tabled_by_roles(tmp_path):
+    from nodnav.experiments.store import ResultStore
+    from nodnav.experiments.sweep import run_sweep
+    from nodnav.experiments.teams import team_rows
+    from nodnav.reporting.mixed_teams import team_table
+
+    spec = study_from_dict({"name": "teams", "scenarios": ["2r-case1"], "roles": [{1: "person"}, {"last": "person"}],
+                            "trials": 1})
+    db = tmp_path / "r.sqlite"
+    run_sweep(spec, db_path=db, jobs=1, quiet=True)
+    rows = team_rows(ResultStore(db).records("teams"))
+    assert [r.label for r in rows] == ["robot 1: person", "last robot: person"]
+    assert all(r.trials == 1 and r.robots_ok_count in (0, 1) for r in rows)
+    assert team_table(rows)[0].startswith("| roles | trials |")

@@ -1,0 +1,90 @@
+"""Mixed teams in stored results: trials grouped by who ran what, with rates and intervals.
+
+A trial of a mixed team stores each robot's method and the contacts with people by cause
+(:mod:`nodnav.sim.team_contacts`) in its summary. :func:`team_rows` groups stored trials by their
+roles (which robots ran which method other than the trial's) and gives, per group:
+
+- ``robots_ok``: every robot (not person) arrived and no robot caused a contact (the measure
+  of docs/mixed-teams.md: robots arrive without contact they caused);
+- ``success``: the simulator's outcome: every robot and person arrived, no robot caused a contact;
+- ``contact_free``: success and no robot touched anyone at all, whoever caused it;
+- contacts caused by robots and by people, and the robots' makespan and mean delay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.experiments.statistics import Interval, mean_sd, wilson_interval
+from nodnav.experiments.store import TrialRecord
+
+
+def role_label(record: TrialRecord) -> str:
+    """Who ran what besides the trial's method, e.g. ``robot 1: person`` or ``last robot: orca``;
+    ``all METHOD`` when every robot ran the trial's method."""
+    robots = record.config["scenario"]["robots"]
+    n = len(robots)
+    parts = []
+    for i, r in enumerate(robots):
+        if r.get("method") and r["method"] != record.method:
+            where = "robot 1" if i == 0 else "last robot" if i == n - 1 else f"robot {i + 1}"
+            parts.append(f"{where}: {r['method']}")
+    return ", ".join(parts) if parts else f"all {record.method}"
+
+
+@dataclass(frozen=True)
+class TeamRow:
+    """The figures of one group of trials (one role assignment)."""
+
+    label: str
+    trials: int
+    robots_ok: Interval
+    """Rate of trials in which every robot arrived and no robot caused a contact (Wilson 95 %)."""
+    robots_ok_count: int
+    success: Interval
+    contact_free: Interval
+    contacts_by_robots: int
+    contacts_by_people: int
+    trials_with_contact: int
+    makespan: tuple[float, float, int]
+    """Robots' makespan (s) over the trials in which every robot arrived: mean, sd, count."""
+    delay: tuple[float, float, int]
+    """Mean delay of the robots (s, arrival minus time alone) over those trials: mean, sd, count."""
+
+
+def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[TeamRow]:
+    """One :class:`TeamRow` per role assignment among ``records`` (errors left out), in first-seen
+    order; per scenario and role assignment with ``by_scenario`` (labelled ``SCENARIO, ROLES``)."""
+    groups: dict[str, list[TrialRecord]] = {}
+    for r in records:
+        if r.outcome != "error":
+            label = f"{r.scenario}, {role_label(r)}" if by_scenario else role_label(r)
+            groups.setdefault(label, []).append(r)
+    rows = []
+    for label, group in groups.items():
+        n = len(group)
+        ok = success = free = by_robots = by_people = touched = 0
+        makespans, delays = [], []
+        for r in group:
+            s = r.summary
+            people = set(s.get("people") or [])
+            caused = int(s.get("contacts_caused_by_robots") or 0)
+            arrived = bool(s.get("robots_arrived", r.outcome == "success"))
+            ok += arrived and caused == 0 and r.outcome != "collision"
+            success += r.outcome == "success"
+            free += bool(s.get("success_contact_free", r.outcome == "success"))
+            by_robots += caused
+            by_people += int(s.get("contacts_caused_by_people") or 0)
+            touched += int(s.get("contacts") or 0) > 0
+            if arrived:
+                makespans.append(s.get("robots_makespan_s", s.get("makespan_s")))
+                robot_delays = [d for k, d in enumerate(s.get("delay_s") or []) if k + 1 not in people]
+                if robot_delays and all(d is not None for d in robot_delays):
+                    delays.append(float(np.mean(robot_delays)))
+        rows.append(TeamRow(label=label, trials=n, robots_ok=wilson_interval(ok, n), robots_ok_count=ok,
+                            success=wilson_interval(success, n), contact_free=wilson_interval(free, n),
+                            contacts_by_robots=by_robots, contacts_by_people=by_people, trials_with_contact=touched,
+                            makespan=mean_sd(makespans), delay=mean_sd(delays)))
+    return rows

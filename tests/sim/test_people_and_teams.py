@@ -16,10 +16,12 @@ from nodnav.sim.person import (
     agent_forces,
     clip_against_walls,
     driving_force,
+    lateral,
     nearest_border_point,
     preferred_speed,
     view_weights,
     wall_forces,
+    wall_social,
 )
 from nodnav.sim.simulator import Simulation, run_trial, trial_generators
 from nodnav.sim.team_contacts import PeopleContacts, approach_speeds, contact_causes
@@ -72,6 +74,14 @@ def test_the_nearest_piece_of_the_border_acts_at_a_mouth():
     world = paper_world()  # corridor from x = -3 to 3, walls at |y| >= 0.35
     p = np.array([-3.19, 0.05])
     assert np.allclose(nearest_border_point(world, p), [-3.0, 0.35])
+
+
+def test_the_walls_social_term_only_steers():
+    # (-100, 50) N against a person heading along +x: the -100 N along its heading is dropped.
+    assert np.allclose(lateral(np.array([-100.0, 50.0]), np.array([1.0, 0.0])), [0.0, 50.0])
+    assert np.allclose(lateral(np.array([-100.0, 50.0]), np.array([-1.0, 0.0])), [-100.0, 50.0])
+    # The social part of the wall force alone: 2000 e^((0.2 - 0.5) / 0.08) N away from the wall.
+    assert np.allclose(wall_social(np.array([0.0, 0.5]), 0.2, np.zeros(2), P), [0.0, 2000 * math.exp(-3.75)])
 
 
 def test_field_of_view_weighs_those_behind_by_c():

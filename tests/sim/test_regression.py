@@ -27,6 +27,7 @@ CASES = [
     ("race-abreast-into-the-mouth.yaml", (132,)),
     ("waiting-aside-in-a-small-room.yaml", (347,)),
     ("person-at-the-mouth.yaml", (1,)),
+    ("person-slow-into-a-narrow-mouth.yaml", (34,)),
 ]
 
 

@@ -22,7 +22,15 @@ space, and Helbing and Molnar (1995) take, for each border, the piece of it near
 pedestrian: so one wall point acts, the nearest (:func:`nearest_border_point`). Summing over the
 wall blocks instead would make the two corners of a 0.7 m corridor's mouth push a person of radius
 0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person whose
-preferred speed is 1 m/s: it would stand at the mouth for ever. The weight ``w_ij`` is Helbing and
+preferred speed is 1 m/s: it would stand at the mouth for ever.
+
+The wall's social term only steers (``wall_lateral``, a departure from HFV): its component against
+the direction the person heads for is dropped, so that it keeps a person off the walls and in the
+middle of a passage but never holds it back. The person's route already keeps clear of the walls;
+with HFV's literal term, A = 2000 N and B = 0.08 m, the corner of a mouth that leaves 0.1 m on each
+side of a person pushes it back with up to about 155 N along the corridor, more than the driving
+force of a person walking at less than 0.97 m/s: in the ``mixed`` family one person in five or
+more never entered its corridor. Contact (body) forces are HFV's, from every side. The weight ``w_ij`` is Helbing and
 Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of the person's heading, ``c``
 behind it; it scales the social (exponential) term only, since pushing in contact is felt from
 every side. The parameters, :class:`SocialForceParams`, are the published ones; only the person's
@@ -97,6 +105,9 @@ class SocialForceParams:
     """Distance beyond which walls and others exert no force (m): the exponential is below 1e-7 A there."""
     yield_distance: float = 1.5
     """``person-yielding``: distance to its entrance at which a person waits while someone comes the other way (m)."""
+    wall_lateral: bool = True
+    """Whether the wall's social (exponential) term only steers (its part against the person's
+    heading dropped, :func:`lateral`); chosen, see the module docstring; ``False`` is HFV's literal term."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -169,6 +180,21 @@ def nearest_border_point(world: World, point: np.ndarray) -> np.ndarray:
     q = np.asarray(point, dtype=float)
     candidates = nearest_wall_points(world, q)
     return candidates[int(np.argmin(np.linalg.norm(candidates - q, axis=1)))]
+
+
+def lateral(force: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """``force`` without its component against the unit ``heading`` (unchanged if it has none)."""
+    f = np.asarray(force, dtype=float)
+    e = np.asarray(heading, dtype=float)
+    along = float(f @ e)
+    return f - along * e if along < 0.0 else f
+
+
+def wall_social(p_i: np.ndarray, r_i: float, wall_point: np.ndarray, p: SocialForceParams) -> np.ndarray:
+    """The social (exponential) part of :func:`wall_forces` from one wall point ``(2,)`` (N)."""
+    d_vec = np.asarray(p_i, dtype=float) - np.asarray(wall_point, dtype=float)
+    d = max(float(np.hypot(*d_vec)), 1e-9)
+    return p.A * math.exp((r_i - d) / p.B) * d_vec / d
 
 
 def wall_forces(p_i: np.ndarray, v_i: np.ndarray, r_i: float, wall_points: np.ndarray,
@@ -309,6 +335,9 @@ class PersonMethod:
             wall = nearest_border_point(s.world, p)
             if np.linalg.norm(wall - p) < prm.range + radii[i]:
                 force = force + wall_forces(p, v, float(radii[i]), wall[None], prm)[0]
+                if prm.wall_lateral and norm > 0:
+                    social = wall_social(p, float(radii[i]), wall, prm)
+                    force = force - social + lateral(social, e)
             accel = clip_norm(force / prm.mass, float(s.robots[i].max_accel))
             v_new = clip_norm(v + accel * self.dt, float(s.max_speeds[i]))
             step = clip_against_walls(s.world, p, v_new * self.dt, float(radii[i]))

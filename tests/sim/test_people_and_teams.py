@@ -194,3 +194,5 @@ def test_bad_methods_per_robot_are_one_line():
         Simulation(with_methods("2r-case1", {0: "persn"}), "nod", 1)
     with pytest.raises(NodnavError, match=r"robots\[1\].method: 'oracle' is a central coordinator"):
         Simulation(with_methods("2r-case1", {1: "oracle"}), "nod", 1)
+    with pytest.raises(NodnavError, match=r"method 'oracle' is a central coordinator.*robots\[0\].method: person"):
+        Simulation(with_methods("2r-case1", {0: "person"}), "oracle", 1)

@@ -63,7 +63,7 @@ def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[Tea
             label = f"{r.scenario}, {role_label(r)}" if by_scenario else role_label(r)
             groups.setdefault(label, []).append(r)
     rows = []
-    for label, group in groups.items():
+    for label, group in (sorted(groups.items()) if by_scenario else groups.items()):
         n = len(group)
         ok = success = free = by_robots = by_people = touched = 0
         makespans, delays = [], []

@@ -297,6 +297,10 @@ class Team:
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], names: tuple[str, ...], default: str,
                  planner=None):
+        if default in CENTRAL_METHODS:
+            other = next(i for i, n in enumerate(names) if n != default)
+            raise NodnavError(f"method '{default}' is a central coordinator of every robot of a trial; it cannot run "
+                              f"beside robots[{other}].method: {names[other]} (leave out the robots' own methods)")
         for i, name in enumerate(names):
             if name in CENTRAL_METHODS:
                 raise NodnavError(f"robots[{i}].method: '{name}' is a central coordinator of every robot of a trial; "

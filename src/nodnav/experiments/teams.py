@@ -19,6 +19,22 @@ import numpy as np
 
 from nodnav.experiments.statistics import Interval, mean_sd, wilson_interval
 from nodnav.experiments.store import TrialRecord
+from nodnav.experiments.study import SweepSpec
+from nodnav.scenario.catalogue import PAPER_SCENARIOS
+
+STUDY_MIXED_TEAMS = "mixed-teams"
+"""The ``mixed-teams`` part of ``nodnav reproduce``: robot 1 replaced in the paper's ten and ``mixed``."""
+MIXED_TEAMS_ROLES = ((("1", "person"),), (("1", "person-yielding"),), (("1", "closest-first"),), (("1", "orca"),))
+"""Robot 1 a person, a yielding person, a closest-first robot, an ORCA robot; the others run NOD."""
+MIXED_TEAMS_TITLE = "beyond the paper: NOD robots with a person or a robot of another convention"
+"""The part's title in the report's table of what was run."""
+
+
+def mixed_teams_spec(trials: int) -> SweepSpec:
+    """The mixed-teams study: the paper's ten with seeds ``1..trials`` and the ``mixed`` family's
+    draws ``1..trials``, each with every role of :data:`MIXED_TEAMS_ROLES`."""
+    return SweepSpec(STUDY_MIXED_TEAMS, PAPER_SCENARIOS, families=("mixed",), roles=MIXED_TEAMS_ROLES,
+                     planners=("fast",), trials=trials)
 
 
 def role_label(record: TrialRecord) -> str:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from nodnav.experiments.statistics import fmt_mean_sd, fmt_rate
-from nodnav.experiments.teams import TeamRow, team_rows
+from nodnav.experiments.teams import STUDY_MIXED_TEAMS, TeamRow, team_rows
 from nodnav.reporting.document import ReportDocument
 from nodnav.reporting.markdown import md_table
 
@@ -22,7 +22,8 @@ def team_table(rows: list[TeamRow]) -> list[str]:
                               fmt_mean_sd(*r.makespan), fmt_mean_sd(*r.delay)] for r in rows])
 
 
-def section_mixed_teams(rep: ReportDocument, studies: tuple[str, ...] = (STUDY_PEOPLE, STUDY_FAMILY)) -> None:
+def section_mixed_teams(rep: ReportDocument,
+                        studies: tuple[str, ...] = (STUDY_MIXED_TEAMS, STUDY_PEOPLE, STUDY_FAMILY)) -> None:
     """One table per study of mixed teams (docs/mixed-teams.md says what each column means);
     nothing when the database holds none of ``studies``."""
     if not any(rep.has(study) for study in studies):
@@ -36,4 +37,7 @@ def section_mixed_teams(rep: ReportDocument, studies: tuple[str, ...] = (STUDY_P
             rep.absent(study, f"Run `nodnav sweep --study docs/studies/{study}.yaml` to add it.")
             continue
         rep.add(f"### Study `{study}`", "")
-        rep.add(*team_table(team_rows(rep.store.records(study))))
+        records = rep.store.records(study)
+        rep.add(*team_table(team_rows(records)), "")
+        if len({r.scenario for r in records}) > 1:
+            rep.add("Per scenario:", "", *team_table(team_rows(records, by_scenario=True)), "")

@@ -35,6 +35,7 @@ from nodnav.reporting.breakdown import breakdown_lines
 from nodnav.reporting.comparisons import section_methods, section_planners
 from nodnav.reporting.document import ReportDocument
 from nodnav.reporting.markdown import md_table
+from nodnav.reporting.mixed_teams import section_mixed_teams
 from nodnav.reporting.paper_sections import section_fig2, section_strategies, section_success
 from nodnav.reporting.reduction import section_reduction
 from nodnav.reporting.scaling import section_scaling
@@ -165,6 +166,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
         section_methods(rep)
         section_reduction(rep)
         section_scaling(rep)  # beyond the paper: 5-8 robots (nodnav.reporting.scaling)
+        section_mixed_teams(rep)  # beyond the paper: people and other conventions (nodnav.reporting.mixed_teams)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")
     reason = (f"wrote {report_path} with {len(rep.figures)} figures"

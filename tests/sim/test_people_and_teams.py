@@ -1,5 +1,6 @@
 """Mixed teams (robots[i].method), people (social force) and who caused a contact, against hand computations."""
 
+import importlib.util
 import math
 
 import numpy as np
@@ -196,3 +197,15 @@ def test_bad_methods_per_robot_are_one_line():
         Simulation(with_methods("2r-case1", {1: "oracle"}), "nod", 1)
     with pytest.raises(NodnavError, match=r"method 'oracle' is a central coordinator.*robots\[0\].method: person"):
         Simulation(with_methods("2r-case1", {0: "person"}), "oracle", 1)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("pyrvo") is None, reason="orca needs pyrvo (nodnav[baselines])")
+def test_other_conventions_per_robot_in_one_trial():
+    scenario = with_methods("3r-case4", {1: "orca", 2: "independent"})
+    sim = Simulation(scenario, "nod", 3)
+    assert set(sim.method.members) == {"nod", "orca", "independent"}
+    for _ in range(15):  # one and a half opinion periods: every method decided and moved its own robot
+        sim.step()
+    decisions = sim.history.strategies[-1]
+    assert decisions[1] == -1 and decisions[0] >= 0 and decisions[2] >= 0  # orca follows no order
+    assert np.linalg.norm(sim.history.positions[-1][1] - scenario.origins[1]) > 0.5  # ORCA drives at once

@@ -18,7 +18,6 @@ from nodnav.sim.person import (
     clip_against_walls,
     driving_force,
     lateral,
-    nearest_border_point,
     preferred_speed,
     view_weights,
     wall_forces,
@@ -69,12 +68,6 @@ def test_wall_pushes_a_person_away_along_its_normal():
     p = np.array([(x0 + x1) / 2, y1 + 0.5])
     f = wall_forces(p, np.zeros(2), 0.2, np.array([[p[0], y1]]), P)
     assert np.allclose(f[0], [0.0, 2000 * math.exp(-3.75)])  # 47.04 N upward
-
-
-def test_the_nearest_piece_of_the_border_acts_at_a_mouth():
-    world = paper_world()  # corridor from x = -3 to 3, walls at |y| >= 0.35
-    p = np.array([-3.19, 0.05])
-    assert np.allclose(nearest_border_point(world, p), [-3.0, 0.35])
 
 
 def test_the_walls_social_term_only_steers():

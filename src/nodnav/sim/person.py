@@ -17,26 +17,24 @@ social force model, Phys. Rev. E 51, 4282, 1995)::
 with ``g(x) = max(x, 0)`` (the body forces act only in contact), ``r_ij = r_i + r_j``, ``d_ij`` the
 distance between centres, ``n_ij`` the unit vector from ``j`` to ``i``, ``t_ij`` its normal and
 ``dv_ji.t_ij = (v_j - v_i).t_ij``; ``d_iW``, ``n_iW`` and ``t_iW`` likewise for the nearest point
-of wall ``W``. The walls of a nodnav world and its boundary form one connected border around free
-space, and Helbing and Molnar (1995) take, for each border, the piece of it nearest to the
-pedestrian: so one wall point acts, the nearest (:func:`nearest_border_point`). Summing over the
-wall blocks instead would make the two corners of a 0.7 m corridor's mouth push a person of radius
-0.2 m back with 2 x 80 N along the corridor, as much as the driving force of a person whose
-preferred speed is 1 m/s: it would stand at the mouth for ever.
+of wall ``W`` (every wall rectangle and each side of the world's boundary within ``range``). The
+weight ``w_ij`` is Helbing and Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of
+the person's heading, ``c`` behind it; it scales the social (exponential) term only, since pushing
+in contact is felt from every side. The parameters, :class:`SocialForceParams`, are the published
+ones; only the person's speed limit and acceleration limit come from its
+:class:`~nodnav.scenario.params.RobotSpec` (``max_speed``, ``max_accel``): the force gives the
+acceleration, which is clipped to ``max_accel``, then the velocity to ``max_speed``.
 
-The wall's social term only steers (``wall_lateral``, a departure from HFV): its component against
-the direction the person heads for is dropped, so that it keeps a person off the walls and in the
-middle of a passage but never holds it back. The person's route already keeps clear of the walls;
-with HFV's literal term, A = 2000 N and B = 0.08 m, the corner of a mouth that leaves 0.1 m on each
-side of a person pushes it back with up to about 155 N along the corridor, more than the driving
-force of a person walking at less than 0.97 m/s: in the ``mixed`` family one person in five or
-more never entered its corridor. Contact (body) forces are HFV's, from every side. The weight ``w_ij`` is Helbing and
-Molnar's (1995) field of view: 1 for someone within ``fov / 2`` of the person's heading, ``c``
-behind it; it scales the social (exponential) term only, since pushing in contact is felt from
-every side. The parameters, :class:`SocialForceParams`, are the published ones; only the person's
-speed limit and acceleration limit come from its :class:`~nodnav.scenario.params.RobotSpec`
-(``max_speed``, ``max_accel``): the force gives the acceleration, which is clipped to
-``max_accel``, then the velocity to ``max_speed``.
+One departure from HFV: a wall's social term only steers (``wall_lateral``; ``False`` is HFV's
+literal term). Its component against the direction the person heads for is dropped, so that it
+keeps a person off the walls and in the middle of a passage but never holds it back; the person's
+route already keeps clear of the walls. With the literal term, A = 2000 N and B = 0.08 m, the two
+corners of the paper's 0.7 m corridor push a person of radius 0.2 m back with 2 x 80 N along the
+corridor at its mouth, as much as the driving force of a person whose preferred speed is 1 m/s (it
+stood at the mouth for ever: regression ``person-at-the-mouth``); a mouth leaving 0.1 m on each
+side of a person pushes it back harder than a person slower than about 1 m/s is pulled
+(``person-slow-into-a-narrow-mouth``; in the ``mixed`` family a quarter of the trials with a person
+deadlocked). Contact (body) forces are HFV's, from every side.
 
 Why the social force model and not ORCA with human parameters: ORCA's agents never touch by
 construction (they pick collision-free velocities), so it cannot produce the contacts a person
@@ -62,6 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.control import ControlResult
+from nodnav.control.base import STEP_FRACTIONS
 from nodnav.planning.base import PlanResult
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.registry import register_method
@@ -105,6 +104,9 @@ class SocialForceParams:
     """Distance beyond which walls and others exert no force (m): the exponential is below 1e-7 A there."""
     yield_distance: float = 1.5
     """``person-yielding``: distance to its entrance at which a person waits while someone comes the other way (m)."""
+    substeps: int = 8
+    """Integration steps per control step (0.1 s): the stiff wall and body terms (natural period
+    about 0.6 s in the paper's corridor) need steps well below the control step."""
     wall_lateral: bool = True
     """Whether the wall's social (exponential) term only steers (its part against the person's
     heading dropped, :func:`lateral`); chosen, see the module docstring; ``False`` is HFV's literal term."""
@@ -171,15 +173,6 @@ def nearest_wall_points(world: World, point: np.ndarray) -> np.ndarray:
     x0, y0, x1, y1 = world.bounds
     sides = np.array([[x0, q[1]], [x1, q[1]], [q[0], y0], [q[0], y1]], dtype=float)
     return np.concatenate([inside, sides])
-
-
-def nearest_border_point(world: World, point: np.ndarray) -> np.ndarray:
-    """The point of the walls nearest to ``point`` ``(2,)``: the walls and the boundary form one
-    connected border around free space, and Helbing and Molnar (1995) take, for each border, its
-    piece nearest to the pedestrian."""
-    q = np.asarray(point, dtype=float)
-    candidates = nearest_wall_points(world, q)
-    return candidates[int(np.argmin(np.linalg.norm(candidates - q, axis=1)))]
 
 
 def lateral(force: np.ndarray, heading: np.ndarray) -> np.ndarray:
@@ -308,44 +301,61 @@ class PersonMethod:
         """Whether person ``i`` stops before its mouth now (only ``person-yielding`` does)."""
         return False
 
+    def force(self, i: int, p: np.ndarray, v: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
+              vj: np.ndarray, rj: np.ndarray) -> np.ndarray:
+        """The total force on person ``i`` at ``p`` moving at ``v``, heading ``e`` at preferred
+        ``speed``, with others at ``pj`` (velocities ``vj``, radii ``rj``) (N)."""
+        s, prm, r = self.scenario, self.params, float(self.scenario.radii[i])
+        force = driving_force(v, speed * e, prm.mass, prm.tau)
+        if len(pj):
+            forces = agent_forces(p, v, r, pj, vj, rj, prm)
+            weights = view_weights(e, p, pj, prm)
+            forces -= (1.0 - weights)[:, None] * social_part(p, r, pj, rj, prm)
+            force = force + forces.sum(axis=0)
+        walls = nearest_wall_points(s.world, p)
+        for wall in walls[np.linalg.norm(walls - p, axis=1) < prm.range + r]:
+            force = force + wall_forces(p, v, r, wall[None], prm)[0]
+            if prm.wall_lateral and e.any():
+                social = wall_social(p, r, wall, prm)
+                force = force - social + lateral(social, e)
+        return force
+
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
-        """Every person's social-force step from its own view."""
+        """Every person's social-force motion over one control step from its own view, integrated
+        in ``substeps`` semi-implicit Euler steps (the others move on at their observed velocity)."""
         s, prm, out = self.scenario, self.params, {}
         radii = s.radii
+        n_sub = prm.substeps
+        h = self.dt / n_sub
+        marks = np.round(STEP_FRACTIONS * n_sub).astype(int)
         for i, view in views.items():
             start = time.perf_counter()
-            p, v = view.positions[i], view.velocities[i]
-            route = self.route(i, p)
-            remaining = float(np.linalg.norm(np.diff(np.vstack([p, route]), axis=0), axis=1).sum())
-            waypoint = next_waypoint(route, p)
-            heading = waypoint - p
+            p0, v0 = view.positions[i], view.velocities[i]
+            route = self.route(i, p0)
+            remaining = float(np.linalg.norm(np.diff(np.vstack([p0, route]), axis=0), axis=1).sum())
+            heading = next_waypoint(route, p0) - p0
             norm = float(np.hypot(*heading))
             e = heading / norm if norm > 0 else np.zeros(2)
             speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining,
                                                                   float(s.robots[i].max_accel), self.dt)
-            force = driving_force(v, speed * e, prm.mass, prm.tau)
             others = [k for k in range(s.n_robots) if k != i
-                      and np.linalg.norm(view.positions[k] - p) < prm.range + radii[i] + radii[k]]
-            if others:
-                pj, vj, rj = view.positions[others], view.velocities[others], radii[others]
-                forces = agent_forces(p, v, float(radii[i]), pj, vj, rj, prm)
-                weights = view_weights(e, p, pj, prm)
-                forces -= ((1.0 - weights)[:, None] * social_part(p, float(radii[i]), pj, rj, prm))
-                force = force + forces.sum(axis=0)
-            wall = nearest_border_point(s.world, p)
-            if np.linalg.norm(wall - p) < prm.range + radii[i]:
-                force = force + wall_forces(p, v, float(radii[i]), wall[None], prm)[0]
-                if prm.wall_lateral and norm > 0:
-                    social = wall_social(p, float(radii[i]), wall, prm)
-                    force = force - social + lateral(social, e)
-            accel = clip_norm(force / prm.mass, float(s.robots[i].max_accel))
-            v_new = clip_norm(v + accel * self.dt, float(s.max_speeds[i]))
-            step = clip_against_walls(s.world, p, v_new * self.dt, float(radii[i]))
-            v_new = step / self.dt
-            out[i] = ControlResult(success=True, reason="", velocity=v_new, next_position=p + step,
-                                   next_velocity=v_new, planned_positions=p + v_new * self.sample_times[:, None],
-                                   solve_time=time.perf_counter() - start,
-                                   info={"preferred_speed": speed, "force": force})
+                      and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
+            pj, vj, rj = view.positions[others], view.velocities[others], radii[others]
+            p, v = p0.copy(), v0.copy()
+            passed = []
+            for k in range(1, n_sub + 1):
+                accel = clip_norm(self.force(i, p, v, e, speed, pj + vj * (k - 1) * h, vj, rj) / prm.mass,
+                                  float(s.robots[i].max_accel))
+                v = clip_norm(v + accel * h, float(s.max_speeds[i]))
+                step = clip_against_walls(s.world, p, v * h, float(radii[i]))
+                v = step / h
+                p = p + step
+                if k in marks:
+                    passed.append(p.copy())
+            out[i] = ControlResult(success=True, reason="", velocity=v, next_position=p, next_velocity=v,
+                                   planned_positions=p + v * self.sample_times[:, None],
+                                   solve_time=time.perf_counter() - start, step_positions=np.array(passed),
+                                   info={"preferred_speed": speed})
         return out
 
 

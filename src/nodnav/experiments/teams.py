@@ -8,7 +8,8 @@ roles (which robots ran which method other than the trial's) and gives, per grou
   of docs/mixed-teams.md: robots arrive without contact they caused);
 - ``success``: the simulator's outcome: every robot and person arrived, no robot caused a contact;
 - ``contact_free``: success and no robot touched anyone at all, whoever caused it;
-- contacts caused by robots and by people, and the robots' makespan and mean delay.
+- contacts caused by robots and by people, the robots' makespan, and the mean delay of the robots
+  that run the trial's method (the NOD robots among the others).
 """
 
 from __future__ import annotations
@@ -18,9 +19,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.experiments.statistics import Interval, mean_sd, wilson_interval
-from nodnav.experiments.store import TrialRecord
+from nodnav.experiments.store import TrialRecord, canonical_json
 from nodnav.experiments.study import SweepSpec
 from nodnav.scenario.catalogue import PAPER_SCENARIOS
+from nodnav.scenario.schema import scenario_from_dict
+from nodnav.sim.team_contacts import free_times
 
 STUDY_MIXED_TEAMS = "mixed-teams"
 """The ``mixed-teams`` part of ``nodnav reproduce``: robot 1 replaced in the paper's ten and ``mixed``."""
@@ -67,7 +70,21 @@ class TeamRow:
     makespan: tuple[float, float, int]
     """Robots' makespan (s) over the trials in which every robot arrived: mean, sd, count."""
     delay: tuple[float, float, int]
-    """Mean delay of the robots (s, arrival minus time alone) over those trials: mean, sd, count."""
+    """Mean delay of the robots that run the trial's method (s, arrival minus time alone; the NOD
+    robots in a NOD trial) over those trials: mean, sd, count."""
+
+
+def robot_delays(record: TrialRecord, cache: dict) -> list[float | None]:
+    """Each robot's delay (s) in a stored trial: its own ``delay_s`` (mixed teams), else its time
+    to goal minus :func:`~nodnav.sim.team_contacts.free_times` of the stored scenario."""
+    stored = record.summary.get("delay_s")
+    if stored is not None:
+        return stored
+    key = canonical_json(record.config["scenario"])
+    if key not in cache:
+        cache[key] = free_times(scenario_from_dict(record.config["scenario"], record.scenario))
+    times = record.summary.get("time_to_goal_s") or []
+    return [None if t is None or not np.isfinite(f) else float(t - f) for t, f in zip(times, cache[key])]
 
 
 def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[TeamRow]:
@@ -78,14 +95,13 @@ def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[Tea
         if r.outcome != "error":
             label = f"{r.scenario}, {role_label(r)}" if by_scenario else role_label(r)
             groups.setdefault(label, []).append(r)
-    rows = []
+    rows, alone = [], {}  # times alone per stored scenario
     for label, group in (sorted(groups.items()) if by_scenario else groups.items()):
         n = len(group)
         ok = success = free = by_robots = by_people = touched = 0
         makespans, delays = [], []
         for r in group:
             s = r.summary
-            people = set(s.get("people") or [])
             caused = int(s.get("contacts_caused_by_robots") or 0)
             arrived = bool(s.get("robots_arrived", r.outcome == "success"))
             ok += arrived and caused == 0 and r.outcome != "collision"
@@ -96,9 +112,11 @@ def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[Tea
             touched += int(s.get("contacts") or 0) > 0
             if arrived:
                 makespans.append(s.get("robots_makespan_s", s.get("makespan_s")))
-                robot_delays = [d for k, d in enumerate(s.get("delay_s") or []) if k + 1 not in people]
-                if robot_delays and all(d is not None for d in robot_delays):
-                    delays.append(float(np.mean(robot_delays)))
+                plain = [k for k, robot in enumerate(r.config["scenario"]["robots"])
+                         if robot.get("method") in (None, r.method)]
+                own = [d for k, d in enumerate(robot_delays(r, alone)) if k in plain]
+                if own and all(d is not None for d in own):
+                    delays.append(float(np.mean(own)))
         rows.append(TeamRow(label=label, trials=n, robots_ok=wilson_interval(ok, n), robots_ok_count=ok,
                             success=wilson_interval(success, n), contact_free=wilson_interval(free, n),
                             contacts_by_robots=by_robots, contacts_by_people=by_people, trials_with_contact=touched,

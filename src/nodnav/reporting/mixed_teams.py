@@ -12,7 +12,7 @@ STUDY_PEOPLE = "mixed-teams-people"
 STUDY_FAMILY = "mixed-teams-family"
 
 HEADER = ["roles", "trials", "robots arrive, no contact they caused %", "success %", "no robot touched %",
-          "contacts caused by robots", "by people", "robots' makespan (s)", "robots' mean delay (s)"]
+          "contacts caused by robots", "by people", "robots' makespan (s)", "delay of the trial-method robots (s)"]
 
 
 def team_table(rows: list[TeamRow]) -> list[str]:
@@ -34,7 +34,8 @@ def section_mixed_teams(rep: ReportDocument,
             "the other; only a robot's ends the trial.")
     for study in studies:
         if not rep.has(study):
-            rep.absent(study, f"Run `nodnav sweep --study docs/studies/{study}.yaml` to add it.")
+            if study == STUDY_MIXED_TEAMS:  # the reproduce part; the other studies are optional
+                rep.absent(study, "Run `nodnav reproduce --parts mixed-teams` to add it.")
             continue
         rep.add(f"### Study `{study}`", "")
         records = rep.store.records(study)

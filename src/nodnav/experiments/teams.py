@@ -95,7 +95,8 @@ def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[Tea
         if r.outcome != "error":
             label = f"{r.scenario}, {role_label(r)}" if by_scenario else role_label(r)
             groups.setdefault(label, []).append(r)
-    rows, alone = [], {}  # times alone per stored scenario
+    rows: list[TeamRow] = []
+    alone: dict[str, np.ndarray] = {}  # times alone per stored scenario
     for label, group in (sorted(groups.items()) if by_scenario else groups.items()):
         n = len(group)
         ok = success = free = by_robots = by_people = touched = 0
@@ -116,7 +117,7 @@ def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[Tea
                          if robot.get("method") in (None, r.method)]
                 own = [d for k, d in enumerate(robot_delays(r, alone)) if k in plain]
                 if own and all(d is not None for d in own):
-                    delays.append(float(np.mean(own)))
+                    delays.append(float(np.mean([float(d) for d in own if d is not None])))
         rows.append(TeamRow(label=label, trials=n, robots_ok=wilson_interval(ok, n), robots_ok_count=ok,
                             success=wilson_interval(success, n), contact_free=wilson_interval(free, n),
                             contacts_by_robots=by_robots, contacts_by_people=by_people, trials_with_contact=touched,

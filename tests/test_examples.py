@@ -1,5 +1,6 @@
 """Every script in examples/ runs as documented (README, "Use from Python")."""
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +18,8 @@ def run(script: str, *args: str) -> str:
 
 
 def test_every_example_is_run_here():
-    tested = {"trial_with_figure.py", "run_cautious_planner.py", "cautious_planner.py", "sweep_and_report.py"}
+    tested = {"trial_with_figure.py", "run_cautious_planner.py", "cautious_planner.py", "sweep_and_report.py",
+              "random_policy_env.py", "hand_policy_env.py"}
     assert {p.name for p in EXAMPLES.glob("*.py")} == tested
 
 
@@ -52,3 +54,18 @@ def test_a_sweep_and_its_report(tmp_path):
     out = run("sweep_and_report.py", str(tmp_path))
     assert "4 trials, 4 run now" in out
     assert (tmp_path / "report" / "report.md").read_text().startswith("# nodnav")
+
+
+needs_rl = pytest.mark.skipif(importlib.util.find_spec("pettingzoo") is None, reason="needs nodnav[rl]")
+
+
+@needs_rl
+def test_a_random_policy_among_nod_robots():
+    out = run("random_policy_env.py", "3r-case4", "30")
+    assert "agents ['robot_1'], observation size 30" in out and "random policy: return" in out
+
+
+@needs_rl
+def test_a_hand_written_policy_among_nod_robots_arrives():
+    out = run("hand_policy_env.py", "2r-case1", "1")
+    assert "hand-written policy for robot 1 in 2r-case1" in out and "arrived" in out

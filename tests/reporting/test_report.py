@@ -333,7 +333,8 @@ def test_report_rebuilt_from_a_database_without_running_trials(tmp_path, monkeyp
     # The planner study is absent: no section, and the one line says how to add it and the other two.
     assert STUDY_SUCCESS not in result.missing and "planners" in result.missing
     assert "## Does the planner matter?" not in text and text.count("Not in this database") == 1
-    assert f"`nodnav reproduce --parts planners,reduction,scaling --planners fast,prm --db {db} --out DIR`" in text
+    parts = "planners,reduction,scaling,mixed-teams"
+    assert f"`nodnav reproduce --parts {parts} --planners fast,prm --db {db} --out DIR`" in text
     # Snapshots: no successful 3r-case4 / 4r-case4 trial is stored.
     assert all(not s.success for s in result.snapshots)
     # Methods: 'other' never succeeded; nod 1 of 2.
@@ -397,10 +398,10 @@ def test_report_of_ones_own_sweep_says_what_it_holds(tmp_path):
     assert "reproduced" not in text and "## Success rates" not in text and "## Table I" not in text
     assert "## Snapshots" not in text and "## What was run" not in text and "Fig. 2a" not in text
     assert text.count("Not in this database") == 1
-    assert ("`nodnav reproduce --parts success,table1,table2,fig2c,planners,methods,reduction,scaling --planners "
-            f"fast,prm --db {db} --out DIR` adds them") in text
+    assert ("`nodnav reproduce --parts success,table1,table2,fig2c,planners,methods,reduction,scaling,mixed-teams "
+            f"--planners fast,prm --db {db} --out DIR` adds them") in text
     assert set(result.missing) == {STUDY_SUCCESS, STUDY_TABLE1, STUDY_TABLE2, STUDY_FIG2C, STUDY_PLANNERS,
-                                   STUDY_METHODS, "game-reduction-variants", "beyond-scaling"}
+                                   STUDY_METHODS, "game-reduction-variants", "beyond-scaling", "mixed-teams"}
     assert result.figures == ()
     # What it holds: 8 of 12 succeeded (seed 3 of every cell deadlocked), in the breakdown.
     assert "## What this database holds" in text and "| `3r-case4` | 1 | nod | fast | 66.7 [20.8, 93.9] (3) |" in text
@@ -429,4 +430,4 @@ def test_a_study_cut_short_and_one_stored_without_its_specification(tmp_path):
     # Table I is there, so is its section; the rest of the paper is one line.
     assert "## Table I: initial opinions (3-Robot Case-2)" in text and "## Table II" not in text
     assert STUDY_TABLE1 not in result.missing
-    assert "--parts success,table2,fig2c,planners,methods,reduction,scaling --planners fast,prm" in text
+    assert "--parts success,table2,fig2c,planners,methods,reduction,scaling,mixed-teams --planners fast,prm" in text

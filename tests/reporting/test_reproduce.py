@@ -73,7 +73,8 @@ def test_plan_parts(tmp_path):
                                fig2c_grid=3, fig2c_trials=2)
     parts = {p.name: p for p in plan_parts(options)}
     # No planner besides the fast one: no planner comparison.
-    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "reduction", "scaling"]
+    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "reduction", "scaling",
+                           "mixed-teams"]
     # 3r-case2 with one game player as each of the four variants; 2r-case1 has no reduced game.
     assert len(parts["reduction"].spec.scenarios) == 4
     assert parts["success"].spec.players == (0, 1, 2) and parts["success"].spec.planners == ("fast",)

@@ -32,7 +32,8 @@ def test_hand_formula_matches_known_values():
 
 def test_reproduce_runs_the_crowds_only_in_the_scaling_part(tmp_path):
     parts = {p.name: p for p in plan_parts(ReproduceOptions(out=tmp_path, trials=3, methods=("nod",)))}
-    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "reduction", "scaling"]
+    assert list(parts) == ["success", "table1", "table2", "fig2c", "methods", "reduction", "scaling",
+                           "mixed-teams"]
     # The paper's parts and the comparisons stay on the paper's ten scenarios.
     for name in ("success", "methods"):
         assert parts[name].spec.scenarios == PAPER_SCENARIOS

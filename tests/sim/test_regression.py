@@ -26,6 +26,8 @@ CASES = [
     ("three-against-one-one-player.yaml", (20,)),
     ("race-abreast-into-the-mouth.yaml", (132,)),
     ("waiting-aside-in-a-small-room.yaml", (347,)),
+    ("person-at-the-mouth.yaml", (1,)),
+    ("person-slow-into-a-narrow-mouth.yaml", (34,)),
 ]
 
 

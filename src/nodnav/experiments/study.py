@@ -13,6 +13,7 @@ A study file::
     families: [mixed]             # optional: generated families; seed s runs draw s (FAMILY:s)
     set: {sim.observation_noise: 0.02, robot_defaults.max_accel: 1.0}   # optional: scenario keys set in every
                                   # scenario and every family draw (as --set KEY=VALUE does)
+    roles: [none, {1: person}, {last: closest-first}]   # optional: robots running another method
 
 Any single value may stand for a one-element list. The command line builds the same
 :class:`SweepSpec` through :func:`study_from_dict`, so both are checked by the same code and
@@ -36,7 +37,8 @@ from nodnav.scenario.limits import MAX_ROBOTS
 from nodnav.scenario.params import OpinionParams
 from nodnav.sim import METHODS
 
-STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families", "set")
+STUDY_KEYS = ("name", "scenarios", "players", "init", "bias", "planners", "methods", "trials", "families", "set",
+              "roles")
 
 #: The scenario key each axis of a study sets: giving it in ``set`` too would be ambiguous.
 AXIS_KEYS = {"players": "game_players", "init": "opinion.init", "bias": "opinion.bias", "planners": "planner.name"}
@@ -45,6 +47,10 @@ INIT_MODES = ("zero", "distance")
 
 Bias = tuple[tuple[str, float], ...]
 """A bias as ``(("S3", 150.0), ("S5", 150.0))``, sorted by strategy; ``()`` is no bias."""
+
+Roles = tuple[tuple[str, str], ...]
+"""Robots that run their own method, as ``(("1", "person"), ("last", "orca"))``: a robot number
+from 1 or ``last``, and a method name; ``()`` is none (every robot runs the trial's method)."""
 
 
 class StudyError(NodnavError, ValueError):
@@ -78,6 +84,8 @@ class SweepSpec:
     """Generated families (built-in names or family files): seed s runs the family's draw s."""
     overrides: dict[str, Any] = dataclasses.field(default_factory=dict)
     """Scenario keys set in every scenario and family draw (``set:``, ``--set``), in their order."""
+    roles: tuple[Roles, ...] = ((),)
+    """Role assignments (``robots[i].method`` for some robots), one axis of the cross product."""
 
     def to_dict(self) -> dict:
         """The spec as a study-file mapping that :func:`study_from_dict` reads back unchanged."""
@@ -93,6 +101,8 @@ class SweepSpec:
             out["families"] = list(self.families)
         if self.overrides:
             out["set"] = dict(self.overrides)
+        if self.roles != ((),):
+            out["roles"] = [dict(r) if r else "none" for r in self.roles]
         return out
 
 
@@ -157,6 +167,26 @@ def parse_bias(value: Any, where: str = "bias") -> Bias:
             raise StudyError(f"{entry}: expected a number from {low:g} to {high:g}, got {shown(number)}")
         out.append((j, name, v))
     return tuple((name, v) for _, name, v in sorted(out, key=lambda e: e[0]))
+
+
+def parse_roles(value: Any, where: str = "roles") -> Roles:
+    """One role assignment: ``none`` or a mapping from a robot (a number from 1, or ``last``) to a
+    method name, e.g. ``{1: person}``."""
+    if value in ("none", None):
+        return ()
+    if not isinstance(value, dict) or not value:
+        raise StudyError(f"{where}: expected 'none' or a mapping like {{1: person}} or {{last: orca}}, "
+                         f"got {shown(value)}")
+    out: dict[str, str] = {}
+    for robot, method in value.items():
+        key = str(robot).strip()
+        if key != "last" and not (_WHOLE.fullmatch(key) and int(key) >= 1):
+            raise StudyError(f"{where}: expected a robot number from 1 or 'last', got {shown(robot)}")
+        if method not in known_methods():
+            raise StudyError(f"{where}.{key}: unknown method {shown(method)}"
+                             f"{nearest_hint(str(method), known_methods(), 'methods')}")
+        out[key] = method
+    return tuple(sorted(out.items()))
 
 
 def _names(value: Any, where: str) -> tuple[str, ...]:
@@ -265,12 +295,14 @@ def study_from_dict(data: Any, source: str = "study", labels: dict[str, str] | N
         changes["families"] = _family_names(data["families"], at("families"))
     if data.get("set") is not None:
         changes["overrides"] = _settings(data["set"], data, at)
+    if "roles" in data:
+        changes["roles"] = tuple(dict.fromkeys(parse_roles(v, at("roles")) for v in _listed(data["roles"])))
     for key, values in changes.items():
         if not values and key != "overrides":
             raise StudyError(f"{at(key)}: expected at least one value")
     spec = dataclasses.replace(spec, **changes)
     size = math.prod(len(axis) for axis in (spec.scenarios, spec.players, spec.init, spec.bias, spec.planners,
-                                            spec.methods)) * spec.trials
+                                            spec.methods, spec.roles)) * spec.trials
     if size > MAX_SWEEP_TRIALS:
         raise StudyError(f"{at('trials')}: the study expands to {size} trials, more than one sweep may run "
                          f"({MAX_SWEEP_TRIALS}); split it into several studies")

@@ -46,7 +46,7 @@ from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.overrides import override_scenario, setting_text
-from nodnav.scenario.schema import Scenario, scenario_to_dict
+from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)
@@ -136,7 +136,7 @@ class SweepSummary:
 
 
 def expand(spec: SweepSpec) -> Expansion:
-    """Every trial of ``spec``: scenarios x players x init x bias x planners x methods x seeds 1..trials.
+    """Every trial of ``spec``: scenarios x players x init x bias x planners x roles x methods x seeds 1..trials.
 
     A family (``spec.families``) contributes its draws 1..trials, draw s with seed s only, so that
     ``nodnav run FAMILY:s --seed s`` redoes any of its trials.
@@ -186,18 +186,37 @@ def expand(spec: SweepSpec) -> Expansion:
                 changes["opinion.bias"] = dict(bias)
             if planner is not None:
                 changes["planner.name"] = planner
-            scenario = base.with_overrides(**changes) if changes else base
-            mapping = scenario_to_dict(scenario)
-            for method in spec.methods:
-                config = trial_config(mapping, method)
-                stored = {**config, "set": settings} if settings else config
-                for seed in seeds:
-                    key = trial_key(config, seed)
-                    trials.setdefault(key, TrialSpec(key, scenario, method, seed, stored))
+            plain = base.with_overrides(**changes) if changes else base
+            for roles in spec.roles:
+                scenario = with_roles(plain, roles)
+                if scenario is None:
+                    notes[f"{label}: roles {dict(roles)} skipped ({n} robots)"] += 1
+                    continue
+                mapping = scenario_to_dict(scenario)
+                for method in spec.methods:
+                    config = trial_config(mapping, method)
+                    stored = {**config, "set": settings} if settings else config
+                    for seed in seeds:
+                        key = trial_key(config, seed)
+                        trials.setdefault(key, TrialSpec(key, scenario, method, seed, stored))
     lines = tuple(text if count == 1 else f"{text} in {count} draws" for text, count in notes.items())
     for note in lines:
         log.info("%s", note)
     return Expansion(trials=tuple(trials.values()), notes=lines)
+
+
+def with_roles(scenario: Scenario, roles: tuple[tuple[str, str], ...]) -> Scenario | None:
+    """``scenario`` with ``robots[i].method`` set for the robots ``roles`` names (a number from 1,
+    or ``last``); ``None`` when it names a robot the scenario does not have."""
+    if not roles:
+        return scenario
+    raw = scenario_to_dict(scenario)
+    for robot, method in roles:
+        k = scenario.n_robots if robot == "last" else int(robot)
+        if k > scenario.n_robots:
+            return None
+        raw["robots"][k - 1]["method"] = method
+    return scenario_from_dict(raw, scenario.name)
 
 
 def _bases(spec: SweepSpec, notes: Counter[str]):

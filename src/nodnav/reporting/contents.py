@@ -25,6 +25,7 @@ from nodnav.experiments.paper import (
 )
 from nodnav.experiments.scaling import STUDY_SCALING
 from nodnav.experiments.store import ResultStore, TrialRecord
+from nodnav.experiments.teams import STUDY_MIXED_TEAMS
 from nodnav.experiments.variants import STUDY_REDUCTION
 
 
@@ -50,6 +51,7 @@ PAPER_PARTS = (
     PaperPart(STUDY_METHODS, "methods", "the navigation methods compared"),
     PaperPart(STUDY_REDUCTION, "reduction", "the game-reduction variants"),
     PaperPart(STUDY_SCALING, "scaling", "5 to 8 robots"),
+    PaperPart(STUDY_MIXED_TEAMS, "mixed-teams", "mixed teams: people and other conventions beside NOD robots"),
 )
 #: Names listed in full, at most; more are counted.
 MAX_NAMES = 4

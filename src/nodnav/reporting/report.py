@@ -41,6 +41,7 @@ from nodnav.reporting.comparisons import section_methods, section_planners
 from nodnav.reporting.contents import PAPER_PARTS, missing_line, missing_parts, report_title, study_lines
 from nodnav.reporting.document import ReportDocument
 from nodnav.reporting.markdown import md_table
+from nodnav.reporting.mixed_teams import section_mixed_teams
 from nodnav.reporting.paper_sections import section_fig2, section_strategies, section_success
 from nodnav.reporting.reduction import section_reduction
 from nodnav.reporting.scaling import section_scaling
@@ -180,6 +181,7 @@ def build_report(db_path: str | Path, out_dir: str | Path, *, command: str = "no
             section_reduction(rep)
         if has(STUDY_SCALING):
             section_scaling(rep)  # beyond the paper: 5-8 robots (nodnav.reporting.scaling)
+        section_mixed_teams(rep)  # beyond the paper: people and other conventions, where their studies are
         rep.missing.extend(p.study for p in missing_parts(store) if p.study not in rep.missing)
         _section_cost(rep)
     report_path.write_text("\n".join(rep.lines).rstrip() + "\n")

@@ -50,17 +50,19 @@ from nodnav.experiments.scaling import SCALING_TITLE, scaling_spec
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
 from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
+from nodnav.experiments.teams import MIXED_TEAMS_TITLE, mixed_teams_spec
 from nodnav.experiments.variants import STUDY_REDUCTION, variant_scenario_files
 from nodnav.provenance import PACKAGE_VERSION, code_version
 from nodnav.reporting.report import ReportResult, build_report
 from nodnav.scenario.catalogue import PAPER_SCENARIOS
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_to_dict
+from nodnav.sim.methods import is_pedestrian
 
 log = logging.getLogger(__name__)
 
 #: The parts of the evaluation, in the order they run within a round and get a seed the budget cannot give to all.
-PARTS = ("success", "table1", "table2", "fig2c", "methods", "reduction", "planners", "scaling")
+PARTS = ("success", "table1", "table2", "fig2c", "methods", "reduction", "planners", "scaling", "mixed-teams")
 #: The parts that reproduce the paper; the budget brings them to their targets before the comparisons.
 PAPER_PARTS = ("success", "table1", "table2", "fig2c")
 
@@ -246,7 +248,8 @@ def plan_parts(options: ReproduceOptions) -> tuple[Part, ...]:
     """The studies of the evaluation for ``options``, in :data:`PARTS` order."""
     scenarios = tuple(options.scenarios) or PAPER_SCENARIOS
     max_players = max(load_scenario(s).n_robots for s in scenarios) - 1
-    methods = tuple(options.methods) or known_methods()
+    # People are not navigation methods to compare robots by (a team of people is not a robot team).
+    methods = tuple(options.methods) or tuple(m for m in known_methods() if not is_pedestrian(m))
     t = options.trials
     planners = tuple(sorted(set(options.planners) | {"fast"}))
     builders = {
@@ -269,6 +272,7 @@ def plan_parts(options: ReproduceOptions) -> tuple[Part, ...]:
         "planners": lambda: Part("planners", f"planners compared ({', '.join(planners)})", SweepSpec(
             STUDY_PLANNERS, scenarios, players=tuple(range(max_players + 1)), planners=planners, trials=t)),
         "scaling": lambda: Part("scaling", SCALING_TITLE, scaling_spec(t)),  # nodnav.experiments.scaling
+        "mixed-teams": lambda: Part("mixed-teams", MIXED_TEAMS_TITLE, mixed_teams_spec(t)),  # experiments.teams
     }
     # The planner comparison needs a planner besides the fast one, which the other parts use.
     wanted = [p for p in PARTS if p in options.parts and (p != "planners" or len(planners) > 1)]

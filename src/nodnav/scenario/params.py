@@ -86,6 +86,9 @@ class RobotSpec:
     """Acceleration limit used by the MPC (m/s^2); paper: not given."""
     opinion: OpinionParams | None = None
     """This robot's own opinion parameters; ``None`` means the scenario's ``opinion``."""
+    method: str | None = None
+    """This robot's navigation method (a name of :data:`~nodnav.registry.METHODS`, e.g. ``person``);
+    ``None`` means the trial's method (``--method``, default ``nod``)."""
 
 
 @dataclass(frozen=True)

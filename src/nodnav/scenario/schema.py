@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -176,6 +177,19 @@ _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
 _BODY_KEYS = ("radius", "max_speed", "max_accel")
 
 
+_METHOD_NAME = re.compile(r"[a-z0-9][a-z0-9._-]{0,39}")
+
+
+def _method_name(value: Any, where: str) -> str | None:
+    """A robot's own method: ``None`` (the trial's) or a method name. Whether the name is a
+    registered method is checked when the trial is built (methods register in the sim layer)."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not _METHOD_NAME.fullmatch(value):
+        raise fail(where, f"expected a method name such as nod, person or closest-first, got {shown(value)}")
+    return value
+
+
 def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, ...], list[dict[str, str | None]]]:
     """The robots, and for each the key path each of its body values came from (``None``: the default)."""
     defaults = mapping(defaults, "robot_defaults")
@@ -204,7 +218,7 @@ def _robots(data: Any, defaults: Any, opinion: dict) -> tuple[tuple[RobotSpec, .
             origin=point(entry["origin"], f"{where}.origin"),
             destination=point(entry["destination"], f"{where}.destination"),
             opinion=_opinion({**opinion, **mapping(own, f"{where}.opinion")}, len(data), f"{where}.opinion")
-            if own else None, **body))
+            if own else None, method=_method_name(entry.get("method"), f"{where}.method"), **body))
         sources.append(source)
     return tuple(robots), sources
 
@@ -357,6 +371,8 @@ def _robot_to_raw(robot: RobotSpec) -> dict:
            "max_speed": robot.max_speed, "max_accel": robot.max_accel}
     if robot.opinion is not None:
         raw["opinion"] = _opinion_to_raw(robot.opinion)
+    if robot.method is not None:  # absent otherwise, so that trial keys of one-method teams do not change
+        raw["method"] = robot.method
     return raw
 
 

@@ -10,6 +10,7 @@ class                      the trial ended ...
 ``success``                with every robot at its destination and no contact
 ``collision-robot-robot``  in a contact between two robots (also when a wall was touched at the same step)
 ``collision-wall``         in a contact between a robot and a wall
+``collision-robot-person`` in a contact a robot caused with a person (:mod:`nodnav.sim.team_contacts`)
 ``plan-failure``           in a deadlock or at the time limit while plans were failing: at the last
                            decision at least one robot's selected plan had failed
 ``jam``                    in a deadlock although the robots agreed on the order still open (consensus)
@@ -30,6 +31,7 @@ FAILURE_CLASSES = {
     "success": "every robot arrived, no contact",
     "collision-robot-robot": "two robots touched",
     "collision-wall": "a robot touched a wall",
+    "collision-robot-person": "a robot moved into a person",
     "plan-failure": "deadlock or timeout while plans were failing at the last decision",
     "jam": "deadlock although the robots agreed on the open order",
     "disagreement": "deadlock without agreement on the open order",
@@ -37,7 +39,7 @@ FAILURE_CLASSES = {
 }
 """Every failure class and what it means, in report order."""
 
-COLLISION_KINDS = ("robot-robot", "wall")
+COLLISION_KINDS = ("robot-robot", "wall", "robot-person")
 """What a collision was between (``robot-robot`` also when a wall was touched at the same step)."""
 
 
@@ -51,6 +53,8 @@ def classify(outcome: str, collision: str, consensus: bool, plans_failing_at_end
     if outcome == "success":
         return "success"
     if outcome == "collision":
+        if collision == "robot-person":
+            return "collision-robot-person"
         return "collision-wall" if collision == "wall" else "collision-robot-robot"
     if outcome in ("deadlock", "timeout") and plans_failing_at_end:
         return "plan-failure"

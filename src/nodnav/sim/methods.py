@@ -15,6 +15,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, make_controller
+from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
@@ -272,3 +273,77 @@ class NODMethod(PlannedMethod):
 def make_method(name: str, scenario: Scenario, rngs: list[np.random.Generator], planner=None) -> Method:
     """The method registered as ``name`` (:data:`~nodnav.registry.METHODS`) for one trial."""
     return METHODS.create(name, scenario, rngs, planner)
+
+
+#: Methods that coordinate every robot of the trial from one place: they cannot run for a subset.
+CENTRAL_METHODS = ("oracle",)
+
+
+def robot_methods(scenario: Scenario, default: str) -> tuple[str, ...]:
+    """Each robot's method: its own ``robots[i].method``, else the trial's ``default``."""
+    return tuple(r.method or default for r in scenario.robots)
+
+
+class Team:
+    """Robots running different methods in one trial (``robots[i].method``).
+
+    Each method named in the team is built once for the whole trial, exactly as it would be if
+    every robot ran it, and is asked to decide and act only for its own robots: a method's
+    :meth:`~Method.decide` and :meth:`~Method.act` take the views of the robots it moves and
+    return theirs. Every robot still sees every other one (its view holds everyone), and nothing
+    tells it who runs what: a NOD robot reads a person's or an ORCA robot's motion through
+    eq. (4) as it reads any robot's. Each robot's generator is used by its own method only.
+    """
+
+    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], names: tuple[str, ...], default: str,
+                 planner=None):
+        if default in CENTRAL_METHODS:
+            other = next(i for i, n in enumerate(names) if n != default)
+            raise NodnavError(f"method '{default}' is a central coordinator of every robot of a trial; it cannot run "
+                              f"beside robots[{other}].method: {names[other]} (leave out the robots' own methods)")
+        for i, name in enumerate(names):
+            if name in CENTRAL_METHODS:
+                raise NodnavError(f"robots[{i}].method: '{name}' is a central coordinator of every robot of a trial; "
+                                  "it cannot run for some robots of a mixed team (run it for all with --method)")
+        self.name = default
+        self.names = names
+        self.members: dict[str, Method] = {m: make_method(m, scenario, rngs, planner) for m in dict.fromkeys(names)}
+        self.robots = {m: [i for i, n in enumerate(names) if n == m] for m in self.members}
+
+    def _split(self, views: dict[int, RobotView]) -> dict[str, dict[int, RobotView]]:
+        return {m: {i: views[i] for i in robots if i in views} for m, robots in self.robots.items()}
+
+    def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
+        """Every method decides for its own robots; the decisions in robot order."""
+        out: dict[int, Decision] = {}
+        for m, part in self._split(views).items():
+            out.update(self.members[m].decide(part))
+        return dict(sorted(out.items()))
+
+    def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
+        """Every method moves its own robots over the next control step."""
+        out: dict[int, ControlResult] = {}
+        for m, part in self._split(views).items():
+            out.update(self.members[m].act(t, part))
+        return dict(sorted(out.items()))
+
+
+def is_pedestrian(name: str) -> bool:
+    """Whether the method registered as ``name`` models a person (its class says ``pedestrian = True``)."""
+    entry = METHODS.get(name)
+    return bool(getattr(entry.factory, "pedestrian", False))
+
+
+def make_team(scenario: Scenario, default: str, rngs: list[np.random.Generator], planner=None) -> Method:
+    """The trial's method: ``default`` itself when every robot runs it (nothing changes for a
+    one-method trial), else a :class:`Team`. An unknown name is one line naming the robot."""
+    names = robot_methods(scenario, default)
+    for i, name in enumerate(names):
+        if scenario.robots[i].method is not None and name not in METHODS:
+            try:
+                METHODS.get(name)
+            except NodnavError as exc:
+                raise NodnavError(f"robots[{i}].method: {exc}") from None
+    if all(n == default for n in names):
+        return make_method(default, scenario, rngs, planner)
+    return Team(scenario, rngs, names, default, planner)

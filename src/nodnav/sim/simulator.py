@@ -26,8 +26,9 @@ from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
 from nodnav.sim.agent import RobotView, approach_sides
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
-from nodnav.sim.methods import make_method
+from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
+from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
 
@@ -157,7 +158,12 @@ class Simulation:
         self.seed = int(seed)
         n = scenario.n_robots
         decision_rngs, self.sensor_rngs = trial_generators(self.seed, n)
-        self.method = make_method(method, scenario, decision_rngs, planner)
+        self.method = make_team(scenario, method, decision_rngs, planner)
+        self.robot_methods = robot_methods(scenario, method)
+        """Each robot's method (``robots[i].method``, else ``method``)."""
+        self.pedestrians = np.array([is_pedestrian(m) for m in self.robot_methods], dtype=bool)
+        """Which robots are people (:mod:`nodnav.sim.person`): their contacts are attributed, not fatal."""
+        self.people = PeopleContacts(scenario, self.pedestrians) if self.pedestrians.any() else None
         ctrl = scenario.controller
         self.dt = ctrl.dt
         self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
@@ -301,11 +307,23 @@ class Simulation:
         """Outcome after a step in which the robots passed ``path`` ``(S, N, 2)`` (at the step's
         :data:`STEP_FRACTIONS`, ending where they are now)."""
         s, world = self.scenario, self.scenario.world
-        pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
-                                              world.obstacle_array, world.piece_array)
+        if self.people is None:
+            pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
+                                                  world.obstacle_array, world.piece_array)
+            kind = collision_kind(pair_hits, wall_hits)
+        else:  # robots among themselves and with walls as always; contacts with people are attributed
+            robots = ~self.pedestrians
+            pair_hits, wall_hits = contact_counts(np.ascontiguousarray(path[:, robots]), s.radii[robots],
+                                                  s.sim.collision_tolerance, world.bounds_array, world.obstacle_array,
+                                                  world.piece_array)
+            kind = collision_kind(pair_hits, wall_hits)
+            start = self.history.positions[-2]
+            caused = self.people.judge(start, path, self.t - self.dt, self.dt, self.history.events)
+            if caused and not (pair_hits or wall_hits):
+                pair_hits, kind = caused, "robot-person"
         if pair_hits or wall_hits:
             self.collisions = pair_hits + wall_hits
-            self.collision_kind = collision_kind(pair_hits, wall_hits)
+            self.collision_kind = kind
             self._finish("collision")
             return
         to_go = distance_to_go(world, self.positions, s.destinations, self.sides)
@@ -346,6 +364,9 @@ class Simulation:
         consensus = self._consensus()
         makespan = float(np.nanmax(self.arrival)) if self.outcome == "success" else float("nan")
         metrics = compute_metrics(self.history)
+        if self.people is not None or len(set(self.robot_methods)) > 1:
+            metrics.update(team_metrics(self.scenario, self.robot_methods, self.pedestrians, self.arrival,
+                                        self.history.events, self.outcome))
         return TrialResult(outcome=self.outcome, sim_time=self.t, wall_time=wall_time, makespan=makespan,
                            min_separation=metrics["min_separation_m"], collisions=self.collisions, entry_order=order,
                            strategy=strategy, consensus=consensus, time_to_goal=tuple(float(a) for a in self.arrival),

@@ -188,6 +188,11 @@ class World:
     """The single-file passages (one for now; several are item 4 of issue 20)."""
     polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
     """Wall polygons, each its vertices ``((x, y), ...)`` in order (m), convex or not."""
+    map_file: str = ""
+    """The occupancy-grid map (its YAML file) the first :attr:`map_walls` boxes of ``obstacles``
+    come from (:mod:`nodnav.scenario.maps`); "" without a map."""
+    map_walls: int = 0
+    """How many of ``obstacles``, from the first, are the map's walls."""
 
     def __post_init__(self) -> None:
         passages = tuple(self.passages)

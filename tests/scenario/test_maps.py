@@ -225,3 +225,11 @@ def test_passages_command_lists_the_corridor(tmp_path, capsys):
     out = capsys.readouterr().out
     width = float(out.split("width ")[1].split(" m")[0])
     assert ": 1 passages" in out and 0.6 - RES <= width <= 0.6 and (tmp_path / "m.png").is_file()
+
+
+def test_bounds_crop_the_map_to_the_cells_they_meet(tmp_path):
+    m = read_map(corridor_map(tmp_path)).cropped((-1.0, 0.5, 1.04, 2.5))
+    # The crop ends at the first cell boundary at or beyond x = 1.04, x = 1.1, inside the wall: its
+    # two boxes end there (hand computation).
+    assert np.allclose(sorted(m.walls), [(0.5, 0.5, 1.1, 1.2), (0.5, 1.8, 1.1, 2.5)])
+    assert m.bounds == pytest.approx((-1.0, 0.5, 1.1, 2.5))

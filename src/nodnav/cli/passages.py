@@ -20,11 +20,11 @@ def _radius(text: str) -> float:
     return r
 
 
-def _scenario_robots(raw: dict, label: str) -> tuple[str, list[float], list[tuple[Any, Any]]]:
-    """The map, radii, origins and destinations a scenario file writes (not validated further)."""
+def _scenario_robots(raw: dict, label: str) -> tuple[str, Any, list[float], list[tuple[Any, Any]]]:
+    """The map, bounds, radii, origins and destinations a scenario file writes (not validated further)."""
     import numpy as np
 
-    from nodnav.scenario.fields import mapping, number, point
+    from nodnav.scenario.fields import mapping, number, point, vector
 
     world = mapping(raw.get("world"), "world")
     if not isinstance(world.get("map"), str):
@@ -40,7 +40,8 @@ def _scenario_robots(raw: dict, label: str) -> tuple[str, list[float], list[tupl
         radii.append(number(e.get("radius", default_radius), f"robots[{k}].radius"))
         ends.append((np.array(point(e.get("origin"), f"robots[{k}].origin")),
                      np.array(point(e.get("destination"), f"robots[{k}].destination"))))
-    return world["map"], radii, ends
+    bounds = vector(world["bounds"], 4, "world.bounds") if "bounds" in world else None
+    return world["map"], bounds, radii, ends
 
 
 def _cmd_passages(args: argparse.Namespace) -> int:
@@ -56,10 +57,10 @@ def _cmd_passages(args: argparse.Namespace) -> int:
             raise NodnavError("--radius: give the robots' radius (m) for a map; a scenario gives its own")
         result = map_passages(str(path), [args.radius, args.radius], key=label)
     elif isinstance(raw, dict):
-        where, radii, ends = _scenario_robots(map_beside(raw, path.parent), label)
+        where, bounds, radii, ends = _scenario_robots(map_beside(raw, path.parent), label)
         if args.radius is not None:
             radii = [args.radius] * len(radii)
-        result = map_passages(where, radii, ends, key="world.map")
+        result = map_passages(where, radii, ends, key="world.map", bounds=bounds)
     else:
         raise NodnavError(f"{label}: expected a map YAML (image, resolution, origin) or a scenario on a map")
     out = output_file(args.out) if args.out else None

@@ -66,7 +66,7 @@ class OccupancyMap:
     @property
     def shape(self) -> tuple[int, int]:
         """Rows and columns."""
-        return self.free.shape  # type: ignore[return-value]
+        return self.free.shape
 
     @property
     def bounds(self) -> tuple[float, float, float, float]:
@@ -86,6 +86,20 @@ class OccupancyMap:
         """Centres ``(..., 2)`` of the cells ``(i, j)`` (m)."""
         return np.stack([self.origin[0] + (np.asarray(j) + 0.5) * self.resolution,
                          self.origin[1] + (np.asarray(i) + 0.5) * self.resolution], axis=-1)
+
+    def cropped(self, bounds: tuple[float, float, float, float]) -> "OccupancyMap":
+        """The cells that meet the box ``bounds``: a scenario on part of a big map keeps only the
+        walls it can reach (every clearance query loops over the walls)."""
+        x0, y0 = self.origin
+        r = self.resolution
+        rows, cols = self.shape
+        j0, j1 = max(int(math.floor((bounds[0] - x0) / r)), 0), min(int(math.ceil((bounds[2] - x0) / r)), cols)
+        i0, i1 = max(int(math.floor((bounds[1] - y0) / r)), 0), min(int(math.ceil((bounds[3] - y0) / r)), rows)
+        if (i0, i1, j0, j1) == (0, rows, 0, cols):
+            return self
+        free = np.ascontiguousarray(self.free[i0:max(i1, i0 + 1), j0:max(j1, j0 + 1)])
+        free.setflags(write=False)
+        return OccupancyMap(path=self.path, free=free, resolution=r, origin=(x0 + j0 * r, y0 + i0 * r))
 
     @cached_property
     def walls(self) -> tuple[tuple[float, float, float, float], ...]:

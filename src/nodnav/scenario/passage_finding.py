@@ -214,13 +214,15 @@ class MapPassages:
 
 
 def map_passages(path: str, radii: list[float], robots: list[tuple[np.ndarray, np.ndarray]] | None = None,
-                 key: str = "map") -> MapPassages:
-    """Read the map at ``path`` and find its passages for robots of ``radii`` (with ``robots``'
-    origins and destinations, which passages their routes cross; a robot without a route is left
-    out)."""
+                 key: str = "map", bounds: tuple[float, float, float, float] | None = None) -> MapPassages:
+    """Read the map at ``path`` (cropped to ``bounds``) and find its passages for robots of
+    ``radii`` (with ``robots``' origins and destinations, which passages their routes cross; a
+    robot without a route is left out)."""
     from nodnav.scenario.maps import read_map
 
     m = read_map(path, key)
+    if bounds is not None:
+        m = m.cropped(bounds)
     r = sorted(radii)
     one, abreast = r[-1], r[0] + (r[1] if len(r) > 1 else r[0])
     c = clearance_grid(m)

@@ -187,7 +187,9 @@ def read_map_world(data: dict, robots: Sequence[Any]) -> World:
     """A world whose walls come from ``world.map`` (a map_server YAML file; a relative path is
     relative to the scenario file, :func:`nodnav.scenario.loading.load_scenario` resolves it).
 
-    ``bounds`` default to the map's extent; ``obstacles`` add walls (furniture) to the map's.
+    ``bounds`` default to the map's extent; given, they crop the map to the cells they meet (a
+    scenario on part of a building keeps only the walls there). ``obstacles`` add walls
+    (furniture) to the map's.
     Without ``passages`` the passage is found (:mod:`nodnav.scenario.passage_finding`): the
     single-file places for the scenario's robots (a robot of the largest radius fits, the two
     smallest cannot pass abreast) that their shortest routes cross; exactly one must remain."""
@@ -202,6 +204,10 @@ def read_map_world(data: dict, robots: Sequence[Any]) -> World:
         raise fail("world.map", f"expected the map's YAML file (ROS map_server format), got {shown(where)}")
     m = read_map(where)
     bounds = _box(data["bounds"], "world.bounds") if "bounds" in data else m.bounds
+    m = m.cropped(bounds)
+    if not m.free.any():
+        raise fail("world.bounds", f"{list(bounds)} holds no free cell of the map (whose extent is "
+                   f"{[round(b, 3) for b in read_map(where).bounds]})")
     if max(bounds[2] - bounds[0], bounds[3] - bounds[1]) > limits.MAX_WORLD_SIZE:
         raise fail("world.bounds" if "bounds" in data else "world.map",
                    f"sides of at most {limits.MAX_WORLD_SIZE:g} m, got {[round(b, 3) for b in bounds]}")

@@ -1,0 +1,53 @@
+"""Measure a map: load time, wall boxes, peak memory, passages found, clearance query cost.
+
+    .venv/bin/python examples/maps/measure_maps.py MAP.yaml RADIUS [RADIUS ...]
+
+Run once per map in a fresh process (peak memory is the process's); the numba kernels must be
+compiled already (any earlier nodnav run does it).
+"""
+
+import resource
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from nodnav.scenario.maps import read_map
+from nodnav.scenario.passage_finding import clearance_grid, find_passages, medial_axis
+from nodnav.scenario.world import Passage, World
+
+
+def main(path: str, radii: list[float]) -> None:
+    t0 = time.perf_counter()
+    m = read_map(path)
+    t1 = time.perf_counter()
+    c = clearance_grid(m)
+    axis = medial_axis(m)
+    t2 = time.perf_counter()
+    rows, cols = m.shape
+    found = {r: find_passages(m, r, 2 * r, c, axis) for r in radii}
+    t3 = time.perf_counter()
+    # Cost of the clearance of one point among all the map's walls (the kernels loop over them).
+    x0, y0, x1, y1 = m.bounds
+    world = World(bounds=m.bounds, obstacles=m.walls, map_walls=len(m.walls),
+                  passages=(Passage(start=(x0 + 1, y0 + 1), end=(x0 + 2, y0 + 1), width=0.5),))
+    pts = np.random.default_rng(0).uniform((x0, y0), (x1, y1), (1000, 2))
+    world.clearance(pts[:1])
+    best = min(_timed(world, pts) for _ in range(5))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    per_r = "; ".join(f"r = {r:g} m: {len(f)} passages ({sum(p.joins_regions for p in f)} joining two regions, "
+                      f"{sum(p.straight for p in f)} straight)" for r, f in found.items())
+    print(f"{Path(path).parent.name}: {cols} x {rows} cells of {m.resolution:g} m, {m.free.mean():.0%} free; "
+          f"{len(m.walls)} wall boxes; load {t1 - t0:.2f} s, clearance and medial axis {t2 - t1:.2f} s, "
+          f"finding {t3 - t2:.2f} s; peak memory {peak:.0f} MB; clearance of one point {best * 1e6:.1f} us; {per_r}")
+
+
+def _timed(world: World, pts: np.ndarray) -> float:
+    start = time.perf_counter()
+    world.clearance(pts)
+    return (time.perf_counter() - start) / len(pts)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], [float(r) for r in sys.argv[2:]])

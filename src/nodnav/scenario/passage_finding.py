@@ -20,7 +20,8 @@ A place is single file for two robots of radii ``r_a`` and ``r_b`` when its free
    region (a gap beside a pillar, a second door between two rooms joined by a wide opening) is
    kept and flagged (``joins_regions`` False): a route may still prefer it.
 
-The centreline is the straight line between the mouths. Routes (:func:`route_passages`) are
+The centreline is the line fitted through the piece's cells (its principal axis), the mouths
+projected onto it; a piece under three cells long, or bent, keeps its mouths' cells. Routes (:func:`route_passages`) are
 shortest paths on the grid of cells where the robot fits (scikit-image's minimum-cost path):
 a passage is used by a robot whose route crosses its piece.
 """
@@ -137,14 +138,32 @@ def find_passages(m: OccupancyMap, one: float, abreast: float,
         pi, pj = pi + grown[0].start, pj + grown[1].start
         narrowest = int(np.argmin(c[pi, pj]))
         width = 2.0 * float(c[pi[narrowest], pj[narrowest]])
-        start, end = tuple(map(float, pts[a])), tuple(map(float, pts[b]))
+        start, end = _centreline(m.centre_of(pi, pj), pts[a], pts[b], m.resolution)
         samples = np.linspace(0.0, 1.0, max(2, int(math.dist(start, end) / (0.5 * m.resolution)) + 1))[:, None]
-        ci, cj = m.cell_of(pts[a] + samples * (pts[b] - pts[a]))
+        ci, cj = m.cell_of(np.asarray(start) + samples * (np.asarray(end) - np.asarray(start)))
         out.append(FoundPassage(passage=Passage(start=start, end=end, width=width),  # type: ignore[arg-type]
                                 cells=np.stack([pi, pj], axis=-1), pinch=(int(pi[narrowest]), int(pj[narrowest])),
                                 joins_regions=bool(region[a] != region[b]),
                                 straight=bool(c[ci, cj].min() >= one - m.resolution)))
     return out
+
+
+def _centreline(cells: np.ndarray, a: np.ndarray, b: np.ndarray, resolution: float) -> tuple[tuple, tuple]:
+    """The mouths ``a`` and ``b`` moved onto the line fitted through the narrow piece's cells
+    (principal axis): the medial axis of a corridor an even number of cells wide zigzags between
+    its two middle rows, and the fitted line runs between them, on the true centre. A piece too
+    short to give a direction (under three cells along), or whose axis turns more than 25 degrees
+    from the mouths' chord, keeps the mouths as they are."""
+    mean = cells.mean(axis=0)
+    spread = cells - mean
+    _, sv, vt = np.linalg.svd(spread, full_matrices=False) if len(cells) >= 3 else (None, np.zeros(1), None)
+    if vt is None or sv[0] < 1e-12 or np.ptp(spread @ vt[0]) < 3.0 * resolution:
+        return tuple(map(float, a)), tuple(map(float, b))
+    d = vt[0]
+    if abs((b - a) @ d) < 0.9 * np.linalg.norm(b - a):
+        return tuple(map(float, a)), tuple(map(float, b))  # the piece's axis does not run mouth to mouth
+    pa, pb = mean + ((a - mean) @ d) * d, mean + ((b - mean) @ d) * d
+    return tuple(map(float, pa)), tuple(map(float, pb))
 
 
 @dataclass(frozen=True)

@@ -233,3 +233,46 @@ def test_bounds_crop_the_map_to_the_cells_they_meet(tmp_path):
     # two boxes end there (hand computation).
     assert np.allclose(sorted(m.walls), [(0.5, 0.5, 1.1, 1.2), (0.5, 1.8, 1.1, 2.5)])
     assert m.bounds == pytest.approx((-1.0, 0.5, 1.1, 2.5))
+
+
+def two_doors_map(folder: Path) -> Path:
+    """Three rooms in a row, 6 m x 2 m, joined by two 0.6 m corridors through 1 m thick walls."""
+    wall = np.zeros((ROWS, 60), dtype=bool)
+    for cols in (slice(15, 25), slice(35, 45)):
+        wall[:, cols] = True
+        wall[CORRIDOR_ROWS, cols] = False
+    return write_map(folder, np.where(wall, 0, 254).astype(np.uint8), name="two")
+
+
+def test_routes_through_two_found_passages_are_named_in_one_line(tmp_path):
+    raw = scenario(str(two_doors_map(tmp_path)), [{"origin": [-0.3, 1.3], "destination": [4.3, 1.7]},
+                                                   {"origin": [4.3, 1.1], "destination": [-0.3, 1.1]}])
+    with pytest.raises(ScenarioError) as exc:
+        scenario_from_dict(raw)
+    message = str(exc.value)
+    assert message.startswith("world.passages: several passages are not supported yet") and "\n" not in message
+    assert "cross 2 found on the map (1: from" in message and "; 2: from" in message
+
+
+def test_robots_using_one_of_two_passages_get_it(tmp_path):
+    raw = scenario(str(two_doors_map(tmp_path)), [{"origin": [2.0, 1.3], "destination": [4.3, 1.7]},
+                                                   {"origin": [4.3, 1.1], "destination": [2.0, 1.1]}])
+    g = scenario_from_dict(raw).world.passage
+    # The second corridor: map x from 3.5 to 4.5 m (hand computation), so its middle is at x = 3.0.
+    assert 0.5 * (g.start[0] + g.end[0]) == pytest.approx(3.0, abs=RES)
+
+
+def test_passages_command_on_a_scenario_names_the_robots_using_each(tmp_path, capsys):
+    two_doors_map(tmp_path)
+    (tmp_path / "s.yaml").write_text(
+        "world: {map: two.yaml}\nrobots:\n  - {origin: [2.0, 1.3], destination: [4.3, 1.7]}\n"
+        "  - {origin: [4.3, 1.1], destination: [2.0, 1.1]}\n")
+    assert main(["passages", str(tmp_path / "s.yaml")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert ": 2 passages" in lines[0] and "used by" not in lines[1] and lines[2].endswith("used by robots 1, 2")
+
+
+def test_show_draws_a_map_yaml(tmp_path, capsys):
+    path = corridor_map(tmp_path)
+    assert main(["show", str(path), "--out", str(tmp_path / "m.png")]) == 0
+    assert (tmp_path / "m.png").is_file() and "radius 0.2 m" in capsys.readouterr().out

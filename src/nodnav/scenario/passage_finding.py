@@ -141,7 +141,7 @@ def find_passages(m: OccupancyMap, one: float, abreast: float,
         start, end = _centreline(m.centre_of(pi, pj), pts[a], pts[b], m.resolution)
         samples = np.linspace(0.0, 1.0, max(2, int(math.dist(start, end) / (0.5 * m.resolution)) + 1))[:, None]
         ci, cj = m.cell_of(np.asarray(start) + samples * (np.asarray(end) - np.asarray(start)))
-        out.append(FoundPassage(passage=Passage(start=start, end=end, width=width),  # type: ignore[arg-type]
+        out.append(FoundPassage(passage=Passage(start=start, end=end, width=width),
                                 cells=np.stack([pi, pj], axis=-1), pinch=(int(pi[narrowest]), int(pj[narrowest])),
                                 joins_regions=bool(region[a] != region[b]),
                                 straight=bool(c[ci, cj].min() >= one - m.resolution)))

@@ -1,4 +1,5 @@
-"""Measure a map: load time, wall boxes, peak memory, passages found, clearance query cost.
+"""Measure a map: load time, wall boxes, peak memory, passages found, clearance query cost
+(looping over every wall, and through the world's wall index).
 
     .venv/bin/python examples/maps/measure_maps.py MAP.yaml RADIUS [RADIUS ...]
 
@@ -13,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nodnav.geometry import _segment_clearance_kernel, clearance_of, segment_clearance
 from nodnav.scenario.maps import read_map, wall_boxes
 from nodnav.scenario.passage_finding import clearance_grid, find_passages, medial_axis
 from nodnav.scenario.world import Passage, World
@@ -35,21 +37,32 @@ def main(path: str, radii: list[float]) -> None:
     x0, y0, x1, y1 = m.bounds
     world = World(bounds=m.bounds, obstacles=m.walls, map_walls=len(m.walls),
                   passages=(Passage(start=(x0 + 1, y0 + 1), end=(x0 + 2, y0 + 1), width=0.5),))
-    pts = np.random.default_rng(0).uniform((x0, y0), (x1, y1), (1000, 2))
+    rng = np.random.default_rng(0)
+    pts = rng.uniform((x0, y0), (x1, y1), (1000, 2))
+    ends = pts + rng.normal(0.0, 0.5, pts.shape)  # segments of about half a metre
     world.clearance(pts[:1])
-    best = min(_timed(world, pts) for _ in range(5))
+    segment_clearance(world, pts[:1], ends[:1])
+    loop = min(_timed(lambda: clearance_of(pts, world.bounds_array, world.obstacle_array)) for _ in range(5))
+    indexed = min(_timed(lambda: world.clearance(pts)) for _ in range(5))
+    seg_loop = min(_timed(lambda: _segment_clearance_kernel(pts, ends, world.obstacle_array, world.bounds_array,
+                                                            world.piece_array)) for _ in range(5))
+    seg_indexed = min(_timed(lambda: segment_clearance(world, pts, ends)) for _ in range(5))
+    best = f"{loop * 1e6:.1f} us looping over every wall, {indexed * 1e6:.2f} us indexed"
+    seg = f"{seg_loop * 1e6:.1f} us / {seg_indexed * 1e6:.2f} us"
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     per_r = "; ".join(f"r = {r:g} m: {len(f)} passages ({sum(p.joins_regions for p in f)} joining two regions, "
                       f"{sum(p.straight for p in f)} straight)" for r, f in found.items())
     print(f"{Path(path).parent.name}: {cols} x {rows} cells of {m.resolution:g} m, {m.free.mean():.0%} free; "
           f"{len(m.walls)} wall boxes; load {t1 - t0:.2f} s, clearance and medial axis {t2 - t1:.2f} s, "
-          f"finding {t3 - t2:.2f} s; peak memory {peak:.0f} MB; clearance of one point {best * 1e6:.1f} us; {per_r}")
+          f"finding {t3 - t2:.2f} s; peak memory {peak:.0f} MB; clearance of one point {best}; of a 0.5 m segment "
+          f"{seg}; {per_r}")
 
 
-def _timed(world: World, pts: np.ndarray) -> float:
+def _timed(call) -> float:
+    """Seconds per query of one call over the 1000 queries."""
     start = time.perf_counter()
-    world.clearance(pts)
-    return (time.perf_counter() - start) / len(pts)
+    call()
+    return (time.perf_counter() - start) / 1000
 
 
 if __name__ == "__main__":

@@ -186,6 +186,10 @@ def segment_clearance(walls: Walls, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     shape = np.shape(a)[:-1] if np.ndim(a) > 1 else (1,)
     a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
     b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
+    grid = getattr(walls, "wall_grid", None)
+    if grid is not None:  # many walls (a map's): look only at the buckets near each segment
+        return _segment_clearance_indexed(a, b, walls.obstacle_array, walls.bounds_array, walls.piece_array,
+                                          *grid.arrays()).reshape(shape)
     return _segment_clearance_kernel(a, b, walls.obstacle_array, walls.bounds_array,
                                      walls.piece_array).reshape(shape)
 
@@ -363,3 +367,133 @@ def min_gap(positions: np.ndarray, radii: np.ndarray) -> float:
         return float("inf")
     a, b = np.triu_indices(n, k=1)
     return float((np.linalg.norm(p[..., a, :] - p[..., b, :], axis=-1) - (r[a] + r[b])).min())
+
+
+# -- a bucket index of many wall boxes (a map's) -------------------------------------------------
+
+
+class WallGrid:
+    """Which wall boxes meet each square bucket of side ``cell`` over ``bounds``: the clearance
+    routines below then look only at the boxes near a query and give exactly what the full loop
+    gives (the nearest box is among those examined; the same arithmetic, and a minimum does not
+    depend on order)."""
+
+    def __init__(self, boxes: np.ndarray, bounds: np.ndarray, cell: float = 0.5):
+        self.cell = float(cell)
+        self.x0, self.y0 = float(bounds[0]), float(bounds[1])
+        self.nx = max(int(math.ceil((bounds[2] - bounds[0]) / cell)), 1)
+        self.ny = max(int(math.ceil((bounds[3] - bounds[1]) / cell)), 1)
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        i0 = np.clip(np.floor((boxes[:, 0] - self.x0) / cell).astype(np.int64), 0, self.nx - 1)
+        i1 = np.clip(np.floor((boxes[:, 2] - self.x0) / cell).astype(np.int64), 0, self.nx - 1)
+        j0 = np.clip(np.floor((boxes[:, 1] - self.y0) / cell).astype(np.int64), 0, self.ny - 1)
+        j1 = np.clip(np.floor((boxes[:, 3] - self.y0) / cell).astype(np.int64), 0, self.ny - 1)
+        buckets, owners = [], []
+        for w in range(len(boxes)):
+            ii, jj = np.meshgrid(np.arange(i0[w], i1[w] + 1), np.arange(j0[w], j1[w] + 1))
+            buckets.append((jj * self.nx + ii).ravel())
+            owners.append(np.full(ii.size, w, dtype=np.int64))
+        bucket = np.concatenate(buckets) if buckets else np.zeros(0, dtype=np.int64)
+        owner = np.concatenate(owners) if owners else np.zeros(0, dtype=np.int64)
+        order = np.argsort(bucket, kind="stable")
+        self.items = np.ascontiguousarray(owner[order])
+        self.starts = np.zeros(self.nx * self.ny + 1, dtype=np.int64)
+        np.cumsum(np.bincount(bucket, minlength=self.nx * self.ny), out=self.starts[1:])
+
+    def arrays(self) -> tuple:
+        """The index as the compiled routines take it."""
+        return self.x0, self.y0, self.cell, self.nx, self.ny, self.starts, self.items
+
+
+@compiled
+def _grid_range(lo, hi, origin, cell, n):
+    """Buckets ``i0..i1`` covering ``[lo, hi]`` along one axis, clipped to the grid."""
+    i0 = int(math.floor((lo - origin) / cell))
+    i1 = int(math.floor((hi - origin) / cell))
+    return min(max(i0, 0), n - 1), min(max(i1, 0), n - 1)
+
+
+@compiled
+def _segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
+    """:func:`_segment_clearance_kernel` through a :class:`WallGrid`: the boxes meeting the
+    segment's bounding box grown by ``R`` (one bucket, then doubled) are examined until the
+    nearest is within ``R`` (every other box is farther than ``R``) or the whole grid has been."""
+    out = np.empty(a.shape[0])
+    seen = np.zeros(walls.shape[0], dtype=np.int64)  # the pass that last examined each box
+    stamp = 0
+    for s in range(a.shape[0]):
+        ax, ay, bx, by = a[s, 0], a[s, 1], b[s, 0], b[s, 1]
+        x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
+        d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
+        if walls.shape[0]:
+            dx, dy = bx - ax, by - ay
+            nearest = np.inf
+            reach = cell
+            while True:
+                stamp += 1
+                i0, i1 = _grid_range(min(ax, bx) - reach, max(ax, bx) + reach, gx, cell, nx)
+                j0, j1 = _grid_range(min(ay, by) - reach, max(ay, by) + reach, gy, cell, ny)
+                for j in range(j0, j1 + 1):
+                    for i in range(i0, i1 + 1):
+                        k = j * nx + i
+                        for q in range(starts[k], starts[k + 1]):
+                            w = items[q]
+                            if seen[w] == stamp:
+                                continue
+                            seen[w] = stamp
+                            lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
+                            d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
+                            d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
+                                                 _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
+                                             min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
+                                                 _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
+                            if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
+                                d2 = 0.0
+                            nearest = min(nearest, d2)
+                whole = i0 == 0 and j0 == 0 and i1 == nx - 1 and j1 == ny - 1
+                if nearest <= reach * reach or whole:
+                    break
+                reach *= 2.0
+            d = min(d, math.sqrt(nearest))
+        if pieces.shape[0]:
+            nearest = np.inf
+            for w in range(pieces.shape[0]):
+                nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
+            d = min(d, math.sqrt(nearest))
+        out[s] = d
+    return out
+
+
+@compiled
+def clearance_indexed(points, bounds, obstacles, gx, gy, cell, nx, ny, starts, items):
+    """:func:`clearance_of` through a :class:`WallGrid` (the same values)."""
+    out = np.empty(points.shape[0])
+    seen = np.zeros(obstacles.shape[0], dtype=np.int64)  # the pass that last examined each box
+    stamp = 0
+    for p in range(points.shape[0]):
+        x, y = points[p, 0], points[p, 1]
+        d = min(min(x - bounds[0], bounds[2] - x), min(y - bounds[1], bounds[3] - y))
+        best = np.inf
+        reach = cell
+        while obstacles.shape[0]:
+            stamp += 1
+            i0, i1 = _grid_range(x - reach, x + reach, gx, cell, nx)
+            j0, j1 = _grid_range(y - reach, y + reach, gy, cell, ny)
+            for j in range(j0, j1 + 1):
+                for i in range(i0, i1 + 1):
+                    k = j * nx + i
+                    for q in range(starts[k], starts[k + 1]):
+                        o = items[q]
+                        if seen[o] == stamp:
+                            continue
+                        seen[o] = stamp
+                        dx = max(obstacles[o, 0] - x, x - obstacles[o, 2])
+                        dy = max(obstacles[o, 1] - y, y - obstacles[o, 3])
+                        outside = math.hypot(max(dx, 0.0), max(dy, 0.0))
+                        inside = min(max(dx, dy), 0.0)
+                        best = min(best, outside + inside)
+            if best <= reach or (i0 == 0 and j0 == 0 and i1 == nx - 1 and j1 == ny - 1):
+                break
+            reach *= 2.0
+        out[p] = min(d, best)
+    return out

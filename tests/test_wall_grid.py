@@ -3,8 +3,13 @@
 import numpy as np
 import pytest
 
-from nodnav.geometry import (WallGrid, _segment_clearance_indexed, _segment_clearance_kernel, clearance_indexed,
-                             clearance_of)
+from nodnav.geometry import (
+    WallGrid,
+    _segment_clearance_indexed,
+    _segment_clearance_kernel,
+    clearance_indexed,
+    clearance_of,
+)
 
 
 @pytest.mark.parametrize("seed", range(4))

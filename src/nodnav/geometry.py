@@ -442,7 +442,8 @@ def _segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny
                                 continue
                             seen[w] = stamp
                             lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
-                            d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
+                            d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy),
+                                     _point_box_d2_one(bx, by, lx, ly, hx, hy))
                             d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
                                                  _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
                                              min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),

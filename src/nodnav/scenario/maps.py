@@ -39,8 +39,9 @@ bound) and take time linear in the cells (docs/maps.md: 1.1 million cells in 1.8
 in 5.9 s). The image's size is read from its header and checked before its pixels are decoded."""
 
 MAX_MAP_WALLS = 20_000
-"""Most wall boxes a map's grid may need. Every clearance query loops over the world's walls, so
-their number is the cost factor of the controller, the planners and the collision checks."""
+"""Most wall boxes a map's grid may need. The world's clearance queries go through a bucket index
+of them (:class:`nodnav.geometry.WallGrid`), but the controller's rows, the compiled planners'
+kernels and the collision checks still loop over every wall."""
 
 MIN_FREE_AREA = 0.05
 """Free pockets of less than this area (m^2) are walls: no robot fits (a disc of radius 0.13 m
@@ -90,7 +91,7 @@ class OccupancyMap:
 
     def cropped(self, bounds: tuple[float, float, float, float]) -> "OccupancyMap":
         """The cells that meet the box ``bounds``: a scenario on part of a big map keeps only the
-        walls it can reach (every clearance query loops over the walls)."""
+        walls it can reach (the controller and the compiled kernels loop over every wall)."""
         x0, y0 = self.origin
         r = self.resolution
         rows, cols = self.shape

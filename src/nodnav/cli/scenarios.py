@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import cast
 
 from nodnav.cli.settings import add_set_option, overrides_of
 from nodnav.cli.terminal import plural
@@ -64,7 +65,7 @@ def _show_map(args: argparse.Namespace) -> int:
     from nodnav.scenario.params import RobotSpec
     from nodnav.scenario.passage_finding import map_passages
 
-    radius = float(RobotSpec.__dataclass_fields__["radius"].default)  # type: ignore[arg-type]
+    radius = cast(float, RobotSpec.__dataclass_fields__["radius"].default)
     result = map_passages(args.scenario, [radius, radius], key=args.scenario)
     out = output_file(args.out)
     if not args.execute:

@@ -16,7 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
-from nodnav.geometry import TOL, WallGrid, clearance_indexed, clearance_of, piece_clearance, segment_clearance
+from nodnav.geometry import TOL, clearance_of, piece_clearance, segment_clearance
+from nodnav.wall_grid import WallGrid, clearance_indexed
 
 #: Sides of the passage, as returned by :meth:`World.side_of`: before its first mouth
 #: (``LEFT``, the paper's left room), between the mouths (``INSIDE``), beyond the second mouth

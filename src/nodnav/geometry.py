@@ -186,6 +186,9 @@ def segment_clearance(walls: Walls, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     shape = np.shape(a)[:-1] if np.ndim(a) > 1 else (1,)
     a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
     b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
+    grid = getattr(walls, "wall_grid", None)
+    if grid is not None:  # many walls (a map's): look only at the boxes near each segment
+        return grid.segment_clearance(a, b, walls.obstacle_array, walls.bounds_array, walls.piece_array).reshape(shape)
     return _segment_clearance_kernel(a, b, walls.obstacle_array, walls.bounds_array,
                                      walls.piece_array).reshape(shape)
 
@@ -363,3 +366,4 @@ def min_gap(positions: np.ndarray, radii: np.ndarray) -> float:
         return float("inf")
     a, b = np.triu_indices(n, k=1)
     return float((np.linalg.norm(p[..., a, :] - p[..., b, :], axis=-1) - (r[a] + r[b])).min())
+

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from nodnav.cli import bench, exports, roadmaps, runs, scenarios, studies
+from nodnav.cli import bench, exports, passages, roadmaps, runs, scenarios, studies
 from nodnav.cli.terminal import Parser
 
 
@@ -14,6 +14,6 @@ def build_parser() -> argparse.ArgumentParser:
                     "narrow corridor")
     parser.add_argument("-v", "--verbose", action="store_true", help="log progress details")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for group in (scenarios, runs, exports, studies, bench, roadmaps):
+    for group in (scenarios, passages, runs, exports, studies, bench, roadmaps):
         group.add_parsers(sub)
     return parser

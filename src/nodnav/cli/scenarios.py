@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import cast
 
 from nodnav.cli.settings import add_set_option, overrides_of
 from nodnav.cli.terminal import plural
@@ -30,6 +31,8 @@ def _cmd_show(args: argparse.Namespace) -> int:
     if args.seed is not None or args.count is not None:
         raise NodnavError(f"--seed and --count draw from a family; {args.scenario!r} is a scenario "
                           "(list the families with 'nodnav families')")
+    if _is_map(args.scenario):
+        return _show_map(args)
     names = builtin_names() if args.scenario == "all" else [args.scenario]
     overrides, labels = overrides_of(args)
     scenarios = [_with_settings(n, overrides, labels, len(names) > 1) for n in names]
@@ -40,6 +43,37 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
     path = save_gallery(scenarios, out) if args.scenario == "all" else save_scenario_figure(scenarios[0], out)
     print(f"wrote {path}")
+    return 0
+
+
+def _is_map(spec: str) -> bool:
+    """Whether ``spec`` names a map YAML (ROS map_server: it has an image) rather than a scenario."""
+    path = Path(spec)
+    try:
+        if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file() or path.stat().st_size > 100_000:
+            return False
+        import yaml
+
+        data = yaml.safe_load(path.read_text())
+    except (OSError, ValueError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    return isinstance(data, dict) and "image" in data and "robots" not in data
+
+
+def _show_map(args: argparse.Namespace) -> int:
+    """A map YAML: the map with its passages for two robots of the default radius (0.2 m)."""
+    from nodnav.scenario.params import RobotSpec
+    from nodnav.scenario.passage_finding import map_passages
+
+    radius = cast(float, RobotSpec.__dataclass_fields__["radius"].default)
+    result = map_passages(args.scenario, [radius, radius], key=args.scenario)
+    out = output_file(args.out)
+    if not args.execute:
+        return 0
+    from nodnav.viz.scenario import save_map_figure
+
+    print(f"wrote {save_map_figure(result.map, [f.passage for f in result.found], out)} "
+          f"(passages for robots of radius {radius:g} m; 'nodnav passages FILE --radius R' for others)")
     return 0
 
 

@@ -138,6 +138,8 @@ class RoadmapKey:
             # the paper's shorthand world as it was written before passages and polygons existed:
             # the same text, hence the same seed and the same roadmaps
             del data["world"]["passages"], data["world"]["polygons"]
+        if not w.map_file:  # a world without a map is written as before maps existed (same seeds)
+            del data["world"]["map_file"], data["world"]["map_walls"]
         data["radii"] = [float(r) for r in self.radii]
         data["directions"] = [int(d) for d in self.directions]
         return json.dumps(data, sort_keys=True, separators=(",", ":"))

@@ -14,6 +14,7 @@ from nodnav.errors import nearest_hint, shown_path
 from nodnav.scenario.draws import draw_spec
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import builtin_names, builtin_text, parse_yaml, read_yaml
+from nodnav.scenario.maps import map_beside
 from nodnav.scenario.overrides import apply_overrides, override_scenario
 from nodnav.scenario.schema import Scenario
 
@@ -42,4 +43,4 @@ def load_scenario(spec: str | Path, overrides: Mapping[str, Any] | None = None,
             return override_scenario(drawn, overrides, labels)
         hint = nearest_hint(spec, builtin_names(), "built-in scenarios")
         raise ScenarioError(f"{shown_path(spec)}: no such built-in scenario or file{hint}", key=spec)
-    return apply_overrides(read_yaml(path), spec, overrides, labels)
+    return apply_overrides(map_beside(read_yaml(path), path.parent), spec, overrides, labels)

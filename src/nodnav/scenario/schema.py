@@ -323,13 +323,13 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     raw_robots = _robot_list(data)
     opinion_raw = mapping(data.get("opinion"), "opinion")
     opinion = _opinion(opinion_raw, len(raw_robots), "opinion")
-    world = read_world(data.get("world"))
     robots, sources = _robots(raw_robots, data.get("robot_defaults"), opinion_raw)
+    world = read_world(data.get("world"), robots)
     for k, r in enumerate(robots):
         if r.opinion is not None and r.opinion.T != opinion.T:
             raise fail(f"robots[{k}].opinion.T", "the opinion period is shared by every robot; set it in 'opinion'")
     world_raw = mapping(data.get("world"), "world")
-    corridor_key = ("world.passages[0]" if "passages" in world_raw else
+    corridor_key = ("world.passages[0]" if "passages" in world_raw else "world.map" if "map" in world_raw else
                     "world.corridor" if "corridor" in world_raw else "world.corridor_width")
     _check_geometry(world, robots, sources, corridor_key)
     check_single_file(world, np.array([r.radius for r in robots]), corridor_key)
@@ -384,7 +384,10 @@ def _listed(params: dict) -> dict:
 def _world_to_raw(w: World) -> dict:
     """The ``world`` section that reads back as ``w``; the paper's shorthand stays as it was written."""
     out: dict = {"bounds": list(w.bounds),
-                 "obstacles": [list(o) for o in w.obstacles] + [[list(p) for p in poly] for poly in w.polygons]}
+                 "obstacles": [list(o) for o in w.obstacles[w.map_walls:]] + [[list(p) for p in poly]
+                                                                           for poly in w.polygons]}
+    if w.map_file:
+        out["map"] = w.map_file
     if w.corridor is not None:
         out["corridor"] = dataclasses.asdict(w.corridor)
         out["entrances"] = [list(e) for e in w.entrances]

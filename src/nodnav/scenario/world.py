@@ -17,6 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from nodnav.geometry import TOL, clearance_of, piece_clearance, segment_clearance
+from nodnav.wall_grid import WallGrid, clearance_indexed
 
 #: Sides of the passage, as returned by :meth:`World.side_of`: before its first mouth
 #: (``LEFT``, the paper's left room), between the mouths (``INSIDE``), beyond the second mouth
@@ -188,6 +189,11 @@ class World:
     """The single-file passages (one for now; several are item 4 of issue 20)."""
     polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
     """Wall polygons, each its vertices ``((x, y), ...)`` in order (m), convex or not."""
+    map_file: str = ""
+    """The occupancy-grid map (its YAML file) the first :attr:`map_walls` boxes of ``obstacles``
+    come from (:mod:`nodnav.scenario.maps`); "" without a map."""
+    map_walls: int = 0
+    """How many of ``obstacles``, from the first, are the map's walls."""
 
     def __post_init__(self) -> None:
         passages = tuple(self.passages)
@@ -235,6 +241,13 @@ class World:
         return _read_only(padded_pieces([q for poly in self.polygons for q in convex_pieces(poly)]))
 
     @cached_property
+    def wall_grid(self) -> WallGrid | None:
+        """A bucket index of the wall boxes for a map's world (thousands of boxes): the clearance
+        routines then look only at the boxes near each query, with the same results. None for a
+        world without a map (the paper's and every built-in keep the plain loop)."""
+        return WallGrid(self.obstacle_array, self.bounds_array) if self.map_walls else None
+
+    @cached_property
     def bounds_array(self) -> np.ndarray:
         """The outer boundary as a ``(4,)`` array (read-only: computed once and shared)."""
         return _read_only(np.asarray(self.bounds, dtype=float))
@@ -243,7 +256,11 @@ class World:
         """Signed distance (m) from each point to the nearest wall or boundary; negative inside a wall."""
         p = np.asarray(points, dtype=float)
         flat = np.ascontiguousarray(p.reshape(-1, 2))
-        d = clearance_of(flat, self.bounds_array, self.obstacle_array)
+        grid = self.wall_grid
+        if grid is not None:
+            d = clearance_indexed(flat, self.bounds_array, self.obstacle_array, *grid.arrays())
+        else:
+            d = clearance_of(flat, self.bounds_array, self.obstacle_array)
         if len(self.piece_array):
             d = np.minimum(d, piece_clearance(flat, self.piece_array))
         return d.reshape(p.shape[:-1])

@@ -7,7 +7,7 @@ passage: the paper's shorthand ``corridor`` (an axis-aligned box along x) with `
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from nodnav.scenario.fields import check_keys, coordinate, fail, mapping, number
 from nodnav.scenario.world import Corridor, Passage, World, paper_world
 
 #: Keys of the ``world`` section.
-WORLD_KEYS = ("bounds", "obstacles", "corridor", "entrances", "corridor_width", "passages")
+WORLD_KEYS = ("bounds", "obstacles", "corridor", "entrances", "corridor_width", "passages", "map")
 
 
 def _box(value: Any, where: str) -> tuple[float, float, float, float]:
@@ -83,8 +83,8 @@ def _passages(raw: Any, bounds: tuple[float, float, float, float]) -> tuple[Pass
     return tuple(out)
 
 
-def _check_overlaps(passages: list[Passage]) -> None:
-    """Two passages whose clear rectangles meet: one line naming both."""
+def _check_overlaps(passages: list[Passage], numbers: Sequence[int] = ()) -> None:
+    """Two passages whose clear rectangles meet: one line naming both (found ones by ``numbers``)."""
     if len(passages) < 2:
         return
     import shapely
@@ -93,14 +93,22 @@ def _check_overlaps(passages: list[Passage]) -> None:
     for i in range(len(shapes)):
         for j in range(i + 1, len(shapes)):
             if shapes[i].intersects(shapes[j]):
+                if numbers:
+                    raise fail("world.map", f"the robots' routes cross found passages {numbers[i]} and {numbers[j]}, "
+                               f"which overlap ('nodnav passages' lists them); give world.passages")
                 raise fail(f"world.passages[{j}]", f"overlaps world.passages[{i}]; passages must be apart "
                            f"(move one, or make them one passage)")
 
 
-def read_world(data: Any) -> World:
-    """The :class:`World` of a scenario's ``world`` section (defaults: the paper's layout)."""
+def read_world(data: Any, robots: Sequence[Any] = ()) -> World:
+    """The :class:`World` of a scenario's ``world`` section (defaults: the paper's layout).
+
+    ``robots`` (each with ``origin``, ``destination`` and ``radius``) choose, on a map given
+    without ``passages``, the passage their routes use (:func:`read_map_world`)."""
     data = mapping(data, "world")
     check_keys(data, WORLD_KEYS, "world")
+    if "map" in data:
+        return read_map_world(data, robots)
     if "corridor_width" in data and "corridor" in data:
         raise fail("world.corridor_width", "give either corridor_width (the paper's layout) or corridor, not both")
     if "passages" in data:
@@ -173,3 +181,71 @@ def check_single_file(world: World, radii: np.ndarray, key: str) -> None:
         raise fail(key, f"is not single file for these robots: its walls leave {gap:.3f} m, two robots of radii "
                         f"{r[0]:g} and {r[1]:g} m pass abreast in {abreast:.3f} m; narrow the walls or give this "
                         f"opening no passage")
+
+
+def read_map_world(data: dict, robots: Sequence[Any]) -> World:
+    """A world whose walls come from ``world.map`` (a map_server YAML file; a relative path is
+    relative to the scenario file, :func:`nodnav.scenario.loading.load_scenario` resolves it).
+
+    ``bounds`` default to the map's extent; given, they crop the map to the cells they meet (a
+    scenario on part of a building keeps only the walls there). ``obstacles`` add walls
+    (furniture) to the map's.
+    Without ``passages`` the passage is found (:mod:`nodnav.scenario.passage_finding`): the
+    single-file places for the scenario's robots (a robot of the largest radius fits, the two
+    smallest cannot pass abreast) that their shortest routes cross; exactly one must remain."""
+    from nodnav.scenario.maps import read_map
+
+    for other in ("corridor", "entrances", "corridor_width"):
+        if other in data:
+            raise fail(f"world.{other}", "a map's passages are given as world.passages or found; the paper's "
+                       "corridor shorthand does not apply to a map")
+    where = data["map"]
+    if not isinstance(where, str) or not where.strip():
+        raise fail("world.map", f"expected the map's YAML file (ROS map_server format), got {shown(where)}")
+    m = read_map(where)
+    bounds = _box(data["bounds"], "world.bounds") if "bounds" in data else m.bounds
+    m = m.cropped(bounds)
+    if not m.free.any():
+        raise fail("world.bounds", f"{list(bounds)} holds no free cell of the map (whose extent is "
+                   f"{[round(b, 3) for b in read_map(where).bounds]})")
+    if max(bounds[2] - bounds[0], bounds[3] - bounds[1]) > limits.MAX_WORLD_SIZE:
+        raise fail("world.bounds" if "bounds" in data else "world.map",
+                   f"sides of at most {limits.MAX_WORLD_SIZE:g} m, got {[round(b, 3) for b in bounds]}")
+    extra, polygons = _walls(data["obstacles"]) if "obstacles" in data else ((), ())
+    if "passages" in data:
+        passages = _passages(data["passages"], bounds)
+    else:
+        passages = (_found_passage(m, robots),)
+    return World(bounds=bounds, obstacles=m.walls + tuple(extra), passages=passages, polygons=polygons,
+                 map_file=m.path, map_walls=len(m.walls))
+
+
+def _found_passage(m: Any, robots: Sequence[Any]) -> Passage:
+    """The one passage the robots' routes cross, found on the map; one line when there is none
+    or more than one."""
+    from nodnav.scenario.passage_finding import clearance_grid, find_passages, route_passages, shortest_route
+
+    if len(robots) < 2:
+        raise fail("world.map", "finding a map's passages needs the scenario's robots (at least two); "
+                   "or give world.passages")
+    radii = np.sort([float(r.radius) for r in robots])
+    one, abreast = float(radii[-1]), float(radii[0] + radii[1])
+    clearance = clearance_grid(m)
+    found = find_passages(m, one, abreast, clearance)
+    used: list[int] = []
+    for k, r in enumerate(robots):
+        route = shortest_route(m, clearance, np.asarray(r.origin), np.asarray(r.destination), float(r.radius))
+        if route.problem:
+            key = "origin" if "origin" in route.problem else "destination"
+            raise fail(f"robots[{k}].{key}", f"robot {k + 1} (radius {float(r.radius):g} m): {route.problem}")
+        used += [i for i in route_passages(found, route, m.resolution) if i not in used]
+    names = "; ".join(f"{i + 1}: {found[i].describe()}" for i in sorted(used))
+    if not used:
+        raise fail("world.map", f"the robots' routes cross none of the map's {len(found)} single-file passages for "
+                   f"radii {radii[0]:g} to {radii[-1]:g} m ('nodnav passages' lists them); move the robots or give "
+                   f"world.passages")
+    _check_overlaps([found[i].passage for i in sorted(used)], [i + 1 for i in sorted(used)])
+    if len(used) > 1:
+        raise fail("world.passages", f"several passages are not supported yet: the robots' routes cross {len(used)} "
+                   f"found on the map ({names}); give one as world.passages")
+    return found[used[0]].passage

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -10,8 +11,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Polygon, Rectangle
 
+from nodnav.scenario.maps import OccupancyMap
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import World
+from nodnav.scenario.world import Passage, World
 from nodnav.viz.text import set_title
 
 #: Robot colours in the paper's order: robot 1 red, 2 blue, 3 green, 4 orange, then more.
@@ -30,11 +32,42 @@ def new_figure(width: float, height: float) -> Figure:
     return fig
 
 
+def draw_map(ax: Axes, m: OccupancyMap, passages: Sequence[Passage] = ()) -> None:
+    """An occupancy-grid map (walls grey, free space white) with its passages shaded and numbered."""
+    ax.imshow(np.where(m.free, 1.0, 0.55), cmap="gray", vmin=0.0, vmax=1.0, origin="lower",
+              extent=(m.bounds[0], m.bounds[2], m.bounds[1], m.bounds[3]), interpolation="nearest", zorder=0)
+    for k, passage in enumerate(passages):
+        ax.add_patch(Polygon(passage.outline(), closed=True, facecolor="#ffd54f", edgecolor="#b26a00",
+                             linewidth=0.8, zorder=1))
+        ax.annotate(str(k + 1), np.mean([passage.start, passage.end], axis=0), xytext=(3, 3),
+                    textcoords="offset points", fontsize=6, color="#8a3b00", zorder=2)
+    ax.set_aspect("equal")
+
+
+def save_map_figure(m: OccupancyMap, passages: Sequence[Passage], path: str | Path) -> Path:
+    """Write a figure of a map with its passages numbered."""
+    x0, y0, x1, y1 = m.bounds
+    fig = new_figure(9.0, max(3.0, 9.0 * (y1 - y0) / (x1 - x0)))
+    ax = fig.add_subplot(1, 1, 1)
+    draw_map(ax, m, passages)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    set_title(ax, f"{Path(m.path).name}: {len(passages)} single-file passages", 9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    return Path(path)
+
+
 def draw_world(ax: Axes, world: World, *, entrances: bool = True) -> None:
-    """Walls (boxes and polygons) in grey, the passage shaded, entrances as small black diamonds."""
+    """Walls (boxes and polygons) in grey, the passage shaded, entrances as small black diamonds; a
+    world on a map draws the map's grid and numbers its passages."""
     x0, y0, x1, y1 = world.bounds
     ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="0.2", linewidth=1.5))
-    for ox0, oy0, ox1, oy1 in world.obstacles:
+    if world.map_file:
+        from nodnav.scenario.maps import read_map
+
+        draw_map(ax, read_map(world.map_file), world.passages)
+    for ox0, oy0, ox1, oy1 in world.obstacles[world.map_walls:]:
         ax.add_patch(Rectangle((ox0, oy0), ox1 - ox0, oy1 - oy0, facecolor="0.55", edgecolor="0.3"))
     for poly in world.polygons:
         ax.add_patch(Polygon(np.asarray(poly), closed=True, facecolor="0.55", edgecolor="0.3"))

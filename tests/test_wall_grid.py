@@ -1,0 +1,53 @@
+"""The wall index of maps' worlds: its clearances are exactly the full loop's (bit for bit)."""
+
+import numpy as np
+import pytest
+
+from nodnav.geometry import _segment_clearance_kernel, clearance_of
+from nodnav.wall_grid import WallGrid, clearance_indexed, segment_clearance_indexed
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_indexed_clearances_equal_the_full_loop(seed):
+    rng = np.random.default_rng(seed)
+    bounds = np.array([-3.0, -2.0, 9.0, 7.0])
+    lo = rng.uniform(bounds[:2], bounds[2:], (300, 2))
+    boxes = np.hstack([lo, lo + rng.uniform(0.05, 1.5, (300, 2))])  # some reach past the bounds
+    grid = WallGrid(boxes, bounds, cell=0.5)
+    pts = rng.uniform(bounds[:2] - 1.0, bounds[2:] + 1.0, (2000, 2))
+    assert np.array_equal(clearance_indexed(pts, bounds, boxes, *grid.arrays()), clearance_of(pts, bounds, boxes))
+    a, b = pts[:1000], pts[1000:]
+    b[::3] = a[::3] + rng.normal(0.0, 0.2, (len(a[::3]), 2))  # short segments as well as long ones
+    pieces = np.zeros((0, 3, 2))
+    full = _segment_clearance_kernel(a, b, boxes, bounds, pieces)
+    assert np.array_equal(segment_clearance_indexed(a, b, boxes, bounds, pieces, *grid.arrays()), full)
+
+
+def test_near_holds_every_box_meeting_the_rectangle():
+    rng = np.random.default_rng(7)
+    bounds = np.array([0.0, 0.0, 10.0, 10.0])
+    lo = rng.uniform(0.0, 10.0, (200, 2))
+    boxes = np.hstack([lo, lo + rng.uniform(0.05, 1.0, (200, 2))])
+    grid = WallGrid(boxes, bounds, cell=0.5)
+    for _ in range(50):
+        a = rng.uniform(0.0, 10.0, 2)
+        b = a + rng.uniform(0.0, 3.0, 2)
+        meeting = np.flatnonzero((boxes[:, 0] <= b[0]) & (boxes[:, 2] >= a[0]) & (boxes[:, 1] <= b[1])
+                                 & (boxes[:, 3] >= a[1]))
+        assert set(meeting) <= set(grid.near(a, b).tolist())
+
+
+def test_a_world_with_a_map_goes_through_its_index_with_the_same_values():
+    from nodnav.geometry import segment_clearance
+    from nodnav.scenario.world import Passage, World
+
+    rng = np.random.default_rng(3)
+    lo = rng.uniform(0.0, 10.0, (150, 2))
+    boxes = tuple(map(tuple, np.hstack([lo, lo + rng.uniform(0.05, 1.0, (150, 2))])))
+    passage = (Passage(start=(0.0, 5.0), end=(1.0, 5.0), width=0.5),)
+    mapped = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage, map_walls=len(boxes))
+    plain = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage)
+    assert mapped.wall_grid is not None and plain.wall_grid is None
+    a, b = rng.uniform(0.0, 10.0, (500, 2)), rng.uniform(0.0, 10.0, (500, 2))
+    assert np.array_equal(segment_clearance(mapped, a, b), segment_clearance(plain, a, b))
+    assert np.array_equal(mapped.clearance(a), plain.clearance(a))

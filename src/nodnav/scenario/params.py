@@ -200,6 +200,10 @@ class MPCParams(ControllerParams):
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
+    braking_tail: bool = True
+    """Whether every accepted plan must end in a straight braking tail clear of the walls, and
+    the robot follows the last accepted plan and its tail when no new plan is found
+    (docs/safety.md); off: the earlier controller, which braked along its velocity (not in the paper)."""
     evasive_penalty: float = 1e3
     """Cost of the evasive QP per metre of intrusion into another robot's required separation
     at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above

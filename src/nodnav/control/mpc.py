@@ -100,6 +100,14 @@ class BSplineMPC:
             raise ValueError("no control step has been taken yet")
         return bspline.evaluate(self._previous, times, self.setup.knots, DEGREE, order)
 
+    def braking_trajectory(self, times: np.ndarray) -> np.ndarray | None:
+        """Positions ``(len(times), 2)`` of the committed trajectory ``times`` after the last
+        control step (the last accepted plan, then its straight braking tail, which stops), or
+        None if the robot holds none (before its first accepted plan, after braking blindly)."""
+        if self._committed is None:
+            return None
+        return self._committed.motion(np.asarray(times, dtype=float))
+
     # -- public ------------------------------------------------------------------------------
 
     def control(self, request: ControlRequest) -> ControlResult:

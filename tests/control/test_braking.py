@@ -1,0 +1,117 @@
+"""The braking invariant (docs/safety.md), checked against an independent reference: the
+world's own clearance (:meth:`World.clearance`) on the committed trajectory sampled densely."""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from nodnav.control import ControlRequest
+from nodnav.control.braking import segment_clearance, tail_clearance, tail_decel
+from nodnav.control.mpc import BSplineMPC
+from nodnav.scenario.params import MPCParams, RobotSpec
+from nodnav.scenario.world import paper_world
+
+WORLD = paper_world()
+PARAMS = MPCParams()
+TIMES = PARAMS.horizon * np.arange(1, 9) / 8
+NO_OTHERS = np.zeros((0, 8, 2))
+
+
+def test_segment_clearance_by_hand():
+    boxes = np.array([[0.0, 0.0, 1.0, 1.0]])
+    bounds = np.array([-10.0, -10.0, 10.0, 10.0])
+    # Passing above the box at height 2: 1 m from its top face.
+    assert segment_clearance(np.array([-3.0, 2.0]), np.array([3.0, 2.0]), boxes, bounds) == pytest.approx(1.0)
+    # Towards its corner (1, 1) along the diagonal, stopping sqrt(2) short of it.
+    assert segment_clearance(np.array([3.0, 3.0]), np.array([2.0, 2.0]), boxes, bounds) == pytest.approx(math.sqrt(2))
+    # Through the box: negative (half its side inside at the centre).
+    assert segment_clearance(np.array([-1.0, 0.5]), np.array([2.0, 0.5]), boxes, bounds) == pytest.approx(-0.5)
+    # The bounds count at the ends.
+    assert segment_clearance(np.array([5.0, 5.0]), np.array([9.5, 5.0]), boxes, bounds) == pytest.approx(0.5)
+
+
+def test_tail_clearance_is_the_stopping_distance_by_hand():
+    # 1 m/s towards a wall 3 m ahead at 0.25 m/s^2: stops 2 m on, 1 m short of it.
+    boxes = np.array([[3.0, -5.0, 4.0, 5.0]])
+    bounds = np.array([-10.0, -10.0, 10.0, 10.0])
+    assert tail_clearance(np.zeros(2), np.array([1.0, 0.0]), 0.25, boxes, bounds) == pytest.approx(1.0)
+
+
+def clearance_along(points: np.ndarray) -> float:
+    return float(WORLD.clearance(points).min())
+
+
+def committed_clearance(ctl: BSplineMPC, robot: RobotSpec) -> float:
+    """Least clearance of the controller's committed trajectory (plan, then braking tail), sampled
+    so finely that it moves at most a millimetre between samples (the world's clearance is
+    1-Lipschitz), until it has stopped; checks that it does stop."""
+    decel = tail_decel(robot.max_accel, PARAMS.terminal_decel, PARAMS.accel_polygon_sides)
+    until = PARAMS.horizon + robot.max_speed / decel + 0.05
+    times = np.linspace(0.0, until, int(until * robot.max_speed / 1e-3) + 2)
+    path = ctl.braking_trajectory(times)
+    assert path is not None
+    np.testing.assert_allclose(path[-1], path[-2], atol=1e-12)  # at rest in the end
+    return clearance_along(path)
+
+
+@st.composite
+def robot_states(draw):
+    radius = draw(st.floats(0.1, 0.35))
+    max_speed = draw(st.floats(0.2, 2.0))
+    max_accel = draw(st.floats(0.1, 3.0))
+    robot = RobotSpec(origin=(-5.0, 0.0), destination=(5.0, 0.0), radius=radius, max_speed=max_speed,
+                      max_accel=max_accel)
+    # Near a wall: in the left room by the corridor's wall, or at the corridor's mouth.
+    x = draw(st.floats(-6.8, -2.0))
+    y = draw(st.floats(-2.3, 2.3))
+    p = np.array([x, y])
+    clear = float(WORLD.clearance(p[None])[0])
+    speed = draw(st.floats(0.0, 1.0)) * max_speed
+    heading = draw(st.floats(-math.pi, math.pi))
+    v = speed * np.array([math.cos(heading), math.sin(heading)])
+    # The reference: full speed towards a point, often one in or behind a wall.
+    target = np.array([draw(st.floats(-7.5, 0.0)), draw(st.floats(-3.0, 3.0))])
+    # From this step on another robot is predicted on top of this one: no plan is found, and
+    # (without the evasive fallback) the robot must follow its committed trajectory.
+    blocked_from = draw(st.integers(1, 14))
+    return robot, p, v, target, clear, blocked_from
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(robot_states())
+def test_every_step_leaves_a_braking_trajectory_clear_of_the_walls(state):
+    robot, p, v, target, clear, blocked_from = state
+    if clear < robot.radius + 1e-3:
+        return  # the robot would start in contact: the loader refuses such scenarios
+    ctl = BSplineMPC(WORLD, robot, replace(PARAMS, evasive=False))
+    had = False
+    for k in range(12):
+        direction = target - p
+        dist = float(np.hypot(*direction))
+        step = direction / max(dist, 1e-9) * np.minimum(robot.max_speed * TIMES, dist)[:, None]
+        blocked = k >= blocked_from
+        others = np.repeat(p[None, None] + 0.01, 8, axis=1) if blocked else NO_OTHERS
+        res = ctl.control(ControlRequest(position=p, velocity=v, reference=p + step, sample_times=TIMES,
+                                         others=others, other_radii=np.full(len(others), 0.2)))
+        moved = clearance_along(np.vstack([p[None], res.step_positions]))
+        if res.info["fallback"] == "braking":
+            # Only without a committed trajectory, and it says why: braking along the velocity
+            # is clear (and then the step is), or no clear braking trajectory is known.
+            assert not had, res.reason
+            straight = tail_clearance(p, v, robot.max_accel, WORLD.obstacle_array, WORLD.bounds_array)
+            if straight >= robot.radius:
+                assert "stops clear of the walls" in res.reason and moved >= robot.radius - 1e-3
+            else:
+                assert "no braking trajectory known to be clear" in res.reason
+        else:
+            # A plan was accepted or the committed one followed: the step and the whole braking
+            # trajectory that remains are clear.
+            assert res.success or not blocked or res.info["fallback"] == "committed"
+            had = True
+            assert moved >= robot.radius - 1e-3, res.reason
+            assert committed_clearance(ctl, robot) >= robot.radius - 1e-3, res.reason
+        p, v = res.next_position, res.next_velocity

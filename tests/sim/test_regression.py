@@ -26,6 +26,11 @@ CASES = [
     ("three-against-one-one-player.yaml", (20,)),
     ("race-abreast-into-the-mouth.yaml", (132,)),
     ("waiting-aside-in-a-small-room.yaml", (347,)),
+    ("accel-0.3-braking-into-the-wall-2-robots.yaml", (1,)),
+    ("accel-0.3-braking-into-the-wall-4-robots.yaml", (1,)),
+    ("accel-0.15-braking-into-the-wall.yaml", (1,)),
+    ("accel-0.5-braking-into-the-wall.yaml", (1,)),
+    ("doorway-small-slow-robots.yaml", (1,)),
 ]
 
 

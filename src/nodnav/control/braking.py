@@ -124,7 +124,7 @@ def tail_clearance(position: np.ndarray, velocity: np.ndarray, decel: float, box
 
 @compiled
 def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, boxes, box_low, box_high,
-              phi, line, tol, rows, lower, row0):
+              phi, line, tol, cold, rows, lower, row0):
     """Write the rows that keep the braking tail's segment clear of the walls and inside the box.
 
     The segment runs from ``p(T)`` to ``p(T) + weight v(T)`` (``weight = V / (2 a_tail)``); its
@@ -133,9 +133,10 @@ def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, 
     ``tau -> tau``. Per wall two rows (both ends of the segment in the half-plane tangent to the
     wall inflated by ``need``, at the wall's point nearest to the linearisation's segment ``lin_p ->
     lin_p + weight lin_v``), then four rows for the box ``[box_low, box_high]`` at the far end.
-    A wall farther from ``p0`` than ``reach`` gets no rows (``-inf``); a linearisation touching a
-    wall gives no direction, so the half-plane through the robot's present side is used
-    (``x_now``, ``away``), as for the other rows.
+    A wall farther from ``p0`` than ``reach`` gets no rows (``-inf``). A linearisation whose tail
+    comes closer than ``need`` to a wall, or on a ``cold`` start (the linearisation is the
+    reference) a half-plane that would exclude ``p0``, is replaced by the half-plane through the
+    robot's present side (``x_now``, ``away``), as for the other rows.
     """
     nz = phi.shape[1]
     n_walls = boxes.shape[0]
@@ -155,11 +156,15 @@ def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, 
         qy = min(max(py, boxes[g, 1]), boxes[g, 3])
         vx, vy = px - qx, py - qy
         dist = math.hypot(vx, vy)
-        if d < need[g] * 0.5 or dist < 1e-9:
+        replace = d < need[g] or dist < 1e-9
+        if not replace:
+            nx, ny = vx / dist, vy / dist
+            # A cold start's linearisation is the reference, not a motion the robot can make:
+            # never a half-plane that excludes where the robot is.
+            replace = cold and nx * (p0[0] - qx) + ny * (p0[1] - qy) < need[g]
+        if replace:
             qx, qy = x_now[g, 0], x_now[g, 1]
             nx, ny = away[g, 0], away[g, 1]
-        else:
-            nx, ny = vx / dist, vy / dist
         for j in range(2):
             w = 0.0 if j == 0 else weight
             i = i0 + j

@@ -373,10 +373,10 @@ class MPCProblem:
                         np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
                         self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
                         self.dyn_line, self.rows, lower, self.n_static)
-        self.write_tail(data, lin, np.asarray(need, dtype=float), lower)
+        self.write_tail(data, lin, cold, np.asarray(need, dtype=float), lower)
         return lower
 
-    def write_tail(self, data: "StepData", lin: np.ndarray, need: np.ndarray, lower: np.ndarray) -> None:
+    def write_tail(self, data: "StepData", lin: np.ndarray, cold: bool, need: np.ndarray, lower: np.ndarray) -> None:
         """Write the braking tail's rows (:func:`~nodnav.control.braking.tail_rows`) and their
         bounds, linearised about the tail of ``lin`` (its last end, with the velocity of its last
         interval); with ``settings.braking_tail`` off they constrain nothing."""
@@ -387,7 +387,7 @@ class MPCProblem:
         lin_v = (lin[-1] - lin[-2]) / self.intervals[-1] if len(lin) > 1 else data.v0
         tail_rows(lin[-1], lin_v, data.tail_weight, data.p0, data.v0, data.x_now[:self.n_walls, -1],
                   data.away[:self.n_walls], data.dist_now[:self.n_walls], need[:self.n_walls], data.tail_reach,
-                  self.setup.obstacles, data.box_low, data.box_high, self.tail_phi, self.tail_line, self.tol,
+                  self.setup.obstacles, data.box_low, data.box_high, self.tail_phi, self.tail_line, self.tol, cold,
                   self.rows, lower, i0)
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:

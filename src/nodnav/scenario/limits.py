@@ -80,8 +80,10 @@ RANGES: dict[str, Range] = {
     "opinion.bias": (-1e6, 1e6, True),
     "opinion.z0": (-1e6, 1e6, True),
     "opinion.standoff_patience": (0.0, 600.0, True),
-    # Robots. Below 0.1 m/s^2 the controller brakes over tens of metres and fails every step;
-    # above 5 m/s a robot crosses the corridor in a few control steps.
+    # Robots. Every accepted speed and acceleration is safe (docs/safety.md): the controller
+    # keeps a braking tail clear of the walls whatever they are. Below 0.1 m/s^2 a robot needs
+    # tens of metres to stop from ordinary speeds, so it crawls; above 5 m/s it crosses the
+    # corridor in a few control steps.
     "robots.radius": (0.01, 5.0, True),
     "robots.max_speed": (0.05, 5.0, True),
     "robots.max_accel": (0.1, 50.0, True),

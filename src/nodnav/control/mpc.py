@@ -194,7 +194,7 @@ class BSplineMPC:
         self._braking, self._following = None, True
         times = np.concatenate([self.dt * STEP_FRACTIONS, prob.sample_times])
         pos = committed.motion(times)
-        vel = committed.motion([self.dt], 1)[0]
+        vel = committed.motion(np.array([self.dt]), 1)[0]
         p0 = committed.motion(np.zeros(1))[0]
         stage = "its plan" if committed.elapsed + self.dt <= self.horizon else "its braking tail"
         return ControlResult(

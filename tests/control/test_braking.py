@@ -99,13 +99,13 @@ def test_every_step_leaves_a_braking_trajectory_clear_of_the_walls(state):
                                          others=others, other_radii=np.full(len(others), 0.2)))
         moved = clearance_along(np.vstack([p[None], res.step_positions]))
         if res.info["fallback"] == "braking":
-            # Only without a committed trajectory, and it says why: braking along the velocity
-            # is clear (and then the step is), or no clear braking trajectory is known.
-            assert not had, res.reason
+            # Braking along the velocity where it stops clear of the walls (then the step is
+            # clear), else only without a committed trajectory, saying why.
             straight = tail_clearance(p, v, robot.max_accel, WORLD.obstacle_array, WORLD.bounds_array)
             if straight >= robot.radius:
                 assert "stops clear of the walls" in res.reason and moved >= robot.radius - 1e-3
             else:
+                assert not had, res.reason
                 assert "no braking trajectory known to be clear" in res.reason
         else:
             # A plan was accepted or the committed one followed: the step and the whole braking
@@ -115,3 +115,33 @@ def test_every_step_leaves_a_braking_trajectory_clear_of_the_walls(state):
             assert moved >= robot.radius - 1e-3, res.reason
             assert committed_clearance(ctl, robot) >= robot.radius - 1e-3, res.reason
         p, v = res.next_position, res.next_velocity
+
+
+def test_follows_its_committed_trajectory_where_braking_straight_would_hit_a_wall():
+    """A robot turning along the wall towards the corridor: where braking along its velocity would
+    reach the wall and no plan is found (another robot predicted on top of it), it follows its
+    last plan and that plan's braking tail, and stops clear of the walls."""
+    robot = RobotSpec(origin=(-6.0, 2.0), destination=(5.0, 0.0), radius=0.2, max_speed=1.0, max_accel=0.5)
+    ctl = BSplineMPC(WORLD, robot, replace(PARAMS, evasive=False))
+    corner, down = np.array([-3.25, 2.0]), np.array([0.0, -1.0])
+    start = np.array([-6.0, 2.0])
+
+    def reference(t):
+        d = t + TIMES
+        first = np.linalg.norm(corner - start)
+        along = np.minimum(d, first)[:, None] * (corner - start) / first
+        return start + along + np.clip(d - first, 0.0, 4.0)[:, None] * down
+
+    p, v, blocked, kinds = start, np.zeros(2), False, []
+    for k in range(120):
+        straight = tail_clearance(p, v, robot.max_accel, WORLD.obstacle_array, WORLD.bounds_array)
+        blocked = blocked or straight < robot.radius
+        others = np.repeat(p[None, None] + 0.01, 8, axis=1) if blocked else NO_OTHERS
+        res = ctl.control(ControlRequest(position=p, velocity=v, reference=reference(0.1 * k), sample_times=TIMES,
+                                         others=others, other_radii=np.full(len(others), 0.2)))
+        assert clearance_along(np.vstack([p[None], res.step_positions])) >= robot.radius - 1e-6, res.reason
+        if blocked:
+            kinds.append(res.info["fallback"])
+        p, v = res.next_position, res.next_velocity
+    assert kinds and kinds[0] == "committed"
+    assert np.hypot(*v) < 1e-9 and clearance_along(p[None]) >= robot.radius  # at rest, clear

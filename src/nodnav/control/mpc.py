@@ -22,9 +22,12 @@ iteration. Every accepted plan is checked exactly and is safe at every instant w
 the predictions.
 
 When the tracking QP has no solution, the robot follows the plan that intrudes least into the
-others' predicted discs (:mod:`nodnav.control.evasive`); only if no such plan keeps clear of
-the walls does it brake along its current velocity. Both are reported with ``success=False``
-and ``info["fallback"]`` (``"evasive"`` or ``"braking"``).
+others' predicted discs (:mod:`nodnav.control.evasive`); if no such plan keeps clear of the
+walls, it brakes along its current velocity where that stops clear of the walls (what the
+others' firm predictions expect), and otherwise follows its committed trajectory, the last
+accepted plan and its braking tail, which is always clear of them (:mod:`nodnav.control.braking`,
+docs/safety.md). All are reported with ``success=False`` and ``info["fallback"]``
+(``"evasive"``, ``"braking"`` or ``"committed"``).
 """
 
 from __future__ import annotations
@@ -156,7 +159,11 @@ class BSplineMPC:
                 plan, intrusion, intruded = evasive_plan(prob, data, lin, cold, conflict, np.zeros_like(firm),
                                                           effort)
         if plan is None:
-            if committed is not None:
+            # Braking along the velocity at the limit is what the other robots expect of a robot
+            # that cannot plan (their firm predictions); it is kept wherever it stops clear of the
+            # walls, and the committed trajectory, always clear of them, is followed otherwise.
+            straight = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.world_bounds)
+            if committed is not None and straight < r - self.settings.check_tolerance:
                 return self._follow(committed, prob, start, effort, why)
             return self._brake(request, prob, start, effort, why)
         self._accept(plan, prob)

@@ -133,10 +133,12 @@ def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, 
     ``tau -> tau``. Per wall two rows (both ends of the segment in the half-plane tangent to the
     wall inflated by ``need``, at the wall's point nearest to the linearisation's segment ``lin_p ->
     lin_p + weight lin_v``), then four rows for the box ``[box_low, box_high]`` at the far end.
-    A wall farther from ``p0`` than ``reach`` gets no rows (``-inf``). A linearisation whose tail
-    comes closer than ``need`` to a wall, or on a ``cold`` start (the linearisation is the
-    reference) a half-plane that would exclude ``p0``, is replaced by the half-plane through the
-    robot's present side (``x_now``, ``away``), as for the other rows.
+    A wall farther from ``p0`` than ``reach`` gets no rows (``-inf``). Where the linearisation's
+    segment comes closer than ``need`` to a wall, the wall's point nearest to ``lin_p`` is used
+    (the half-plane of the last end's row). A linearisation point inside the wall, or on a
+    ``cold`` start (the linearisation is the reference) a half-plane that would exclude ``p0``,
+    gives way to the half-plane through the robot's present side (``x_now``, ``away``), as for
+    the other rows.
     """
     nz = phi.shape[1]
     n_walls = boxes.shape[0]
@@ -151,12 +153,16 @@ def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, 
                 rows[i0 + 1, k] = 0.0
             continue
         s, d = _closest_on_segment(lin_p[0], lin_p[1], ex, ey, boxes[g])
+        if d < need[g]:
+            # The linearisation's tail comes too close: the half-plane of its start, the one the
+            # last end's row uses, pushes the tail out of the wall on the side the plan is on.
+            s = 0.0
         px, py = lin_p[0] + s * (ex - lin_p[0]), lin_p[1] + s * (ey - lin_p[1])
         qx = min(max(px, boxes[g, 0]), boxes[g, 2])
         qy = min(max(py, boxes[g, 1]), boxes[g, 3])
         vx, vy = px - qx, py - qy
         dist = math.hypot(vx, vy)
-        replace = d < need[g] or dist < 1e-9
+        replace = dist < 1e-9
         if not replace:
             nx, ny = vx / dist, vy / dist
             # A cold start's linearisation is the reference, not a motion the robot can make:

@@ -81,6 +81,7 @@ class BSplineMPC:
         # The committed trajectory (docs/safety.md): the last accepted plan and its braking tail.
         self._committed: Committed | None = None
         self._following = False  # whether the last step followed the committed trajectory
+        self._expected = (np.zeros(2), np.zeros(2))  # its position and velocity one step on
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
@@ -187,8 +188,8 @@ class BSplineMPC:
         if c is None or self.settings.braking_tail is False:
             return None
         c.elapsed += self.dt
-        at = c.motion(np.zeros(1))[0]
-        vel = c.motion(np.zeros(1), 1)[0]
+        # Where the last step said the robot would be (the committed trajectory one step on).
+        at, vel = self._expected
         if np.hypot(*(at - p0)) > 1e-6 or np.hypot(*(vel - v0)) > 1e-6:
             self._committed = None
             return None
@@ -204,6 +205,7 @@ class BSplineMPC:
         vel = committed.motion(np.array([self.dt]), 1)[0]
         p0 = committed.motion(np.zeros(1))[0]
         stage = "its plan" if committed.elapsed + self.dt <= self.horizon else "its braking tail"
+        self._expected = (pos[3], vel)
         return ControlResult(
             success=False, reason=f"infeasible: braking: following {stage} (clear of walls): {why}",
             velocity=(pos[3] - p0) / self.dt, next_position=pos[3], next_velocity=vel,
@@ -221,6 +223,7 @@ class BSplineMPC:
     def _result(self, success: bool, reason: str, c: np.ndarray, prob: MPCProblem, data: StepData, start: float,
                 info: dict) -> ControlResult:
         out = prob.b_out @ c
+        self._expected = (out[0], out[1])
         return ControlResult(
             success=success, reason=reason,
             velocity=(out[0] - data.p0) / self.dt,

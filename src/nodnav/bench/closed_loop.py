@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodnav.bench.stages import STAGES, StageTimes, measure_stages
 from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import Simulation, run_trial
 
@@ -29,6 +30,40 @@ class SimBenchmark:
     """Outcome of each trial."""
     setup_time: float
     """Wall time to load the compiled kernels, paid once per process, not per trial (s)."""
+    stages: tuple[StageTimes, ...] = ()
+    """Each trial run again with its time split by stage (:mod:`nodnav.bench.stages`); empty if not asked."""
+
+    def stage_seconds(self) -> dict[str, float]:
+        """Wall time per stage summed over the measured trials (s)."""
+        return {k: float(sum(t.seconds[k] for t in self.stages)) for k in STAGES}
+
+    @property
+    def measuring_overhead(self) -> float:
+        """How much longer the measured trials took than the same trials unmeasured (fraction)."""
+        return float(sum(t.wall_time for t in self.stages) / sum(self.wall_times) - 1.0)
+
+    def stages_dict(self) -> dict:
+        """The breakdown as JSON-ready figures: per stage seconds, percent of the measured wall
+        time and seconds per simulated second."""
+        total = sum(t.wall_time for t in self.stages)
+        sim = sum(self.sim_times)
+        seconds = self.stage_seconds()
+        return {"measured_wall_time_s": total, "measuring_overhead": self.measuring_overhead,
+                "sum_of_stages_s": float(sum(seconds.values())),
+                "stages": {k: {"seconds": v, "percent": 100.0 * v / total, "per_sim_second": v / sim,
+                               "calls": int(sum(t.calls[k] for t in self.stages))} for k, v in seconds.items()}}
+
+    def format_stages(self) -> str:
+        """The breakdown as a table."""
+        d = self.stages_dict()
+        lines = [f"{'stage':<16}{'seconds':>9}{'percent':>9}{'ms per sim s':>14}{'calls':>9}"]
+        for k, v in d["stages"].items():
+            lines.append(f"{k:<16}{v['seconds']:>9.3f}{v['percent']:>8.1f}%{1e3 * v['per_sim_second']:>14.2f}"
+                         f"{v['calls'] if k != STAGES[-1] else '':>9}")
+        lines.append(f"{'total':<16}{d['measured_wall_time_s']:>9.3f}{100.0:>8.1f}%"
+                     f"{1e3 * d['measured_wall_time_s'] / sum(self.sim_times):>14.2f}")
+        lines.append(f"measuring cost {100 * d['measuring_overhead']:+.1f}% of the unmeasured trials' wall time")
+        return "\n".join(lines)
 
     @property
     def speedups(self) -> np.ndarray:
@@ -41,7 +76,8 @@ class SimBenchmark:
                 "sim_time_s": list(self.sim_times), "wall_time_s": list(self.wall_times),
                 "outcomes": list(self.outcomes), "setup_time_s": self.setup_time,
                 "speedup_median": float(np.median(self.speedups)), "speedup_min": float(self.speedups.min()),
-                "speedup_total": float(sum(self.sim_times) / sum(self.wall_times))}
+                "speedup_total": float(sum(self.sim_times) / sum(self.wall_times)),
+                **({"breakdown": self.stages_dict()} if self.stages else {})}
 
     def format(self) -> str:
         """A human summary."""
@@ -49,16 +85,21 @@ class SimBenchmark:
         return (f"{self.scenario} with {self.planner}, {len(self.seeds)} trials: "
                 f"{d['speedup_total']:.1f}x real time overall (median {d['speedup_median']:.1f}x, "
                 f"slowest {d['speedup_min']:.1f}x); set-up {self.setup_time:.1f} s (compiled kernels); "
-                f"outcomes {', '.join(self.outcomes)}")
+                f"outcomes {', '.join(self.outcomes)}"
+                + (f"\nwhere the time goes (the same trials run again, timed by stage):\n{self.format_stages()}"
+                   if self.stages else ""))
 
 
-def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast", seeds=(1, 2, 3)) -> SimBenchmark:
+def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast", seeds=(1, 2, 3),
+                          breakdown: bool = True) -> SimBenchmark:
     """Run trials of ``scenario_name`` with all robots as game players and time them.
 
     Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
     reuses what another planned. A study also pays a set-up once per worker process, loading
     the compiled (numba) kernels, which one decision period of a throw-away trial does; that is
-    timed apart as the set-up.
+    timed apart as the set-up. With ``breakdown``, every trial is then run once more with its
+    time split by stage (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors
+    come from the unmeasured runs.
     """
     scenario = load_scenario(scenario_name).with_overrides(game_players="all", **{"planner.name": planner})
     start = time.perf_counter()
@@ -67,6 +108,7 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
         warm_up.step()
     setup = time.perf_counter() - start
     results = [run_trial(scenario, seed=s) for s in seeds]
+    stages = tuple(measure_stages(scenario, s) for s in seeds) if breakdown else ()
     return SimBenchmark(scenario=scenario.name, planner=planner, seeds=tuple(seeds),
                         sim_times=tuple(r.sim_time for r in results), wall_times=tuple(r.wall_time for r in results),
-                        outcomes=tuple(r.outcome for r in results), setup_time=setup)
+                        outcomes=tuple(r.outcome for r in results), setup_time=setup, stages=stages)

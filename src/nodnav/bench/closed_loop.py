@@ -91,8 +91,8 @@ class SimBenchmark:
 
 
 def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast", seeds=(1, 2, 3),
-                          breakdown: bool = True) -> SimBenchmark:
-    """Run trials of ``scenario_name`` with all robots as game players and time them.
+                          breakdown: bool = True, players: str = "all") -> SimBenchmark:
+    """Run trials of ``scenario_name`` with ``players`` game players per robot (all by default) and time them.
 
     Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
     reuses what another planned. A study also pays a set-up once per worker process, loading
@@ -101,7 +101,7 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     time split by stage (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors
     come from the unmeasured runs.
     """
-    scenario = load_scenario(scenario_name).with_overrides(game_players="all", **{"planner.name": planner})
+    scenario = load_scenario(scenario_name).with_overrides(game_players=players if players == "all" else int(players), **{"planner.name": planner})
     start = time.perf_counter()
     warm_up = Simulation(scenario, seed=0)
     for _ in range(warm_up.steps_per_decision + 1):

@@ -38,6 +38,9 @@ def test_stages_partition_a_short_trial_and_leave_it_unchanged():
     assert (seconds >= 0).all()
     assert abs(seconds.sum() - times.wall_time) <= 1e-3 * times.wall_time + 1e-4
     assert (seconds > 0).all()  # each stage has work in a 2-robot NOD trial
+    cpu = np.array([times.cpu_seconds[k] for k in STAGES])
+    assert (cpu >= 0).all()
+    assert abs(cpu.sum() - times.cpu_time) <= 1e-3 * times.cpu_time + 1e-4
     assert times.calls["QP solve"] >= times.calls["control set-up"] > 0
     # The solver is unwrapped again afterwards.
     assert not hasattr(SolverEffort.solve, "__wrapped__")
@@ -51,5 +54,5 @@ def test_more_frequent_decisions_put_more_time_into_decision():
     share = {}
     for name, s in (("base", base), ("heavy", heavy)):
         t = measure_stages(s, seed=1)
-        share[name] = (t.seconds["decision"] + t.seconds["planning"]) / t.wall_time
+        share[name] = (t.cpu_seconds["decision"] + t.cpu_seconds["planning"]) / t.cpu_time
     assert share["heavy"] > share["base"]

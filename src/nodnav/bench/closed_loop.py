@@ -33,36 +33,39 @@ class SimBenchmark:
     stages: tuple[StageTimes, ...] = ()
     """Each trial run again with its time split by stage (:mod:`nodnav.bench.stages`); empty if not asked."""
 
-    def stage_seconds(self) -> dict[str, float]:
-        """Wall time per stage summed over the measured trials (s)."""
-        return {k: float(sum(t.seconds[k] for t in self.stages)) for k in STAGES}
+    def stage_seconds(self, cpu: bool = True) -> dict[str, float]:
+        """Processor (``cpu``) or wall time per stage summed over the measured trials (s)."""
+        return {k: float(sum((t.cpu_seconds if cpu else t.seconds)[k] for t in self.stages)) for k in STAGES}
 
     @property
     def measuring_overhead(self) -> float:
-        """How much longer the measured trials took than the same trials unmeasured (fraction)."""
+        """How much longer the measured trials took than the same trials unmeasured (fraction of wall time)."""
         return float(sum(t.wall_time for t in self.stages) / sum(self.wall_times) - 1.0)
 
     def stages_dict(self) -> dict:
-        """The breakdown as JSON-ready figures: per stage seconds, percent of the measured wall
-        time and seconds per simulated second."""
-        total = sum(t.wall_time for t in self.stages)
+        """The breakdown as JSON-ready figures: per stage processor seconds, their percent of the
+        measured trials' processor time and per simulated second, and the wall seconds."""
+        cpu_total = sum(t.cpu_time for t in self.stages)
         sim = sum(self.sim_times)
-        seconds = self.stage_seconds()
-        return {"measured_wall_time_s": total, "measuring_overhead": self.measuring_overhead,
-                "sum_of_stages_s": float(sum(seconds.values())),
-                "stages": {k: {"seconds": v, "percent": 100.0 * v / total, "per_sim_second": v / sim,
-                               "calls": int(sum(t.calls[k] for t in self.stages))} for k, v in seconds.items()}}
+        cpu, wall = self.stage_seconds(cpu=True), self.stage_seconds(cpu=False)
+        return {"measured_wall_time_s": sum(t.wall_time for t in self.stages), "measured_cpu_time_s": cpu_total,
+                "measuring_overhead": self.measuring_overhead, "sum_of_stages_cpu_s": float(sum(cpu.values())),
+                "sum_of_stages_wall_s": float(sum(wall.values())),
+                "stages": {k: {"cpu_seconds": cpu[k], "percent": 100.0 * cpu[k] / cpu_total,
+                               "cpu_per_sim_second": cpu[k] / sim, "wall_seconds": wall[k],
+                               "calls": int(sum(t.calls[k] for t in self.stages))} for k in STAGES}}
 
     def format_stages(self) -> str:
         """The breakdown as a table."""
         d = self.stages_dict()
-        lines = [f"{'stage':<16}{'seconds':>9}{'percent':>9}{'ms per sim s':>14}{'calls':>9}"]
+        lines = [f"{'stage':<16}{'cpu s':>8}{'percent':>9}{'ms per sim s':>14}{'wall s':>8}{'calls':>8}"]
         for k, v in d["stages"].items():
-            lines.append(f"{k:<16}{v['seconds']:>9.3f}{v['percent']:>8.1f}%{1e3 * v['per_sim_second']:>14.2f}"
-                         f"{v['calls'] if k != STAGES[-1] else '':>9}")
-        lines.append(f"{'total':<16}{d['measured_wall_time_s']:>9.3f}{100.0:>8.1f}%"
-                     f"{1e3 * d['measured_wall_time_s'] / sum(self.sim_times):>14.2f}")
-        lines.append(f"measuring cost {100 * d['measuring_overhead']:+.1f}% of the unmeasured trials' wall time")
+            lines.append(f"{k:<16}{v['cpu_seconds']:>8.3f}{v['percent']:>8.1f}%{1e3 * v['cpu_per_sim_second']:>14.2f}"
+                         f"{v['wall_seconds']:>8.3f}{v['calls'] if k != STAGES[-1] else '':>8}")
+        lines.append(f"{'total':<16}{d['measured_cpu_time_s']:>8.3f}{100.0:>8.1f}%"
+                     f"{1e3 * d['measured_cpu_time_s'] / sum(self.sim_times):>14.2f}{d['measured_wall_time_s']:>8.3f}")
+        lines.append(f"measured trials' wall time {100 * d['measuring_overhead']:+.1f}% against the unmeasured runs "
+                     f"(cost of measuring plus the machine's noise); {sum(self.sim_times):.1f} s simulated")
         return "\n".join(lines)
 
     @property
@@ -97,7 +100,7 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
     reuses what another planned. A study also pays a set-up once per worker process, loading
     the compiled (numba) kernels, which one decision period of a throw-away trial does; that is
-    timed apart as the set-up. With ``breakdown``, every trial is then run once more with its
+    timed apart as the set-up. With ``breakdown``, every trial is run once more, right after, with its
     time split by stage (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors
     come from the unmeasured runs.
     """
@@ -107,8 +110,12 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     for _ in range(warm_up.steps_per_decision + 1):
         warm_up.step()
     setup = time.perf_counter() - start
-    results = [run_trial(scenario, seed=s) for s in seeds]
-    stages = tuple(measure_stages(scenario, s) for s in seeds) if breakdown else ()
+    results, measured = [], []
+    for s in seeds:  # each measured run right after its unmeasured one, so that both see the same machine
+        results.append(run_trial(scenario, seed=s))
+        if breakdown:
+            measured.append(measure_stages(scenario, s))
+    stages = tuple(measured)
     return SimBenchmark(scenario=scenario.name, planner=planner, seeds=tuple(seeds),
                         sim_times=tuple(r.sim_time for r in results), wall_times=tuple(r.wall_time for r in results),
                         outcomes=tuple(r.outcome for r in results), setup_time=setup, stages=stages)

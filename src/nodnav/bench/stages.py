@@ -25,7 +25,10 @@ stage                     entry points
                           margins, surprise, plan execution), building the trial and its metrics
 ========================  ==================================================================
 
-Measuring costs a few perf_counter calls per wrapped call; :func:`measure_stages` reports the
+Each interval is read on two clocks: wall time, and this process's processor time
+(``time.process_time``), which leaves out the time the trial waited while other programs held
+the processor and so is the steadier figure on a shared machine. Measuring costs two clock
+readings per switch; :func:`measure_stages` reports the
 trial's wall time with the wrappers in place, and the benchmark compares it with the same trial
 unmeasured (:mod:`nodnav.bench.closed_loop`).
 """
@@ -51,22 +54,29 @@ class StageClock:
 
     def __init__(self) -> None:
         self.totals = dict.fromkeys(STAGES, 0.0)
+        """Wall time per stage (s)."""
+        self.cpu = dict.fromkeys(STAGES, 0.0)
+        """Processor time of this process per stage (s): what the stage costs, without the time
+        it waited for a processor that other programs held."""
         self.calls = dict.fromkeys(STAGES, 0)
         self._stack = [ROOT]
         self._last = time.perf_counter()
+        self._last_cpu = time.process_time()
 
     def start(self) -> None:
         """Begin the trial's time now (charged to the root stage until a wrapped call begins)."""
         self._last = time.perf_counter()
+        self._last_cpu = time.process_time()
 
     def stop(self) -> None:
         """Charge the time since the last switch to the stage running now."""
         self._switch()
 
     def _switch(self) -> None:
-        now = time.perf_counter()
+        now, cpu = time.perf_counter(), time.process_time()
         self.totals[self._stack[-1]] += now - self._last
-        self._last = now
+        self.cpu[self._stack[-1]] += cpu - self._last_cpu
+        self._last, self._last_cpu = now, cpu
 
     def wrap(self, stage: str, fn: Callable) -> Callable:
         """``fn`` with its time (less that of stages it calls) charged to ``stage``."""
@@ -126,10 +136,14 @@ class StageTimes:
 
     seconds: dict[str, float]
     """Exclusive wall time per stage (s)."""
+    cpu_seconds: dict[str, float]
+    """Exclusive processor time per stage (s); on a shared machine the steadier figure."""
     calls: dict[str, int]
     """Calls of each stage's wrapped entry points."""
     wall_time: float
     """The trial's wall time with the clock in place (s)."""
+    cpu_time: float
+    """The trial's processor time with the clock in place (s)."""
     sim_time: float
     """Simulated time (s)."""
     outcome: str
@@ -140,7 +154,7 @@ def measure_stages(scenario: Scenario, seed: int, method: str = "nod") -> StageT
     """Run one trial as :func:`~nodnav.sim.simulator.run_trial` does, with every stage timed."""
     clock = StageClock()
     with qp_timed(clock):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         clock.start()
         sim = Simulation(scenario, method, seed)
         instrument(sim, clock)
@@ -148,6 +162,7 @@ def measure_stages(scenario: Scenario, seed: int, method: str = "nod") -> StageT
             pass
         result = sim.result(time.perf_counter() - start)
         clock.stop()
-        wall = time.perf_counter() - start
-    return StageTimes(seconds=dict(clock.totals), calls=dict(clock.calls), wall_time=wall,
+        wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
+    return StageTimes(seconds=dict(clock.totals), cpu_seconds=dict(clock.cpu), calls=dict(clock.calls),
+                      wall_time=wall, cpu_time=cpu,
                       sim_time=result.sim_time, outcome=result.outcome)

@@ -54,5 +54,5 @@ def test_more_frequent_decisions_put_more_time_into_decision():
     share = {}
     for name, s in (("base", base), ("heavy", heavy)):
         t = measure_stages(s, seed=1)
-        share[name] = (t.cpu_seconds["decision"] + t.cpu_seconds["planning"]) / t.cpu_time
-    assert share["heavy"] > share["base"]
+        share[name] = t.cpu_seconds["decision"] / t.cpu_time
+    assert share["heavy"] > 1.3 * share["base"]  # five times the decisions; measured about twice the share

@@ -58,11 +58,11 @@ class SimBenchmark:
     def format_stages(self) -> str:
         """The breakdown as a table."""
         d = self.stages_dict()
-        lines = [f"{'stage':<16}{'cpu s':>8}{'percent':>9}{'ms per sim s':>14}{'wall s':>8}{'calls':>8}"]
+        lines = [f"{'stage':<18}{'cpu s':>8}{'percent':>9}{'ms per sim s':>14}{'wall s':>8}{'calls':>8}"]
         for k, v in d["stages"].items():
-            lines.append(f"{k:<16}{v['cpu_seconds']:>8.3f}{v['percent']:>8.1f}%{1e3 * v['cpu_per_sim_second']:>14.2f}"
+            lines.append(f"{k:<18}{v['cpu_seconds']:>8.3f}{v['percent']:>8.1f}%{1e3 * v['cpu_per_sim_second']:>14.2f}"
                          f"{v['wall_seconds']:>8.3f}{v['calls'] if k != STAGES[-1] else '':>8}")
-        lines.append(f"{'total':<16}{d['measured_cpu_time_s']:>8.3f}{100.0:>8.1f}%"
+        lines.append(f"{'total':<18}{d['measured_cpu_time_s']:>8.3f}{100.0:>8.1f}%"
                      f"{1e3 * d['measured_cpu_time_s'] / sum(self.sim_times):>14.2f}{d['measured_wall_time_s']:>8.3f}")
         lines.append(f"measured trials' wall time {100 * d['measuring_overhead']:+.1f}% against the unmeasured runs "
                      f"(cost of measuring plus the machine's noise); {sum(self.sim_times):.1f} s simulated")
@@ -104,7 +104,8 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     time split by stage (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors
     come from the unmeasured runs.
     """
-    scenario = load_scenario(scenario_name).with_overrides(game_players=players if players == "all" else int(players), **{"planner.name": planner})
+    game_players = players if players == "all" else int(players)
+    scenario = load_scenario(scenario_name).with_overrides(game_players=game_players, **{"planner.name": planner})
     start = time.perf_counter()
     warm_up = Simulation(scenario, seed=0)
     for _ in range(warm_up.steps_per_decision + 1):

@@ -20,9 +20,10 @@ stage                     entry points
                           certificate LPs)
 ``simulation``            the simulator's ``_judge`` (contact checks at the sub-steps, arrival,
                           progress) and ``_observe`` (sensing with its noise)
-``bookkeeping``           the rest: the loop, the views, histories, corridor entries, the
-                          method's ``act`` outside the controllers (predictions, reaction
-                          margins, surprise, plan execution), building the trial and its metrics
+``bookkeeping: act``      the method's ``act`` outside the controllers (predictions, reaction
+                          margins, surprise, plan execution, building the control requests)
+``bookkeeping: loop``     the rest: the loop, the views, histories, corridor entries, building
+                          the trial and its metrics
 ========================  ==================================================================
 
 Each interval is read on two clocks: wall time, and this process's processor time
@@ -45,7 +46,9 @@ from nodnav.scenario.schema import Scenario
 from nodnav.sim.simulator import Simulation
 
 #: The stages, in the order they are reported; the last one takes whatever no other one claims.
-STAGES = ("decision", "planning", "control set-up", "QP solve", "simulation", "bookkeeping")
+#: Bookkeeping is reported in two parts: the method's ``act`` outside its controllers, and the rest.
+STAGES = ("decision", "planning", "control set-up", "QP solve", "simulation", "bookkeeping: act",
+          "bookkeeping: loop")
 ROOT = STAGES[-1]
 
 
@@ -102,10 +105,12 @@ def instrument(sim: Simulation, clock: StageClock) -> None:
     """Set the clock's wrappers on one trial's objects (its method or team, planner, controllers)."""
     members = list(getattr(sim.method, "members", {}).values()) or [sim.method]
     _set(sim.method, "decide", "decision", clock)
-    planners = []
+    _set(sim.method, "act", "bookkeeping: act", clock)
+    planners: list[object] = []
     for m in members:
         if m is not sim.method:
             _set(m, "decide", "decision", clock)
+            _set(m, "act", "bookkeeping: act", clock)
         plans = getattr(m, "plans", None)
         planner = getattr(plans, "planner", None) or getattr(m, "planner", None)
         if planner is not None and all(planner is not p for p in planners):

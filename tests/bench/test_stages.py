@@ -56,3 +56,21 @@ def test_more_frequent_decisions_put_more_time_into_decision():
         t = measure_stages(s, seed=1)
         share[name] = t.cpu_seconds["decision"] / t.cpu_time
     assert share["heavy"] > 1.3 * share["base"]  # five times the decisions; measured about twice the share
+
+
+def test_cli_prints_the_breakdown_as_json_and_refuses_several_player_counts(capsys):
+    """``bench sim --json``: the stages' percents add up to 100 and their processor seconds to the
+    measured trials'; ``--players 1,2`` is one line and exit code 2."""
+    import json
+
+    from nodnav.cli import main
+
+    assert main(["bench", "sim", "--scenario", "2r-case2", "--trials", "1", "--players", "1", "--json"]) == 0
+    (report,) = json.loads(capsys.readouterr().out)
+    stages = report["breakdown"]["stages"]
+    assert list(stages) == list(STAGES)
+    assert abs(sum(v["percent"] for v in stages.values()) - 100.0) < 0.1
+    assert abs(report["breakdown"]["sum_of_stages_cpu_s"] - report["breakdown"]["measured_cpu_time_s"]) < 1e-3
+    assert main(["bench", "sim", "--players", "1,2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--players" in err[0]

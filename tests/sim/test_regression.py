@@ -26,6 +26,9 @@ CASES = [
     ("three-against-one-one-player.yaml", (20,)),
     ("race-abreast-into-the-mouth.yaml", (132,)),
     ("waiting-aside-in-a-small-room.yaml", (347,)),
+    ("head-on-inside.yaml", (0, 1, 2, 3)),
+    ("teams-head-on-inside.yaml", (0, 1, 2)),
+    ("bay-head-on-inside.yaml", (0, 1, 2)),
 ]
 
 

@@ -27,6 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.geometry import TOL
+from nodnav.planning.bays import bay_spots
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.timing import dash_clashes
@@ -160,7 +161,9 @@ class MakingWay(FastPlannerHooks):
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
         graph = self.graph(world, radius)
         spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
-        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.in_corridor(spots)
+        spots = np.vstack([spots, bay_spots(world, float(radius), float(graph.clearance))])
+        # Out of the passage, or off its line in a bay (a bay is only ever a place to wait in).
+        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.on_line(spots, float(radius))
         if door:
             ok &= ~self._in_door(world, spots, state.door[mover])
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)

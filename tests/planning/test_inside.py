@@ -4,8 +4,8 @@ from the walls, and the fast planner planning back-outs and bays; against hand c
 import numpy as np
 import pytest
 
-from nodnav.planning.bays import bay_spots
 from nodnav.planning.base import PlanRequest, feasible_order
+from nodnav.planning.bays import bay_spots
 from nodnav.planning.prioritized import PrioritizedPlanner
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import Corridor, World

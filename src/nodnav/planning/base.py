@@ -14,6 +14,13 @@ in the result (``order_planned`` differs from ``order``, ``repaired`` is true). 
 differ only in the part of the order already decided therefore get the same joint path, so the
 opinion layer sees them as equally consistent with what it observes: a well-defined signal,
 with no missing plans and no infinite deviations.
+
+What history fixes (issue 19, ``planner.inside: back-out``, the fast planner's default): robots
+inside heading the same way cannot pass each other, and a robot that has crossed stays crossed;
+but of two robots inside heading opposite ways either may still go first, at the price of the
+other backing out. So :func:`feasible_order` keeps the requested order between those, and the
+planner plans the back-out (docs/meet-inside.md). ``planner.inside: literal`` keeps every entered
+robot in entry order, as before.
 """
 
 from __future__ import annotations

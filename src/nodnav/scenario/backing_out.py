@@ -54,11 +54,11 @@ def with_bay(obstacles: list, h: float, half: float, x0: float, x1: float, depth
 
 def without_bays(world: World) -> World:
     """``world`` with every niche of :func:`with_bay` filled in again (unchanged if it has none)."""
-    obstacles = [tuple(b) for b in world.obstacles]
+    obstacles = list(world.obstacles)
     if len(obstacles) != 4:
         return world
     c = world.shorthand
-    walls = []
+    walls: list[tuple[float, float, float, float]] = []
     for side in (-1, 1):
         edge = c.y_min if side < 0 else c.y_max
         pieces = [b for b in obstacles if (b[3] <= c.y_min + 1e-12 if side < 0 else b[1] >= c.y_max - 1e-12)]

@@ -103,3 +103,27 @@ def test_a_robot_ducks_into_a_bay_nearer_than_its_mouth():
     # Robot 1 passes on the line, keeping the separation from the robot in the bay.
     gaps = np.linalg.norm(result.trajectory.positions[:, 0] - result.trajectory.positions[:, 1], axis=1)
     assert gaps.min() >= 0.36
+
+
+def test_eq4_reads_a_robot_backing_out_as_choosing_to_go_second():
+    # Robot 1 (heading left) is seen doing what the order (0, 1) has it do: back out. Eq. (4)
+    # must then score (0, 1) above (1, 0) for robot 1, and the other way round when it presses on.
+    from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+
+    world = passage()
+    planner = PrioritizedPlanner(world, FastPlannerParams())
+    plans = [planner.plan(request(world, [[-1.0, 0.0], [1.0, 0.0]], [[4.0, 0.5], [-4.0, -0.5]], order))
+             for order in ((0, 1), (1, 0))]
+    assert all(p.success for p in plans)
+    times = np.linspace(0.0, 1.0, 11)
+
+    def states(plan):  # robot 1's planned states over the first second, (1, M, 4)
+        t = plan.trajectory
+        return np.concatenate([t.positions_at(times), t.velocities_at(times)], axis=-1)[:, 1][None]
+
+    planned = np.stack([states(p) for p in plans])  # (2 orders, 1 robot, M, 4)
+    # The two plans differ for robot 1: it backs out (right) under (0, 1) and drives left under (1, 0).
+    assert planned[0, 0, -1, 0] > 1.0 > planned[1, 0, -1, 0]
+    for seen, favoured in ((0, 0), (1, 1)):
+        r = estimate_social_term(estimated_opinions(planned[seen], planned, 0.1))
+        assert np.argmax(r[0]) == favoured

@@ -29,6 +29,7 @@ CASES = [
     ("head-on-inside.yaml", (0, 1, 2, 3)),
     ("teams-head-on-inside.yaml", (0, 1, 2)),
     ("bay-head-on-inside.yaml", (0, 1, 2)),
+    ("back-out-into-a-low-room.yaml", (171,)),
 ]
 
 

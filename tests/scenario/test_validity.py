@@ -43,18 +43,34 @@ def test_two_blockers_at_different_mouths_are_unsolvable():
     assert not verdict.ok and "no order" in verdict.reason
 
 
-def test_robots_inside_that_would_have_to_pass_each_other_are_rejected():
+def test_robots_inside_that_would_have_to_pass_each_other_need_a_back_out():
+    # Issue 19: facing each other inside, one of them backs out first (the witness says who and
+    # where); apart, nobody needs to.
     facing = scenario([((1.0, 0.0), (-6.0, 1.0)), ((-1.0, 0.0), (6.0, 1.0))])
-    assert not check_scenario(facing).ok
+    assert not find_witness(facing).ok
+    verdict = check_scenario(facing)
+    assert verdict.ok and len(verdict.waits) == 1
+    robot, (x, _) = verdict.waits[0]
+    # Robot 0 (heading left) backs out right, or robot 1 (heading right) backs out left, beyond its mouth.
+    assert (robot, x > 3.0) in ((0, True), (1, False)) and abs(x) > 3.0
     apart = scenario([((-1.0, 0.0), (-6.0, 1.0)), ((1.0, 0.0), (6.0, 1.0))])
-    assert check_scenario(apart).ok
+    assert check_scenario(apart).ok and not check_scenario(apart).waits
 
 
-def test_blocker_with_a_robot_inside_heading_the_other_way_is_rejected():
+def test_blocker_with_a_robot_inside_heading_the_other_way_backs_out_the_other_side():
     # Robot 1 is inside heading right and will park right outside the right mouth; robot 2 is
-    # inside between it and that mouth, heading left: it must back out right, and could then
-    # never come back in.
+    # inside between it and that mouth, heading left. Robot 2 backing out right could never come
+    # back in; robot 1 backing out left lets robot 2 through, and then parks.
     s = scenario([((-1.0, 0.0), (3.3, 0.0)), ((1.0, 0.0), (-6.0, 0.0))])
+    verdict = check_scenario(s)
+    assert verdict.ok and verdict.waits[0][0] == 0 and verdict.waits[0][1][0] < -3.0
+    assert verdict.order == (1, 0)
+
+
+def test_two_blockers_inside_at_opposite_mouths_are_rejected():
+    # Each parks right outside the mouth the other must leave by: whoever backs out can never
+    # come back in past the other's parked body.
+    s = scenario([((-1.0, 0.0), (3.3, 0.0)), ((1.0, 0.0), (-3.3, 0.0))])
     assert not check_scenario(s).ok
 
 

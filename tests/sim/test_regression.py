@@ -33,6 +33,10 @@ CASES = [
     ("accel-0.15-braking-into-the-wall.yaml", (1,)),
     ("accel-0.5-braking-into-the-wall.yaml", (1,)),
     ("doorway-small-slow-robots.yaml", (1,)),
+    ("head-on-inside.yaml", (0, 1, 2, 3)),
+    ("teams-head-on-inside.yaml", (0, 1, 2)),
+    ("bay-head-on-inside.yaml", (0, 1, 2)),
+    ("back-out-into-a-low-room.yaml", (171,)),
 ]
 
 

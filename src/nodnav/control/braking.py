@@ -101,9 +101,9 @@ def segment_clearance(a, b, boxes, pieces, bounds):
     """Smallest signed clearance of the segment ``a -> b`` from the rectangles ``boxes`` ``(M, 4)``,
     the convex pieces ``pieces`` ``(P, K, 2)`` of polygon walls and the world's bounds ``(x0, y0,
     x1, y1)`` (as :meth:`World.clearance`, at every point; negative where it enters a wall)."""
-    clear = np.inf
-    for p in (a, b):  # the bounds' clearance is linear along the segment: least at an end
-        clear = min(clear, min(min(p[0] - bounds[0], bounds[2] - p[0]), min(p[1] - bounds[1], bounds[3] - p[1])))
+    # The bounds' clearance is linear along the segment: least at an end.
+    clear = min(min(min(a[0] - bounds[0], bounds[2] - a[0]), min(a[1] - bounds[1], bounds[3] - a[1])),
+                min(min(b[0] - bounds[0], bounds[2] - b[0]), min(b[1] - bounds[1], bounds[3] - b[1])))
     for g in range(boxes.shape[0] + pieces.shape[0]):
         clear = min(clear, _closest_on_segment(a[0], a[1], b[0], b[1], g, boxes, pieces)[1])
     return clear

@@ -14,6 +14,13 @@ in the result (``order_planned`` differs from ``order``, ``repaired`` is true). 
 differ only in the part of the order already decided therefore get the same joint path, so the
 opinion layer sees them as equally consistent with what it observes: a well-defined signal,
 with no missing plans and no infinite deviations.
+
+What history fixes (issue 19, ``planner.inside: back-out``, the fast planner's default): robots
+inside heading the same way cannot pass each other, and a robot that has crossed stays crossed;
+but of two robots inside heading opposite ways either may still go first, at the price of the
+other backing out. So :func:`feasible_order` keeps the requested order between those, and the
+planner plans the back-out (docs/meet-inside.md). ``planner.inside: literal`` keeps every entered
+robot in entry order, as before.
 """
 
 from __future__ import annotations
@@ -190,11 +197,33 @@ class Planner(Protocol):
         ...
 
 
-def feasible_order(order: tuple[int, ...], entered: tuple[int, ...]) -> tuple[int, ...]:
+def feasible_order(order: tuple[int, ...], entered: tuple[int, ...],
+                   directions: np.ndarray | None = None) -> tuple[int, ...]:
     """The closest order that history still allows: robots that have entered the corridor first,
-    in the order they entered, then the others in the requested relative order."""
+    then the others in the requested relative order.
+
+    Without ``directions`` (``planner.inside: literal``, as before issue 19) the entered robots
+    keep the order they entered in. With ``directions`` (each robot's
+    :func:`crossing_directions`, ``planner.inside: back-out``) history fixes less: entered robots
+    heading the same way cannot pass each other inside (single file), so they keep their entry
+    order, and a robot that has crossed (direction 0) stays ahead; but of entered robots heading
+    opposite ways either may go first, the requested one: the other backs out of the passage
+    (with the robots behind it) and waits for it. Each direction keeps the places the requested
+    order gives its entered robots, filled in entry order.
+    """
     done = tuple(int(k) for k in entered)
-    return done + tuple(int(k) for k in order if int(k) not in done)
+    rest = tuple(int(k) for k in order if int(k) not in done)
+    if directions is None:
+        return done + rest
+    dirs = np.asarray(directions)
+    crossed = tuple(k for k in done if dirs[k] == 0)
+    queues = {d: [k for k in done if dirs[k] == d] for d in (1, -1)}
+    # The entered crossing robots in the requested relative order (entered robots the request
+    # leaves out keep their entry places at the end), each place refilled from its direction's queue.
+    requested = [int(k) for k in order if int(k) in done and dirs[int(k)] != 0]
+    requested += [k for k in done if dirs[k] != 0 and k not in requested]
+    inside = tuple(queues[int(dirs[k])].pop(0) for k in requested)
+    return crossed + inside + rest
 
 
 def crossing_directions(world: World, positions: np.ndarray, destinations: np.ndarray) -> np.ndarray:

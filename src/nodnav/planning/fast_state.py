@@ -88,7 +88,7 @@ class RobotPlan:
     @cached_property
     def passage(self) -> tuple[int, int]:
         """``(entry, exit)`` samples of its last stay in the corridor, see :func:`corridor_passage`."""
-        return corridor_passage(self.world.in_corridor(self.motion.samples))
+        return corridor_passage(self.world.on_line(self.motion.samples))
 
     @cached_property
     def doors(self) -> tuple[tuple[int, int], tuple[int, int]]:

@@ -27,6 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.geometry import TOL
+from nodnav.planning.bays import bay_spots
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.timing import dash_clashes
@@ -34,6 +35,9 @@ from nodnav.planning.visibility import disc_violations, polyline_point_distance
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
+
+#: Spacing of the fine grid of waiting spots tried when no spot of the rings will do (m).
+FINE_GRID = 0.25
 
 
 def retreat_spots(centre: np.ndarray, radii: tuple[float, ...], angles: int, turn: float = 0.0) -> np.ndarray:
@@ -151,16 +155,25 @@ class MakingWay(FastPlannerHooks):
         return Attempt(False, reason)
 
     def _waiting_spots(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,
-                       door: bool) -> tuple[np.ndarray, list]:
+                       door: bool, fine: bool = False) -> tuple[np.ndarray, list]:
         """Spots robot ``mover`` could get out of the way to, and its ways there among the walls
         alone, nearest first: spots that keep the required distance from where the robots
         ``others`` stand, the given distance from the polylines ``clear`` (``(polyline,
         distance)`` pairs), the required distance from every known motion, and, with ``door``,
-        out of its door zone."""
+        out of its door zone. With ``fine``, the candidates are a grid of :data:`FINE_GRID` over the
+        whole world instead of the rings (the rings' directions are far apart at large radii, and
+        miss the narrow bands a crowded room leaves clear of everybody's way)."""
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
         graph = self.graph(world, radius)
-        spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
-        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.in_corridor(spots)
+        if fine:
+            x0, y0, x1, y1 = world.bounds
+            xs, ys = np.meshgrid(np.arange(x0, x1, FINE_GRID), np.arange(y0, y1, FINE_GRID))
+            spots = np.stack([xs.ravel(), ys.ravel()], axis=1)
+        else:
+            spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
+        spots = np.vstack([spots, bay_spots(world, float(radius), float(graph.clearance))])
+        # Out of the passage, or off its line in a bay (a bay is only ever a place to wait in).
+        ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.on_line(spots, float(radius))
         if door:
             ok &= ~self._in_door(world, spots, state.door[mover])
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)
@@ -180,8 +193,20 @@ class MakingWay(FastPlannerHooks):
     def _escape_motions(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,
                         door: bool):
         """Motions by which robot ``mover`` gets out of the way to one of :meth:`_waiting_spots`,
-        best first: nearest first among those it can dash to without meeting anyone, then the others."""
-        spots, ways = self._waiting_spots(world, state, mover, layout, others, clear, door)
+        best first: nearest first among those it can dash to without meeting anyone, then the others;
+        when no spot of the rings will do, spots of the fine grid (issue 19)."""
+        found = False
+        for fine in (False, True):
+            if fine and found:
+                return
+            for motion in self._escape_motions_to(world, state, mover, layout, others, clear, door, fine):
+                found = True
+                yield motion
+
+    def _escape_motions_to(self, world: World, state: State, mover: int, layout: Layout, others: list,
+                           clear: list, door: bool, fine: bool):
+        """:meth:`_escape_motions` among the candidate spots of one kind (rings, or the fine grid)."""
+        spots, ways = self._waiting_spots(world, state, mover, layout, others, clear, door, fine)
         if not len(spots):
             return
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]

@@ -145,7 +145,10 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
         key = (world, float(radius))
         g = self._graphs.get(key)
         if g is None:
-            g = VisibilityGraph(world, radius, self.wall_margin)
+            # The wall margin where there is room: in a passage that leaves a robot less than
+            # twice the margin beside the centreline, half of what it leaves (issue 19).
+            room = 0.5 * world.passage.width - float(radius)
+            g = VisibilityGraph(world, radius, min(self.wall_margin, max(0.0, 0.5 * room)))
             remember(self._graphs, key, g)
         return g
 
@@ -163,7 +166,7 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
         state = self._state(world, pos, dest, radii, vmax, order)
         entered = tuple(int(k) for k in request.entered)
         entered += tuple(k for k in order if state.inside[k] and k not in entered)
-        planned = feasible_order(order, entered)
+        planned = feasible_order(order, entered, state.directions if self.params.inside == "back-out" else None)
 
         def failure(reason: str) -> PlanResult:
             logger.debug("fast planner: order %s failed: %s", planned, reason)
@@ -426,7 +429,7 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
                     good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
                 ok[corners] = good
-        inside = world.in_corridor(cells)
+        inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
         doors = (entry_cell(self._in_door(world, cells, 0)), entry_cell(self._in_door(world, cells, 1)))
         cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
         remember(self._cuts, key, cut)

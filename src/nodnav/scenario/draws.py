@@ -371,6 +371,13 @@ def time_limit(routes, speeds, corridor_length: float, r_max: float, accels=None
     return float(math.ceil(20.0 + 1.5 * (own + queue)))
 
 
+def _attempt(family: Family, d: _Draws) -> _Attempt:
+    """One attempt: the plain construction, or robots meeting inside and bays (issue 19)."""
+    from nodnav.scenario.meeting import attempt_for  # it builds on this module
+
+    return attempt_for(family, d)
+
+
 def draw(family: Family, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
     """Scenario ``seed`` of ``family``: deterministic, valid and solvable (or a :class:`FamilyError`)."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
@@ -379,7 +386,7 @@ def draw(family: Family, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
     reasons: dict[str, int] = {}
     for _ in range(attempts):
         try:
-            mapping = _Attempt(family, d).draw(int(seed))
+            mapping = _attempt(family, d).draw(int(seed))
         except _Reject as exc:
             reasons[str(exc)] = reasons.get(str(exc), 0) + 1
             continue

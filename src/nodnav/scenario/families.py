@@ -35,6 +35,11 @@ number; weights are relative (they need not sum to 1); the defaults are those of
     traffic: {head-on: 1, one-sided: 1, mixed: 1}   # weights: split as evenly as possible, all in one
                                  #   room, or any other split, of the robots that start outside
     inside: {probability: 0.2, max: 2}   # a scenario has 1..max robots starting in the corridor
+      # order: {apart: 1}        # weights: robots inside heading left left of those heading right
+                                 #   (apart: nobody must pass), in any order, or two teams facing
+                                 #   each other (facing: 1..3 a side, 2..max in all; one side must
+                                 #   back out), see docs/meet-inside.md
+      # bays: 0.0                # probability of a bay (a niche one robot fits into) in a corridor wall
     starts:
       formation: {scatter: 1, abreast: 1, line: 1}  # weights, per room: anywhere, side by side, a queue
       gap: [0.05, 3.0]           # m from the mouth to the front robot's body (side by side and queues)
@@ -70,6 +75,7 @@ MAX_ROBOTS = 8
 """Most robots a family may draw (the scaling issue's largest scenarios)."""
 TRAFFIC = ("head-on", "one-sided", "mixed")
 FORMATIONS = ("scatter", "abreast", "line")
+INSIDE_ORDERS = ("apart", "any", "facing")
 SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim", "execution", "baselines")
 
 
@@ -132,6 +138,11 @@ class Family:
     """Probability that some robots start inside the corridor."""
     inside_max: int = 2
     """Most robots that start inside the corridor."""
+    inside_order: tuple[tuple[str, float], ...] = (("apart", 1.0),)
+    """Weights of the ways robots inside are placed: apart (nobody must pass), any order, or two
+    teams facing each other (:mod:`nodnav.scenario.meeting`)."""
+    bays: float = 0.0
+    """Probability that a corridor wall has a bay one robot fits into (:mod:`nodnav.scenario.meeting`)."""
     formations: tuple[tuple[str, float], ...] = (("scatter", 1.0), ("abreast", 1.0), ("line", 1.0))
     """Weights of the start formations, drawn per room."""
     gap: Range = Range(0.05, 3.0)
@@ -156,7 +167,7 @@ _SECTIONS = {
     "rooms": ("depth", "height", "offset", "grow"),
     "robots": ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel",
                "mixed_accels"),
-    "inside": ("probability", "max"),
+    "inside": ("probability", "max", "order", "bays"),
     "starts": ("formation", "gap", "spacing"),
     "destinations": ("mouth", "axis"),
 }
@@ -287,6 +298,9 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
         if isinstance(m, bool) or not isinstance(m, int) or not 0 <= m < MAX_ROBOTS:
             raise FamilyError(f"{w}inside.max: expected a whole number in 0..{MAX_ROBOTS - 1}, got {_shown(m)}")
         kw["inside_max"] = m
+    if "order" in inside:
+        kw["inside_order"] = _weights(inside["order"], w + "inside.order", INSIDE_ORDERS)
+    put("bays", inside, "bays", lambda v: _real(v, w + "inside.bays", 0.0, 1.0, " (a probability)"))
     put("formations", starts, "formation", lambda v: _weights(v, w + "starts.formation", FORMATIONS))
     put("gap", starts, "gap", lambda v: _range(v, w + "starts.gap", CLEARANCE, 30.0, " (m)"))
     put("spacing", starts, "spacing", lambda v: _range(v, w + "starts.spacing", CLEARANCE, 10.0, " (m)"))

@@ -114,6 +114,10 @@ class PlannerParams:
     """Radii of the rings of spots a robot with no plan tries to clear the way to, nearest first (m)."""
     clearing_directions: int = field(default=16, metadata=accepted(1, 360))
     """Spots per ring of ``clearing_radii``."""
+    inside: Literal["back-out", "literal"] = "back-out"
+    """Robots inside the passage heading opposite ways: either may go first and the other backs
+    out (``back-out``, issue 19, the fast planner), or they keep the order they entered in
+    (``literal``, as before; the PRM planner always does); see docs/meet-inside.md."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")
@@ -292,3 +296,8 @@ class SimParams:
     robot radius, so that robots creeping a few centimetres at a time in a jam do not count."""
     observation_noise: float = field(default=0.0, metadata=accepted(0.0, 1.0))
     """Standard deviation of the position noise in what each robot observes of the others (m)."""
+    progress: Literal["plan", "straight"] = "plan"
+    """What counts as progress for ``deadlock_time``: ``straight``, the distance to go through the
+    mouths falling by ``progress_epsilon`` (before issue 19); ``plan`` (default), that or advancing
+    ``progress_epsilon`` along the successful plan the robot follows, e.g. backing out of the
+    passage for another robot (:mod:`nodnav.sim.progress`)."""

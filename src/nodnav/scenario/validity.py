@@ -45,8 +45,10 @@ Solvability (:func:`find_witness`)
     blocks that mouth for everyone who uses it later, so its robot must be the last through; two
     such blockers at different mouths, or robots inside the corridor that would have to pass each
     other, admit no schedule, and such a scenario is rejected. The condition is sufficient, not
-    necessary: a scenario that needs a robot to back out of the corridor, or robots to shuffle
-    while another passes, is rejected although a cleverer schedule might exist.
+    necessary: a scenario that needs robots to shuffle while another passes is rejected although
+    a cleverer schedule might exist. Robots inside heading opposite ways: when the witness finds
+    no schedule, one side backs out (or ducks into a bay) first, and the witness runs from there
+    (:mod:`nodnav.scenario.backing_out`, issue 19).
 
 Speed and acceleration limits (docs/safety.md)
     The witness holds for any positive limits: every robot starts at rest, moves alone along a
@@ -118,7 +120,11 @@ def room_needs(radii_in_room, r_max: float, half_width: float) -> tuple[float, f
 
 
 def is_two_room_world(world: World) -> bool:
-    """Whether ``world`` is the layout of :func:`~nodnav.scenario.world.corridor_world`."""
+    """Whether ``world`` is the layout of :func:`~nodnav.scenario.world.corridor_world` (with
+    bays cut into its walls, :func:`~nodnav.scenario.backing_out.with_bay`, or without)."""
+    from nodnav.scenario.backing_out import without_bays  # it builds on this module
+
+    world = without_bays(world)
     c = world.shorthand
     x0, y0, x1, y1 = world.bounds
     if not (c.y_min == -c.y_max and x0 < c.x_min < c.x_max < x1 and y0 < c.y_min and c.y_max < y1):
@@ -333,4 +339,11 @@ def check_scenario(scenario: Scenario, budget: int = WITNESS_BUDGET) -> Verdict:
         verdict = check(scenario)
         if not verdict.ok:
             return verdict
-    return find_witness(scenario, budget)
+    verdict = find_witness(scenario, budget)
+    if not verdict.ok:  # robots inside heading opposite ways: one side may back out (issue 19)
+        from nodnav.scenario.backing_out import find_witness_backing_out
+
+        backing = find_witness_backing_out(scenario, budget)
+        if backing.ok:
+            return backing
+    return verdict

@@ -309,6 +309,15 @@ class World:
         """Whether each point is between the entrances (inside the single-file passage)."""
         return self.side_of(points) == INSIDE
 
+    def on_line(self, points: np.ndarray, reach: float = 0.0) -> np.ndarray:
+        """Whether each point is in the single-file line itself: between the entrances and no
+        farther than ``reach`` beyond the passage's clear width from its centreline. A point
+        between the entrances but off the line is in a bay (a niche beside the passage, which
+        the walls leave room for; issue 19)."""
+        p = self.passage
+        beside = np.abs(p.across(points) - p.t_centre) - 0.5 * p.width
+        return self.in_corridor(points) & (beside < reach)
+
 
 def corridor_world(
     x_min: float,

@@ -266,7 +266,9 @@ class NODAgent:
         """The joint plan of the robots ``planning`` (increasing index) for every order of ``game``.
 
         Robots of ``planning`` outside the game have already entered the corridor, so every order
-        puts them first, where history has them (:func:`~nodnav.planning.base.feasible_order`).
+        puts them first, where history has them (:func:`~nodnav.planning.base.feasible_order`);
+        game players inside heading opposite ways keep the game's order, and the planner has
+        the later of them back out (docs/meet-inside.md).
         Queries list the robots in increasing index whoever asks, so that robots posing the
         same joint problem pose the same query and share its answer through the plan cache.
         """

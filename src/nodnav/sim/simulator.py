@@ -28,6 +28,7 @@ from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
+from nodnav.sim.progress import PlanProgress
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -192,6 +193,7 @@ class Simulation:
         self.arrival = np.full(n, np.nan)
         self.best_to_go = distance_to_go(scenario.world, self.positions, scenario.destinations, self.sides)
         self.last_progress = 0.0
+        self.plan_progress = PlanProgress(n, scenario.sim.progress_epsilon) if scenario.sim.progress == "plan" else None
         self.outcome = ""
         self.collisions = 0
         self.collision_kind = ""
@@ -292,6 +294,8 @@ class Simulation:
             if d.strategy >= 0 and len(d.probabilities):
                 chosen[i] = d.probabilities[d.strategy]
             players[i, list(d.players)] = True
+            if self.plan_progress is not None:
+                self.plan_progress.follow(i, d.own_trajectory.positions[:, 0] if d.plan.success else None)
             if not d.plan.success:
                 self.plan_failures += 1
                 h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})
@@ -340,8 +344,10 @@ class Simulation:
             self._finish("success")
             return
         improved = to_go < self.best_to_go - s.sim.progress_epsilon
+        self.best_to_go = np.where(improved, to_go, self.best_to_go)
+        if self.plan_progress is not None:  # or along the plan it follows (backing out, ...)
+            improved |= self.plan_progress.advanced(self.positions, 2.0 * s.max_speeds * self.dt + 0.1)
         if improved.any():
-            self.best_to_go = np.where(improved, to_go, self.best_to_go)
             self.last_progress = self.t
         if self.t - self.last_progress >= s.sim.deadlock_time:
             self._finish("deadlock")

@@ -1,0 +1,62 @@
+"""Bays: places beside a single-file passage where one robot fits off the line (issue 19).
+
+A passage is single file: two robots cannot pass each other in it. A real corridor often has
+places where one can step aside (a niche, a doorway off the corridor). Bays are found from the
+walls, not declared: walking along the passage, a spot at across-offset ``t`` beyond the line
+(``|t - t_centre| >= width / 2 + radius``: the robot's whole disc is off the line) whose
+clearance from the walls admits the robot is a bay spot; the spots of one run along the passage
+form one bay, represented by the spot in the middle of the run as deep off the line as the
+robot fits (up to ``BAY_DEPTH``): a passing robot keeps the most room. The fast planner offers bay
+spots as waiting spots to robots that must get out of another's way
+(:meth:`~nodnav.planning.making_way.MakingWay._waiting_spots`), beside the spots outside the
+passage: the nearest reachable spot is taken, so a robot ducks into a bay where that is shorter
+than backing out. A bay is never a second lane: it is only ever a place to wait in (every
+robot's path through the passage follows the line, and the corridor rule treats the line alone
+as the passage), and a waiting spot keeps the full separation from every other robot's, so one
+robot waits in a bay at a time.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+from nodnav.geometry import TOL
+from nodnav.scenario.world import World
+
+#: Sampling step along and across the passage when looking for bays (m).
+BAY_STEP = 0.05
+#: How far beside the line a bay spot may lie (m): deeper than this is a room, not a bay.
+BAY_DEPTH = 1.5
+
+
+@lru_cache(maxsize=64)
+def bay_spots(world: World, radius: float, clearance: float) -> np.ndarray:
+    """One spot per bay of ``world``'s passage for a robot of ``radius`` that keeps ``clearance``
+    (>= radius) from the walls, ``(M, 2)`` (see the module docstring)."""
+    p = world.passage
+    s = np.arange(p.s_start + radius, p.s_end - radius + BAY_STEP / 2, BAY_STEP)
+    offsets = np.arange(0.5 * p.width + radius, 0.5 * p.width + BAY_DEPTH + BAY_STEP / 2, BAY_STEP)
+    if not len(s) or not len(offsets):
+        return np.zeros((0, 2))  # a passage too short for the robot to stand beside
+    spots = []
+    for sign in (1.0, -1.0):
+        t = p.t_centre + sign * offsets
+        grid = p.to_world(np.repeat(s[:, None], len(t), 1), np.repeat(t[None], len(s), 0))  # (S, T, 2)
+        clear = world.clearance(grid.reshape(-1, 2)).reshape(len(s), len(t))
+        ok = clear >= clearance - TOL
+        # The nearest fitting offset at each place along the passage, if any.
+        first = np.where(ok.any(axis=1), ok.argmax(axis=1), -1)
+        run: list[int] = []
+        for i in list(range(len(s))) + [-1]:
+            if i >= 0 and first[i] >= 0:
+                run.append(i)
+                continue
+            if run:  # the middle of the run, as deep off the line as the robot fits
+                j = run[len(run) // 2]
+                spots.append(grid[j, int(np.flatnonzero(ok[j])[-1])])
+                run = []
+    out = np.array(spots).reshape(-1, 2)
+    out.setflags(write=False)  # remembered: shared by every caller
+    return out

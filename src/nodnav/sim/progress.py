@@ -1,0 +1,70 @@
+"""How the simulator judges that robots still make progress (the deadlock rule, issue 19 item 3).
+
+A trial is a deadlock when no robot has made progress for ``sim.deadlock_time``. Before issue 19
+progress meant only one thing: a robot's distance to go through the passage's mouths
+(:func:`~nodnav.scenario.world.distance_to_go`) fell below its best so far by
+``sim.progress_epsilon``. A robot that backs out of the passage to let another through moves
+*away* from its goal by that measure, for many seconds when it must back out of a long passage,
+so the trial was called a deadlock while the robots were carrying out a sound plan.
+
+With ``sim.progress: plan`` (default) a robot also makes progress when it advances along the
+plan it follows: the route its own reference takes (:attr:`Decision.own_trajectory`) from where
+it stood at the decision. A cursor walks forward along that route, to the nearest point of the
+route within reach of where the robot now is (never backwards, so a route that goes out and comes
+back the same way is followed leg by leg), and every ``progress_epsilon`` the cursor gains counts
+as progress. Only successful plans count: a robot that clears the way because no order could be
+planned, or that stands in a standoff, makes no progress, so a standoff still ends the trial as a
+deadlock. ``sim.progress: straight`` is the rule before issue 19.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: A robot farther than this from every point of its plan's route ahead of its cursor (m) is not
+#: following it; its cursor stays.
+OFF_ROUTE = 0.5
+
+
+class PlanProgress:
+    """Per robot: the route of the plan it follows and how far along it the robot has come."""
+
+    def __init__(self, n: int, epsilon: float):
+        self.epsilon = float(epsilon)
+        self.routes: list[np.ndarray | None] = [None] * n
+        self.arcs: list[np.ndarray] = [np.zeros(1)] * n
+        self.cursor = np.zeros(n, dtype=int)
+        self.credited = np.zeros(n)
+
+    def follow(self, robot: int, route: np.ndarray | None) -> None:
+        """Robot ``robot`` follows a new plan whose own positions are ``route`` ``(K, 2)`` (None:
+        no plan it can make progress along)."""
+        if route is None or len(route) < 2:
+            self.routes[robot] = None
+            return
+        keep = np.concatenate([[True], np.linalg.norm(np.diff(route, axis=0), axis=1) > 1e-9])
+        points = np.asarray(route, dtype=float)[keep]
+        self.routes[robot] = points
+        self.arcs[robot] = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        self.cursor[robot] = 0
+        self.credited[robot] = 0.0
+
+    def advanced(self, positions: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """Which robots have advanced ``epsilon`` further along their plan's route since last
+        credited, now that they stand at ``positions`` ``(n, 2)``; ``reach`` ``(n,)`` (m) is how
+        far along the route the cursor may look ahead in one step."""
+        out = np.zeros(len(positions), dtype=bool)
+        for k, points in enumerate(self.routes):
+            if points is None:
+                continue
+            arc, c = self.arcs[k], int(self.cursor[k])
+            end = int(np.searchsorted(arc, arc[c] + reach[k], side="right"))
+            window = points[c:max(end, c + 1)]
+            gap = np.linalg.norm(window - positions[k], axis=1)
+            best = int(np.argmin(gap))
+            if gap[best] <= OFF_ROUTE:
+                self.cursor[k] = c + best
+            if arc[self.cursor[k]] >= self.credited[k] + self.epsilon:
+                self.credited[k] = arc[self.cursor[k]]
+                out[k] = True
+        return out

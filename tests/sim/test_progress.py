@@ -1,0 +1,62 @@
+"""The deadlock rule's progress along the followed plan (issue 19 item 3), against hand-computed
+arc lengths, and on a scenario whose robots must back out for longer than the deadlock time."""
+
+from pathlib import Path
+
+import numpy as np
+
+from nodnav.scenario.loading import load_scenario
+from nodnav.sim.progress import PlanProgress
+from nodnav.sim.simulator import run_trial
+
+REACH = np.array([0.26])
+
+
+def out_and_back() -> np.ndarray:
+    """A plan that backs out 2 m to the left, waits, and then drives 5 m to the right, sampled
+    every 0.08 m (0.8 m/s at 0.1 s), with 10 waiting samples at the turn."""
+    back = np.stack([-np.arange(0, 26) * 0.08, np.zeros(26)], axis=1)
+    wait = np.repeat(back[-1:], 10, axis=0)
+    on = np.stack([back[-1, 0] + np.arange(1, 64) * 0.08, np.zeros(63)], axis=1)
+    return np.vstack([back, wait, on])
+
+
+def test_backing_out_along_the_plan_is_progress():
+    route = out_and_back()
+    progress = PlanProgress(1, 0.2)
+    progress.follow(0, route)
+    credited = [bool(progress.advanced(p[None], REACH)[0]) for p in route[::1]]
+    # 2 m back, then 5.04 m on: 7.04 m in all; the cursor lands on the 0.08 m samples, so a
+    # credit comes every third sample (at 0.24 m, 0.48 m, ...): floor(7.04 / 0.24) = 29.
+    assert sum(credited) == 29
+    assert progress.cursor[0] == 25 + 63  # the last of the 89 distinct samples (waits removed)
+
+
+def test_standing_or_leaving_the_plan_is_no_progress():
+    route = out_and_back()
+    progress = PlanProgress(2, 0.2)
+    progress.follow(0, route)
+    progress.follow(1, route)
+    for _ in range(50):  # robot 0 stands where it started; robot 1 goes the other way (off the plan)
+        moved = progress.advanced(np.array([[0.0, 0.0], [0.0, 0.0]]), np.array([0.26, 0.26]))
+        assert not moved.any()
+    for x in np.arange(0.1, 2.0, 0.08):
+        assert not progress.advanced(np.array([[0.0, 0.0], [x, 0.0]]), np.array([0.26, 0.26]))[1]
+
+
+def test_a_failed_plan_makes_no_progress():
+    progress = PlanProgress(1, 0.2)
+    progress.follow(0, None)
+    assert not progress.advanced(np.array([[-1.0, 0.0]]), REACH)[0]
+
+
+def test_teams_backing_out_are_not_a_deadlock():
+    # Two teams of two inside a 6 m passage: one team backs out for more than 2 s, moving away
+    # from its goals, while the other cannot yet come closer to its own. Judged by the straight
+    # distance to go through the mouths, that is "no progress for 2 s"; along the plans, it is not.
+    here = Path(__file__).parent / "regression" / "teams-head-on-inside.yaml"
+    short = {"sim.deadlock_time": 2.0}
+    plan = load_scenario(here).with_overrides(**short)
+    straight = load_scenario(here).with_overrides(**short, **{"sim.progress": "straight"})
+    assert [run_trial(straight, seed=s).outcome for s in (0, 1)] == ["deadlock", "deadlock"]
+    assert [run_trial(plan, seed=s).outcome for s in (0, 1)] == ["success", "success"]

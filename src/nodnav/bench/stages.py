@@ -36,6 +36,7 @@ unmeasured (:mod:`nodnav.bench.closed_loop`).
 
 from __future__ import annotations
 
+import functools
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -83,6 +84,7 @@ class StageClock:
 
     def wrap(self, stage: str, fn: Callable) -> Callable:
         """``fn`` with its time (less that of stages it calls) charged to ``stage``."""
+        @functools.wraps(fn)
         def timed(*args, **kwargs):
             self._switch()
             self._stack.append(stage)
@@ -92,7 +94,6 @@ class StageClock:
             finally:
                 self._switch()
                 self._stack.pop()
-        timed.__wrapped__ = fn  # type: ignore[attr-defined]
         return timed
 
 

@@ -101,7 +101,7 @@ def _show_family(args: argparse.Namespace) -> int:
     from nodnav.scenario.draws import draw
     from nodnav.scenario.families import load_family
     from nodnav.scenario.fields import ScenarioError
-    from nodnav.scenario.overrides import override_scenario
+    from nodnav.scenario.schema import override_scenario
     from nodnav.viz.family import save_family_gallery
 
     family = load_family(args.scenario)

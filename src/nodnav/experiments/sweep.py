@@ -45,8 +45,8 @@ from nodnav.scenario.families import FamilyError
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_STRATEGIES
 from nodnav.scenario.loading import load_scenario
-from nodnav.scenario.overrides import override_scenario, setting_text
-from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
+from nodnav.scenario.overrides import setting_text
+from nodnav.scenario.schema import Scenario, override_scenario, scenario_from_dict, scenario_to_dict
 from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)

@@ -15,8 +15,7 @@ from nodnav.scenario.draws import draw_spec
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import builtin_names, builtin_text, parse_yaml, read_yaml
 from nodnav.scenario.maps import map_beside
-from nodnav.scenario.overrides import apply_overrides, override_scenario
-from nodnav.scenario.schema import Scenario
+from nodnav.scenario.schema import Scenario, apply_overrides, override_scenario
 
 
 def load_scenario(spec: str | Path, overrides: Mapping[str, Any] | None = None,

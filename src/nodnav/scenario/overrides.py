@@ -28,9 +28,8 @@ from typing import Any
 from nodnav.errors import shown, shown_path
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import parse_yaml
-from nodnav.scenario.schema import Scenario, scenario_from_dict, scenario_to_dict
 
-__all__ = ["parse_setting", "key_path", "merge_overrides", "apply_overrides", "override_scenario", "setting_text"]
+__all__ = ["parse_setting", "key_path", "merge_overrides", "relabel", "setting_text"]
 
 _NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 _SEGMENT = re.compile(rf"(?P<name>{_NAME})(?P<indices>(\[[0-9]{{1,4}}\])*)")
@@ -156,7 +155,7 @@ def _within(inner: str, outer: str) -> bool:
     return inner == outer or inner.startswith((outer + ".", outer + "["))
 
 
-def _relabel(exc: ScenarioError, overrides: Mapping[str, Any], labels: Mapping[str, str], source: str) -> ScenarioError:
+def relabel(exc: ScenarioError, overrides: Mapping[str, Any], labels: Mapping[str, str], source: str) -> ScenarioError:
     """The validation error ``exc`` as the user typed it: starting with the override it concerns."""
     def label(key: str) -> str:
         return labels.get(key) or key
@@ -179,28 +178,3 @@ def _relabel(exc: ScenarioError, overrides: Mapping[str, Any], labels: Mapping[s
         return ScenarioError(f"{label(above[0])}: {exc}", key=label(above[0]))
     typed = ", ".join(label(k) for k in overrides)
     return ScenarioError(f"{exc} (with {typed})", key=exc.key)
-
-
-def apply_overrides(raw: Any, source: str, overrides: Mapping[str, Any] | None = None,
-                    labels: Mapping[str, str] | None = None) -> Scenario:
-    """The scenario of mapping ``raw`` with ``overrides`` merged in, validated once.
-
-    ``labels`` gives, per override key, how the user typed it (``--set robots[1].radius=0.3``,
-    ``--players``); errors about an override start with its label (default: the key).
-    """
-    if not overrides:
-        return scenario_from_dict(raw, source)
-    labels = dict(labels or {})
-    merged = merge_overrides(raw, overrides, labels)
-    try:
-        return scenario_from_dict(merged, source)
-    except ScenarioError as exc:
-        raise _relabel(exc, overrides, labels, source) from None
-
-
-def override_scenario(scenario: Scenario, overrides: Mapping[str, Any] | None = None,
-                      labels: Mapping[str, str] | None = None) -> Scenario:
-    """``scenario`` (already built, e.g. a family's draw) with ``overrides`` merged into its mapping."""
-    if not overrides:
-        return scenario
-    return apply_overrides(scenario_to_dict(scenario), scenario.name, overrides, labels)

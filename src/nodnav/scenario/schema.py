@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ from nodnav.scenario.fields import (
     text,
 )
 from nodnav.scenario.limits import accepted
+from nodnav.scenario.overrides import merge_overrides, relabel
 from nodnav.scenario.params import (
     BaselineParams,
     ControllerParams,
@@ -127,8 +129,6 @@ class Scenario:
         """:meth:`with_overrides` for values the user typed as options: an error about key ``k``
         (or below it) names ``labels[k]`` instead, e.g. ``{"game_players": "--players"}``
         (:mod:`nodnav.scenario.overrides` merges them)."""
-        from nodnav.scenario.overrides import apply_overrides  # it builds on this module
-
         return apply_overrides(_to_raw(self), self.name, changes, labels)
 
 
@@ -418,3 +418,33 @@ def _to_raw(scenario: Scenario) -> dict:
 def scenario_to_dict(scenario: Scenario) -> dict:
     """The scenario as a plain mapping that :func:`scenario_from_dict` reads back unchanged."""
     return _to_raw(scenario)
+
+
+# ---------------------------------------------------------------------------------------------
+# Settings on top of a scenario (--set KEY=VALUE, overrides=): merged into its mapping
+# (nodnav.scenario.overrides), then validated once, as the same keys written in the file.
+
+
+def apply_overrides(raw: Any, source: str, overrides: Mapping[str, Any] | None = None,
+                    labels: Mapping[str, str] | None = None) -> Scenario:
+    """The scenario of mapping ``raw`` with ``overrides`` merged in, validated once.
+
+    ``labels`` gives, per override key, how the user typed it (``--set robots[1].radius=0.3``,
+    ``--players``); errors about an override start with its label (default: the key).
+    """
+    if not overrides:
+        return scenario_from_dict(raw, source)
+    labels = dict(labels or {})
+    merged = merge_overrides(raw, overrides, labels)
+    try:
+        return scenario_from_dict(merged, source)
+    except ScenarioError as exc:
+        raise relabel(exc, overrides, labels, source) from None
+
+
+def override_scenario(scenario: Scenario, overrides: Mapping[str, Any] | None = None,
+                      labels: Mapping[str, str] | None = None) -> Scenario:
+    """``scenario`` (already built, e.g. a family's draw) with ``overrides`` merged into its mapping."""
+    if not overrides:
+        return scenario
+    return apply_overrides(scenario_to_dict(scenario), scenario.name, overrides, labels)

@@ -10,7 +10,8 @@ from nodnav.scenario.catalogue import PAPER_SCENARIOS, crowd_scenarios
 from nodnav.scenario.crowds import door_crowd
 from nodnav.scenario.files import builtin_names
 from nodnav.scenario.loading import load_scenario
-from nodnav.scenario.validity import check_scenario, is_two_room_world
+from nodnav.scenario.solvable import check_scenario
+from nodnav.scenario.validity import is_two_room_world
 from nodnav.scenario.world import LEFT, RIGHT
 
 

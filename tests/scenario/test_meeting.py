@@ -3,11 +3,13 @@
 import numpy as np
 
 from nodnav.planning.bays import bay_spots
-from nodnav.scenario.backing_out import with_bay, without_bays
-from nodnav.scenario.draws import _Attempt, _Draws, draw, draw_generator
+from nodnav.scenario.bay_walls import with_bay, without_bays
+from nodnav.scenario.draws import draw, draw_generator
 from nodnav.scenario.families import load_family
+from nodnav.scenario.layout import _Attempt, _Draws
 from nodnav.scenario.meeting import TEAM_MAX, MeetingAttempt, attempt_for
-from nodnav.scenario.validity import check_scenario, is_two_room_world
+from nodnav.scenario.solvable import check_scenario
+from nodnav.scenario.validity import is_two_room_world
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, corridor_world
 
 

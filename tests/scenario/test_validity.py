@@ -5,7 +5,8 @@ import pytest
 from nodnav.scenario.files import builtin_names
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict
-from nodnav.scenario.validity import check_capacity, check_layout, check_scenario, find_witness, single_file_interval
+from nodnav.scenario.solvable import check_scenario
+from nodnav.scenario.validity import check_capacity, check_layout, find_witness, single_file_interval
 
 
 def scenario(robots, **world):

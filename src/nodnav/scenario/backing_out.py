@@ -13,8 +13,9 @@ beside the passage, its disc clear of the line). Then the witness runs from wher
 waits. Either team may yield; the scenario is solvable in principle if either way leads to a
 witness. Checked on the same grid, with the same clearances, as the witness.
 
-Bays are the walls' own: a world made by :func:`with_bay` (a niche cut into one wall of the
-passage) is a two-room world with a bay (:func:`without_bays` gives back the plain layout that
+Bays are the walls' own: a world made by :func:`~nodnav.scenario.bay_walls.with_bay` (a niche
+cut into one wall of the passage) is a two-room world with a bay
+(:func:`~nodnav.scenario.bay_walls.without_bays` gives back the plain layout that
 :func:`~nodnav.scenario.validity.is_two_room_world` recognises).
 """
 
@@ -35,42 +36,7 @@ from nodnav.scenario.validity import (
     find_witness,
     mouth_zone_radius,
 )
-from nodnav.scenario.world import INSIDE, LEFT, World
-
-
-def with_bay(obstacles: list, h: float, half: float, x0: float, x1: float, depth: float, upper: bool) -> list:
-    """The two walls ``obstacles`` (``[lower, upper]`` boxes of a passage from ``-h`` to ``h``,
-    ``half`` wide each side) with a niche from ``x0`` to ``x1``, ``depth`` deep, cut into the upper
-    (``upper``) or lower wall: that wall becomes three boxes."""
-    lower_box, upper_box = (list(b) for b in obstacles)
-    if upper:
-        y1 = upper_box[3]
-        cut = [[-h, half, x0, y1], [x1, half, h, y1], [x0, half + depth, x1, y1]]
-        return [lower_box] + cut
-    y0 = lower_box[1]
-    cut = [[-h, y0, x0, -half], [x1, y0, h, -half], [x0, y0, x1, -half - depth]]
-    return cut + [upper_box]
-
-
-def without_bays(world: World) -> World:
-    """``world`` with every niche of :func:`with_bay` filled in again (unchanged if it has none)."""
-    obstacles = list(world.obstacles)
-    if len(obstacles) != 4:
-        return world
-    c = world.shorthand
-    walls: list[tuple[float, float, float, float]] = []
-    for side in (-1, 1):
-        edge = c.y_min if side < 0 else c.y_max
-        pieces = [b for b in obstacles if (b[3] <= c.y_min + 1e-12 if side < 0 else b[1] >= c.y_max - 1e-12)]
-        if len(pieces) == 1:
-            walls.append(pieces[0])
-            continue
-        if len(pieces) != 3:
-            return world
-        x0, x1 = min(b[0] for b in pieces), max(b[2] for b in pieces)
-        far = min(b[1] for b in pieces) if side < 0 else max(b[3] for b in pieces)
-        walls.append((x0, far, x1, edge) if side < 0 else (x0, edge, x1, far))
-    return dataclasses.replace(world, obstacles=tuple(walls))
+from nodnav.scenario.world import INSIDE, LEFT
 
 
 def _off_line(scenario: Scenario, k: int, waiting: np.ndarray, grid: _Grid) -> np.ndarray | None:

@@ -12,10 +12,10 @@ paper's world (corridor x in [-3, 3], 0.7 m wide, rooms 4 m deep and 5 m high; r
   both are beside it, neither in it), and a robot left over on the corridor's axis in the last row;
 * destinations lie on a line 3 m into the far room, spread evenly over y in [-1.8, 1.8] m
   (y = 0 for a single robot), matched top to bottom so that paths do not cross in the room;
-* the time limit is the generated families' rule (:func:`~nodnav.scenario.draws.time_limit`).
+* the time limit is the generated families' rule (:func:`~nodnav.scenario.layout.time_limit`).
 
 Every count from 2 to :data:`~nodnav.scenario.limits.MAX_ROBOTS` gives a valid scenario that is
-solvable in principle (:func:`~nodnav.scenario.validity.check_scenario`; a test checks it).
+solvable in principle (:func:`~nodnav.scenario.solvable.check_scenario`; a test checks it).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from nodnav.scenario.draws import time_limit
+from nodnav.scenario.layout import time_limit
 from nodnav.scenario.limits import MAX_ROBOTS
 from nodnav.scenario.schema import Scenario, scenario_from_dict
 

@@ -20,9 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodnav.scenario.backing_out import with_bay
-from nodnav.scenario.draws import CLEARANCE, MIN_WALL, SLACK, _Attempt, _mm, _Robot
+from nodnav.scenario.bay_walls import with_bay
 from nodnav.scenario.families import Family
+from nodnav.scenario.layout import MIN_WALL, SLACK, _Attempt, _mm, _Robot
+from nodnav.scenario.validity import CLEARANCE
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT
 
 #: Most robots of a team inside the corridor (``facing``).
@@ -68,7 +69,7 @@ class MeetingAttempt(_Attempt):
         span = sum(a.radius + b.radius + g for a, b, g in zip(group, group[1:], gaps))
         room = 2 * self.h - 2 * SLACK
         if span > room:
-            from nodnav.scenario.draws import _Reject
+            from nodnav.scenario.layout import _Reject
 
             raise _Reject("the corridor is too short for the robots inside it")
         x = -self.h + SLACK + d.uniform(0.0, room - span)

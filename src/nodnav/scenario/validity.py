@@ -55,7 +55,7 @@ Speed and acceleration limits (docs/safety.md)
     path that keeps ``c`` beyond its radius, and can follow it at a speed low enough to stop
     within its clearance, however slowly it accelerates. What slow acceleration changes is how
     long the schedule takes, which the drawn time limit counts
-    (:func:`~nodnav.scenario.draws.travel_time`).
+    (:func:`~nodnav.scenario.layout.travel_time`).
 """
 
 from __future__ import annotations
@@ -66,6 +66,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from nodnav.scenario.bay_walls import without_bays
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World, corridor_world
 
@@ -121,9 +122,7 @@ def room_needs(radii_in_room, r_max: float, half_width: float) -> tuple[float, f
 
 def is_two_room_world(world: World) -> bool:
     """Whether ``world`` is the layout of :func:`~nodnav.scenario.world.corridor_world` (with
-    bays cut into its walls, :func:`~nodnav.scenario.backing_out.with_bay`, or without)."""
-    from nodnav.scenario.backing_out import without_bays  # it builds on this module
-
+    bays cut into its walls, :func:`~nodnav.scenario.bay_walls.with_bay`, or without)."""
     world = without_bays(world)
     c = world.shorthand
     x0, y0, x1, y1 = world.bounds
@@ -331,19 +330,3 @@ def find_witness(scenario: Scenario, budget: int = WITNESS_BUDGET) -> Verdict:
     if order is None:
         return Verdict(False, "no order lets every robot cross while the others stand still")
     return Verdict(True, order=order, waits=waits)
-
-
-def check_scenario(scenario: Scenario, budget: int = WITNESS_BUDGET) -> Verdict:
-    """Validity, room capacity and solvability (the module docstring), the first failure's reason."""
-    for check in (check_layout, check_capacity):
-        verdict = check(scenario)
-        if not verdict.ok:
-            return verdict
-    verdict = find_witness(scenario, budget)
-    if not verdict.ok:  # robots inside heading opposite ways: one side may back out (issue 19)
-        from nodnav.scenario.backing_out import find_witness_backing_out
-
-        backing = find_witness_backing_out(scenario, budget)
-        if backing.ok:
-            return backing
-    return verdict

@@ -216,7 +216,7 @@ class PlannedMethod:
                 # Where the other robot is now is known: never more margin than the present gap
                 # leaves, so that the robot is not "inside" the other's braking disc at once.
                 gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
-                       - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
+                       - self.scenario.radii[others] - self.scenario.controller.safety_margin)
                 allowed = np.clip(np.minimum(margin, gap - self.scenario.execution.reaction_slack), 0.0, None)
                 radii[2 * len(others):] += np.where(careful, allowed, 0.0)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,

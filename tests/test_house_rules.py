@@ -13,11 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SOURCES = sorted((ROOT / "src" / "nodnav").rglob("*.py"))
 
 #: getattr defaults left in place knowingly, as (receiver, setting): remove an entry with its getattr.
-KNOWN = {
-    # sim/methods.py's reaction margin; ControllerParams declares safety_margin, so the default is
-    # never used. It goes when the run-time execution rules leave sim/methods.py (issue 22, item 6).
-    ("self.scenario.controller", "safety_margin"),
-}
+KNOWN: set[tuple[str, str]] = set()
 
 
 def _settings() -> set[str]:

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import PlanRequest, feasible_order
-from nodnav.planning.bays import bay_spots
 from nodnav.planning.prioritized import PrioritizedPlanner
+from nodnav.planning.waiting_spots import bay_spots
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import Corridor, World
 

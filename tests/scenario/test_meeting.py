@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from nodnav.planning.bays import bay_spots
+from nodnav.planning.waiting_spots import bay_spots
 from nodnav.scenario.bay_walls import with_bay, without_bays
 from nodnav.scenario.draws import draw, draw_generator
 from nodnav.scenario.families import load_family

@@ -41,14 +41,14 @@ def test_horizon_predictions_by_hand():
 
 
 def test_reaction_margin_is_how_far_a_braking_trajectory_can_move_in_one_step():
-    from nodnav.sim.methods import reaction_margin
+    from nodnav.sim.execution import reaction_margin
 
     # a dt^2 + (v + a dt / 2) dt: at rest 2 * 0.01 + 0.1 * 0.1 = 0.03 m; at 1 m/s 0.02 + 0.11 = 0.13 m.
     np.testing.assert_allclose(reaction_margin(np.array([0.0, 1.0]), np.array([2.0, 2.0]), 0.1), [0.03, 0.13])
 
 
 def test_unexpected_approach_counts_only_deviations_towards_the_robot():
-    from nodnav.sim.methods import unexpected_approach
+    from nodnav.sim.execution import unexpected_approach
 
     dt = 0.1
     # Robot 0 at the origin; robot 1 starts from rest towards it (1 cm in a step it was expected to

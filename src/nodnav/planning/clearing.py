@@ -19,17 +19,8 @@ import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
 from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.waiting_spots import in_door_zone, ring_spots
 from nodnav.scenario.params import PlannerParams
-
-
-def clearing_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, turn: float = 0.0) -> np.ndarray:
-    """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
-    nearest first, the first of each ring at angle ``turn`` (rad; the passage's), ``(M, 2)``."""
-    angles = 2.0 * np.pi * np.arange(directions) / directions
-    if turn:
-        angles = angles + turn
-    ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
 
 
 def clear_the_way(request: PlanRequest, robot: int, reason: str, settings: PlannerParams,
@@ -53,9 +44,8 @@ def clear_the_way(request: PlanRequest, robot: int, reason: str, settings: Plann
             .shortest_paths(pos[k][None], dest[k][None])[0].points for k in others]
 
     def clear(points: np.ndarray) -> np.ndarray:
-        entrances = np.asarray(world.entrances, dtype=float)
         ok = (world.clearance(points) >= r) & ~world.in_corridor(points)
-        ok &= (np.linalg.norm(points[:, None] - entrances[None], axis=2) >= door_clearance).all(axis=1)
+        ok &= ~in_door_zone(world, points, 0, door_clearance) & ~in_door_zone(world, points, 1, door_clearance)
         for k, way, d in zip(others, ways, need):
             ok &= np.linalg.norm(points - pos[k], axis=1) >= d
             ok &= polyline_point_distance(way, points) >= d
@@ -64,7 +54,7 @@ def clear_the_way(request: PlanRequest, robot: int, reason: str, settings: Plann
     failure = PlanResult.failure(request, reason)
     if clear(me[None])[0]:
         return failure  # already out of everybody's way: wait here
-    spots = clearing_spots(me, settings.clearing_radii, settings.clearing_directions, world.passage.angle)
+    spots = ring_spots(me, settings.clearing_radii, settings.clearing_directions, world.passage.angle)
     spots = spots[clear(spots)]
     for spot in spots:
         way = graph.shortest_path(me, spot, pos[others], radii[others] + r)

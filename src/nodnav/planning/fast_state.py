@@ -14,6 +14,7 @@ from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
 from nodnav.planning.occupancy import Motion, corridor_passage
 from nodnav.planning.visibility import GeometricPath
+from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 
 if TYPE_CHECKING:
@@ -94,8 +95,7 @@ class RobotPlan:
     def doors(self) -> tuple[tuple[int, int], tuple[int, int]]:
         """``(entry, exit)`` samples of its last stay in the door zone of the left and of the right entrance."""
         s = self.motion.samples
-        left, right = (corridor_passage(np.hypot(s[:, 0] - e[0], s[:, 1] - e[1]) < self.door_clearance)
-                       for e in self.world.entrances)
+        left, right = (corridor_passage(in_door_zone(self.world, s, e, self.door_clearance)) for e in (0, 1))
         return left, right
 
 
@@ -202,7 +202,6 @@ class FastPlannerHooks:
 
         def graph(self, world: World, radius: float) -> VisibilityGraph: ...
         def _start(self, state: State, k: int, layout: Layout) -> np.ndarray: ...
-        def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray: ...
         def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track: ...
         def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
                    centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track: ...

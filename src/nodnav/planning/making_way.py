@@ -16,7 +16,8 @@ lets the later robot move first, to a waiting spot, in one component with four m
 
 Candidate spots are rings around the robot (``retreat_radii``, ``retreat_angles`` of
 :class:`~nodnav.scenario.params.FastPlannerParams`); the ``retreat_tries`` nearest reachable ones
-are tried (:meth:`MakingWay._waiting_spots`, :meth:`MakingWay._escape_motions`).
+are tried (:meth:`MakingWay._waiting_spots`, :meth:`MakingWay._escape_motions`); where a robot
+may wait (rings, the fine grid, bays, door zones) is :mod:`nodnav.planning.waiting_spots`.
 """
 
 from __future__ import annotations
@@ -27,28 +28,14 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.geometry import TOL
-from nodnav.planning.bays import bay_spots
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.timing import dash_clashes
 from nodnav.planning.visibility import disc_violations, polyline_point_distance
+from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, ring_spots
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
-
-#: Spacing of the fine grid of waiting spots tried when no spot of the rings will do (m).
-FINE_GRID = 0.25
-
-
-def retreat_spots(centre: np.ndarray, radii: tuple[float, ...], angles: int, turn: float = 0.0) -> np.ndarray:
-    """Candidate spots to move to: rings of ``angles`` points at ``radii`` around ``centre``, ``(M, 2)``,
-    the first of each ring at angle ``turn`` (rad; the passage's, :attr:`Passage.angle`)."""
-    ang = 2.0 * np.pi * np.arange(angles) / angles
-    if turn:
-        ang = ang + turn
-    ring = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
-
 
 class MakingWay(FastPlannerHooks):
     """The fast planner's ways of making room (a mixin of
@@ -166,16 +153,14 @@ class MakingWay(FastPlannerHooks):
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
         graph = self.graph(world, radius)
         if fine:
-            x0, y0, x1, y1 = world.bounds
-            xs, ys = np.meshgrid(np.arange(x0, x1, FINE_GRID), np.arange(y0, y1, FINE_GRID))
-            spots = np.stack([xs.ravel(), ys.ravel()], axis=1)
+            spots = grid_spots(world, FINE_GRID)
         else:
-            spots = retreat_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
+            spots = ring_spots(pos, self.params.retreat_radii, self.params.retreat_angles, world.passage.angle)
         spots = np.vstack([spots, bay_spots(world, float(radius), float(graph.clearance))])
         # Out of the passage, or off its line in a bay (a bay is only ever a place to wait in).
         ok = (world.clearance(spots) >= graph.clearance - TOL) & ~world.on_line(spots, float(radius))
         if door:
-            ok &= ~self._in_door(world, spots, state.door[mover])
+            ok &= ~in_door_zone(world, spots, state.door[mover], self.params.door_clearance)
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)
         if len(others):
             ok &= (np.linalg.norm(spots[:, None] - stand[None], axis=2) >= req[mover, others] - TOL).all(axis=1)

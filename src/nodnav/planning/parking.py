@@ -16,9 +16,9 @@ import numpy as np
 
 from nodnav.geometry import TOL
 from nodnav.planning.fast_state import FastPlannerHooks, RobotPlan, State
-from nodnav.planning.making_way import retreat_spots
 from nodnav.planning.occupancy import Motion, join_motions
 from nodnav.planning.visibility import polyline_point_distance
+from nodnav.planning.waiting_spots import in_door_zone, ring_spots
 from nodnav.scenario.world import World
 
 
@@ -53,12 +53,13 @@ class DeferredParking(FastPlannerHooks):
             others = [m for m in range(len(goals)) if m != i]
             graph = self.graph(world, state.radii[i])
             # Where it stands now is a candidate too: a robot already waiting aside need not move.
-            rings = retreat_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles,
+            rings = ring_spots(state.destinations[i], self.params.retreat_radii, self.params.retreat_angles,
                                   world.passage.angle)
             spots = np.vstack([state.positions[i][None], rings])
             ok = (world.clearance(spots) >= graph.clearance - TOL) & (world.side_of(spots) == world.side_of(goals[i]))
             ok &= ~world.in_corridor(spots)
-            ok &= ~self._in_door(world, spots, 0) & ~self._in_door(world, spots, 1)
+            door = self.params.door_clearance
+            ok &= ~in_door_zone(world, spots, 0, door) & ~in_door_zone(world, spots, 1, door)
             req = state.required[i]
             for m in others:
                 ok &= np.hypot(*(spots - goals[m]).T) >= req[m] - TOL

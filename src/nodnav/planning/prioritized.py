@@ -111,6 +111,7 @@ from nodnav.planning.occupancy import (
 from nodnav.planning.parking import DeferredParking
 from nodnav.planning.timing import Timing, earliest_arrival_bits
 from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, disc_violations, polyline_point_distance
+from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.registry import register_planner
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import World
@@ -272,8 +273,7 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
             clear = world.clearance(dest)
             dirs = crossing_directions(world, pos, dest)
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
-            entrances = np.asarray(world.entrances, dtype=float)
-            gap = np.linalg.norm(pos - entrances[np.maximum(door, 0)], axis=1)
+            in_door = (door >= 0) & in_door_zone(world, pos, np.maximum(door, 0), self.params.door_clearance)
             natural: list[np.ndarray] = [np.zeros((0, 2))] * n
             for radius in np.unique(radii):
                 group = np.flatnonzero(radii == radius)
@@ -281,7 +281,7 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
                     natural[k] = path.points
             state = State(key, pos, dest, radii, vmax,
                            separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin),
-                           dirs, world.in_corridor(pos), door, (door >= 0) & (gap < self.params.door_clearance),
+                           dirs, world.in_corridor(pos), door, in_door,
                            tuple(natural), state_problem(dest, clear, radii))
             remember(self._states, key, state)
         return state
@@ -430,15 +430,11 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
                     good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
                 ok[corners] = good
         inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
-        doors = (entry_cell(self._in_door(world, cells, 0)), entry_cell(self._in_door(world, cells, 1)))
+        door = self.params.door_clearance
+        doors = (entry_cell(in_door_zone(world, cells, 0, door)), entry_cell(in_door_zone(world, cells, 1, door)))
         cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
         remember(self._cuts, key, cut)
         return cut
-
-    def _in_door(self, world: World, points: np.ndarray, entrance: int) -> np.ndarray:
-        """Which points are in the door zone of entrance ``entrance`` (0 left, 1 right)."""
-        e = world.entrances[entrance]
-        return np.hypot(points[:, 0] - e[0], points[:, 1] - e[1]) < self.params.door_clearance
 
     def _gates(self, state: State, k: int, track: Track, plans: dict) -> tuple[list, str]:
         """The corridor and door rules for robot ``k`` after the robots ``plans``: ``(cell,

@@ -13,7 +13,7 @@ Families place robots inside the corridor in one of three ways (``inside.order``
 ``inside.bays`` is the probability that one wall of the corridor has a bay: a niche
 ``2 r_max + 0.2`` to ``2 r_max + 0.5`` m long and ``2 r_max + 0.2`` m deep, somewhere between
 the mouths, that one robot fits into beside the line (the planner finds it from the walls,
-:mod:`nodnav.planning.bays`). Families that keep the defaults draw exactly what they drew before.
+:mod:`nodnav.planning.waiting_spots`). Families that keep the defaults draw exactly what they drew before.
 """
 
 from __future__ import annotations

@@ -246,7 +246,7 @@ class ExecutionParams:
     planned samples (m): how far it must move before it counts as having moved on."""
     reaction_margin: Literal["always", "moving", "surprised", "conflict", "off"] = "moving"
     """Towards which robots the MPC keeps clear of the braking trajectory by how far that can move
-    in one control step (``nodnav.sim.methods.reaction_margin``): ``always`` every robot;
+    in one control step (``nodnav.sim.execution.reaction_margin``): ``always`` every robot;
     ``moving`` (default) every robot that moves, that came at this one unexpectedly
     (``unexpected_approach``) within the last second, and every robot while this one cannot
     follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""

@@ -13,6 +13,10 @@ Only what the robot observes enters: the positions of the robots of its plan. Al
 plan that they agree on compute the same precedences, so a follower waits where the plan wants
 it to wait for as long as the leader actually needs, and a robot that must first get out of
 another's way is waited for.
+
+The run-time rule beside it, :class:`ReactionMargins`: towards which other robots a robot keeps
+the reaction margin (:func:`reaction_margin`) from their braking predictions at a control step
+(``execution.reaction_margin``, ``surprise``: :func:`unexpected_approach`).
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ import numpy as np
 
 from nodnav.planning.base import JointTrajectory
 from nodnav.planning.dependencies import gate_sample, observed_progress, plan_dependencies
+from nodnav.scenario.schema import Scenario
+from nodnav.sim.agent import RobotView
 
 
 @dataclass(frozen=True)
@@ -98,3 +104,98 @@ class PlanExecution:
     def advance(self) -> None:
         """Run every clock on by one control step, up to its limit."""
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
+
+
+def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
+    """How far (m) a robot's braking trajectory can move within one control step: the others
+    predict it braking from where it is now, but it chooses its next step at the same time.
+
+    Over a step of ``dt`` at acceleration up to ``a`` it ends at most ``a dt^2`` from where
+    braking would leave it, with a velocity up to ``a dt`` off; braking from speed ``v`` covers
+    ``v^2 / (2 a)``, which such a change moves by at most ``(|v| + a dt / 2) dt``. Keeping a
+    robot's own plan this much farther from every other robot's braking trajectory than contact
+    keeps both able to stop apart at the next step whatever the other chose: when neither can
+    follow its plan, neither squeezes the other.
+    """
+    v = np.asarray(speeds, dtype=float)
+    a = np.asarray(max_accel, dtype=float)
+    return a * dt * dt + (v + 0.5 * a * dt) * dt
+
+
+def unexpected_approach(seen_positions: np.ndarray, seen_velocities: np.ndarray, positions: np.ndarray,
+                        robot: int, others: np.ndarray | list[int], dt: float, threshold: float) -> np.ndarray:
+    """Which ``others`` came towards ``robot`` over the last control step more than ``threshold``
+    (m) beyond where their velocity one step ago would have taken them ``(len(others),)``.
+
+    Each other robot's deviation from its constant-velocity step, ``p_j - (p_j' + v_j' dt)``, is
+    projected on the unit vector from it to ``robot``: starting, speeding up or swerving towards
+    the robot counts; braking, backing off or passing by does not.
+    """
+    expected = seen_positions[others] + seen_velocities[others] * dt
+    towards = positions[robot] - positions[others]
+    towards = towards / np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-9)
+    return np.einsum("ij,ij->i", positions[others] - expected, towards) > threshold
+
+
+class ReactionMargins:
+    """The reaction margin (``execution.reaction_margin``, docs/execution.md) of every robot of a
+    trial: towards which other robots it keeps :func:`reaction_margin` from their braking
+    predictions this control step, remembering whom it saw approach unexpectedly."""
+
+    def __init__(self, scenario: Scenario):
+        n = scenario.n_robots
+        self.scenario = scenario
+        self.dt = scenario.controller.dt
+        self._others = [[k for k in range(n) if k != i] for i in range(n)]
+        self._accel = np.array([r.max_accel for r in scenario.robots])
+        self._braking_margin = scenario.execution.reaction_margin
+        self.conflicted = np.zeros(n, dtype=bool)
+        """Whether each robot could not follow its plan at its last control step (set by the method)."""
+        self._surprised = np.zeros((n, max(n - 1, 0)), dtype=int)  # steps left, per robot and other robot
+        self._surprise = scenario.execution.surprise
+        self._surprise_steps = int(round(scenario.execution.surprise_memory / self.dt))
+        self._last_seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def radii(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
+        """The radii ``radii`` of robot ``i``'s three predictions of every other robot, the braking
+        ones widened by the reaction margin towards the robots it is careful of this step."""
+        careful = self._careful(i, view)
+        if careful.any():
+            others = self._others[i]
+            radii = radii.copy()
+            margin = reaction_margin(np.linalg.norm(view.velocities[others], axis=1), self._accel[others], self.dt)
+            # Where the other robot is now is known: never more margin than the present gap
+            # leaves, so that the robot is not "inside" the other's braking disc at once.
+            gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
+                   - self.scenario.radii[others] - self.scenario.controller.safety_margin)
+            allowed = np.clip(np.minimum(margin, gap - self.scenario.execution.reaction_slack), 0.0, None)
+            radii[2 * len(others):] += np.where(careful, allowed, 0.0)
+        return radii
+
+    def _careful(self, i: int, view: RobotView) -> np.ndarray:
+        """Towards which other robots robot ``i`` keeps the reaction margin this step ``(N_r - 1,)``.
+
+        ``always``: all of them. ``conflict``: all while ``i`` cannot follow its plan, when the
+        other may not be able to either. ``surprised`` adds any robot ``i`` saw, within the last
+        ``execution.surprise_memory`` seconds, come towards it more than ``execution.surprise`` beyond where its
+        velocity would have taken it (:func:`unexpected_approach`): a robot that starts or swerves
+        towards it unannounced may follow a plan that conflicts with this one. ``moving`` adds
+        every robot that moves more than ``execution.surprise`` a step, so that the margin is in place
+        before two moving robots get close, not switched on once they are (when the present gap
+        caps it). A robot at rest needs none: its braking trajectory is where it stands, and if it
+        starts towards ``i`` it counts as unexpected after one step; a margin from it would make a
+        robot pass a waiting one with no slack beyond the planner's own clearance."""
+        mode, others = self._braking_margin, self._others[i]
+        if mode == "off":
+            return np.zeros(len(others), dtype=bool)
+        if mode == "always":
+            return np.ones(len(others), dtype=bool)
+        seen = self._last_seen.get(i)
+        if mode in ("surprised", "moving") and seen is not None:
+            off = unexpected_approach(seen[0], seen[1], view.positions, i, others, self.dt, self._surprise)
+            self._surprised[i] = np.where(off, self._surprise_steps, np.maximum(self._surprised[i] - 1, 0))
+        self._last_seen[i] = (view.positions.copy(), view.velocities.copy())
+        careful = (self._surprised[i] > 0) | bool(self.conflicted[i])
+        if mode == "moving":
+            careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > self._surprise)
+        return careful

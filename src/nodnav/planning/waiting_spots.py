@@ -1,4 +1,19 @@
-"""Bays: places beside a single-file passage where one robot fits off the line (issue 19).
+"""Where a robot may wait: candidate waiting spots and the door zones a waiting robot keeps out of.
+
+Every planner part that sends a robot somewhere to wait draws its candidates here and filters
+them with its own rules (clear of the walls, of the passage, of the others and their ways):
+
+* :func:`ring_spots`: rings of spots around a point, nearest ring first (the fast planner's
+  retreats and holding spots, ``retreat_radii``/``retreat_angles``; the recovery of a failed plan,
+  ``clearing_radii``/``clearing_directions``);
+* :func:`grid_spots`: a grid of :data:`FINE_GRID` over the whole world, tried by the fast planner
+  when no spot of the rings will do (the rings' directions are far apart at large radii);
+* :func:`bay_spots`: one spot per bay beside the passage (below);
+* :func:`in_door_zone`: the door zone of an entrance, the disc of the planner's
+  ``door_clearance`` around it (open: a point at exactly that distance is out of it). Robots
+  waiting for their turn wait out of it, so that the robot coming out has room.
+
+Bays (issue 19) are places beside a single-file passage where one robot fits off the line.
 
 A passage is single file: two robots cannot pass each other in it. A real corridor often has
 places where one can step aside (a niche, a doorway off the corridor). Bays are found from the
@@ -25,10 +40,38 @@ import numpy as np
 from nodnav.geometry import TOL
 from nodnav.scenario.world import World
 
+#: Spacing of the fine grid of waiting spots tried when no spot of the rings will do (m).
+FINE_GRID = 0.25
 #: Sampling step along and across the passage when looking for bays (m).
 BAY_STEP = 0.05
 #: How far beside the line a bay spot may lie (m): deeper than this is a room, not a bay.
 BAY_DEPTH = 1.5
+
+
+def ring_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, turn: float = 0.0) -> np.ndarray:
+    """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
+    nearest ring first, the first of each ring at angle ``turn`` (rad; the passage's,
+    :attr:`Passage.angle`), ``(M, 2)``."""
+    angles = 2.0 * np.pi * np.arange(directions) / directions
+    if turn:
+        angles = angles + turn
+    ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+
+
+def grid_spots(world: World, step: float = FINE_GRID) -> np.ndarray:
+    """Candidate spots: a grid of ``step`` (m) over ``world``'s bounds, row by row, ``(M, 2)``."""
+    x0, y0, x1, y1 = world.bounds
+    xs, ys = np.meshgrid(np.arange(x0, x1, step), np.arange(y0, y1, step))
+    return np.stack([xs.ravel(), ys.ravel()], axis=1)
+
+
+def in_door_zone(world: World, points: np.ndarray, entrance, radius: float) -> np.ndarray:
+    """Which of ``points`` ``(M, 2)`` lie in the door zone of ``entrance`` (0 left, 1 right; or one
+    entrance per point, an ``(M,)`` array): strictly nearer to it than ``radius`` (m, the
+    planner's ``door_clearance``)."""
+    e = np.asarray(world.entrances, dtype=float)[entrance]
+    return np.hypot(points[:, 0] - e[..., 0], points[:, 1] - e[..., 1]) < radius
 
 
 @lru_cache(maxsize=64)

@@ -287,3 +287,26 @@ class SimParams:
     robot radius, so that robots creeping a few centimetres at a time in a jam do not count."""
     observation_noise: float = field(default=0.0, metadata=accepted(0.0, 1.0))
     """Standard deviation of the position noise in what each robot observes of the others (m)."""
+
+
+@dataclass(frozen=True)
+class SensingParams:
+    """What each robot can see of the others (docs/sensing.md); the defaults are the paper's:
+    every robot sees every other one, through walls and at any distance."""
+
+    range: float = field(default=0.0, metadata=accepted(0.0, MAX_WORLD_SIZE))
+    """Sensor range: another robot is seen while its centre is within this distance (m); 0 means
+    unlimited; paper: unlimited (0)."""
+    walls_block: bool = False
+    """Whether walls and obstacles block the line of sight between two robots' centres; paper: false."""
+    memory: float = field(default=3.0, metadata=accepted(0.0, 3600.0))
+    """How long a robot remembers another it no longer sees, held still where last seen (s); paper:
+    unused (everyone is always seen)."""
+    uncertainty_rate: float = field(default=0.5, metadata=accepted(0.0, 10.0))
+    """Growth of the uncertainty radius kept around a remembered robot, per second since it was
+    last seen (m/s); paper: unused."""
+
+    @property
+    def limited(self) -> bool:
+        """Whether sight is limited at all (otherwise the paper's: everyone sees everyone)."""
+        return self.range > 0.0 or self.walls_block

@@ -219,12 +219,36 @@ class PlannedMethod:
                        - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
                 allowed = np.clip(np.minimum(margin, gap - self.scenario.execution.reaction_slack), 0.0, None)
                 radii[2 * len(others):] += np.where(careful, allowed, 0.0)
+            firm = self._firm
+            if view.age is not None:
+                predictions, radii, firm = self._sensed(i, view, predictions, radii)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=self._firm)
+                                     other_radii=radii, firm=firm)
             out[i] = self.controllers[i].control(request)
             self._conflicted[i] = not out[i].success
         return out
+
+    def _sensed(self, i: int, view: RobotView, predictions: np.ndarray,
+                radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Robot ``i``'s predictions, radii and firm flags of the others under limited sight
+        (:mod:`nodnav.sim.sensing`): a robot it does not know of is not predicted; one it
+        remembers is held where it was last seen (its observed state holds it still) with its
+        radius grown by ``sensing.uncertainty_rate`` times the time since, never beyond the
+        present gap less ``execution.reaction_slack`` (a robot is never "inside" an uncertainty
+        disc at once, which would leave its MPC no feasible plan)."""
+        others = self._others[i]
+        age = view.age[others]
+        known = np.isfinite(age)
+        remembered = known & (age > 0.0)
+        if remembered.any():
+            gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
+                   - self.scenario.radii[others] - getattr(self.scenario.controller, "safety_margin", 0.0))
+            growth = np.where(remembered, self.scenario.sensing.uncertainty_rate * np.where(known, age, 0.0), 0.0)
+            allowed = np.clip(np.minimum(growth, gap - self.scenario.execution.reaction_slack), 0.0, None)
+            radii = radii + np.tile(allowed, 3)
+        keep = np.tile(known, 3)
+        return predictions[keep], radii[keep], self._firm[keep]
 
     def _careful(self, i: int, view: RobotView) -> np.ndarray:
         """Towards which other robots robot ``i`` keeps the reaction margin this step ``(N_r - 1,)``.

@@ -28,6 +28,7 @@ from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
+from nodnav.sim.sensing import Sight
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -35,6 +36,10 @@ log = logging.getLogger(__name__)
 #: Sub-steps at which contacts are checked between two control steps: where the controllers
 #: report their motion (:data:`~nodnav.control.base.STEP_FRACTIONS`), else on straight lines.
 CONTACT_SUBSTEPS = len(STEP_FRACTIONS)
+
+#: Side code of a robot the observer does not see: neither inside nor on a side, so that it
+#: neither enters nor leaves the observer's record of corridor entries.
+UNSEEN = 99
 
 
 def straight_substeps(previous: np.ndarray, current: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -172,6 +177,12 @@ class Simulation:
         self.t = 0.0
         self.positions = scenario.origins.copy()
         self.velocities = np.zeros_like(self.positions)
+        sensing = scenario.sensing
+        self.sight = Sight(scenario.world, sensing, scenario.destinations) if sensing.limited else None
+        """Who sees whom and what each robot keeps of those it does not (:mod:`nodnav.sim.sensing`);
+        None with the paper's sensing (everyone sees everyone)."""
+        if self.sight is not None:
+            self.sight.update(self.t, self.positions)
         # Each robot's own record of what it observed (noisy for the others), newest last.
         self.observed = [[self._observe(i)] for i in range(n)]
         self.entered_seen: list[list[int]] = [[] for _ in range(n)]
@@ -198,6 +209,8 @@ class Simulation:
             noise = self.sensor_rngs[observer].normal(0.0, sigma, size=states.shape)
             noise[observer] = 0.0
             states = states + noise
+        if self.sight is not None:
+            states = self.sight.apply(observer, states)
         return states
 
     def _update_entries(self) -> None:
@@ -214,6 +227,9 @@ class Simulation:
         s = passage.along(seen)
         left_ahead = np.where(self.sides == RIGHT, s - passage.s_start, passage.s_end - s)
         sides = passage.side_of_along(s)
+        if self.sight is not None:  # a robot's record changes only with what it sees now
+            sides = sides.copy()
+            sides[1:][~self.sight.visible] = UNSEEN
         for log_, side, ahead in zip([self.entered_true] + self.entered_seen, sides.tolist(), left_ahead):
             new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
             log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
@@ -230,8 +246,9 @@ class Simulation:
             window = self.observed[i][-m:]
             if len(window) < m:  # before one whole period has passed, pad with the first sample
                 window = [window[0]] * (m - len(window)) + window
+            age = None if self.sight is None else self.sight.ages(i, self.t)
             out[i] = RobotView(t=self.t, window_times=times, window_states=np.stack(window, axis=1),
-                               entered=tuple(self.entered_seen[i]))
+                               entered=tuple(self.entered_seen[i]), age=age)
         return out
 
     # -- the loop ------------------------------------------------------------------------------
@@ -257,6 +274,8 @@ class Simulation:
             self.velocities[i] = res.next_velocity
         self.k += 1
         self.t = self.k * self.dt
+        if self.sight is not None:
+            self.sight.update(self.t, self.positions)
         for i in range(self.scenario.n_robots):
             self.observed[i].append(self._observe(i))
             del self.observed[i][: -(self.steps_per_decision + 2)]

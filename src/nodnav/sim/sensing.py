@@ -1,0 +1,82 @@
+"""Limited sight: which robots each robot sees, and what it keeps of those it no longer sees.
+
+With the paper's sensing (``sensing.range`` 0, ``sensing.walls_block`` false) every robot sees
+every other one and nothing here runs. Otherwise robot ``i`` sees robot ``k`` at a control step
+when their centres are within ``sensing.range`` (if set) and, with ``sensing.walls_block``, the
+segment between the centres keeps a positive clearance from every wall, obstacle, polygon piece
+and map wall (:meth:`~nodnav.scenario.world.World.segment_clearance`). Sight is symmetric.
+
+What a robot keeps of one it no longer sees (docs/sensing.md): the last state it observed, held
+still (velocity zero) where it was seen, with its age; forgotten after ``sensing.memory``
+seconds. A robot never seen (or forgotten) is unknown: its row in the observer's record holds a
+placeholder (its destination, which the paper lets every robot know, at rest; or the state held
+when it was forgotten) that nothing reads, because every consumer asks :class:`Sight` or the
+view's ages first.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodnav.scenario.params import SensingParams
+from nodnav.scenario.world import World
+
+
+def visibility(world: World, positions: np.ndarray, params: SensingParams) -> np.ndarray:
+    """Who sees whom ``(N, N)`` boolean (symmetric, true on the diagonal) for robots at
+    ``positions`` ``(N, 2)``."""
+    n = positions.shape[0]
+    seen = np.ones((n, n), dtype=bool)
+    i, k = np.triu_indices(n, 1)
+    if i.size == 0:
+        return seen
+    pair = np.ones(i.size, dtype=bool)
+    if params.range > 0.0:
+        pair &= np.linalg.norm(positions[i] - positions[k], axis=1) <= params.range
+    if params.walls_block:
+        check = np.flatnonzero(pair)
+        if check.size:
+            clear = world.segment_clearance(positions[i[check]], positions[k[check]])
+            pair[check] = clear > 0.0
+    seen[i, k] = pair
+    seen[k, i] = pair
+    return seen
+
+
+class Sight:
+    """Every robot's memory of the others under limited sight (one per trial).
+
+    :meth:`update` takes the true positions after a step; :meth:`apply` turns what an observer
+    would observe of everyone (noisy, as today) into what it actually has: seen robots as
+    observed, remembered ones held still where last seen, unknown ones as placeholders.
+    """
+
+    def __init__(self, world: World, params: SensingParams, destinations: np.ndarray):
+        self.world = world
+        self.params = params
+        n = destinations.shape[0]
+        self.placeholder = np.concatenate([destinations, np.zeros_like(destinations)], axis=1)
+        self.held = np.repeat(self.placeholder[None], n, axis=0)
+        """Each observer's last observed state of every robot ``(N, N, 4)``, velocity zeroed."""
+        self.last_seen = np.full((n, n), -np.inf)
+        """Time each observer last saw each robot (s); -inf if never."""
+        self.visible = np.ones((n, n), dtype=bool)
+
+    def update(self, t: float, positions: np.ndarray) -> None:
+        """Who sees whom at time ``t`` (s) with the robots at their true ``positions``."""
+        self.visible = visibility(self.world, positions, self.params)
+        self.last_seen[self.visible] = t
+
+    def apply(self, observer: int, states: np.ndarray) -> np.ndarray:
+        """What ``observer`` has of every robot ``(N, 4)``, from what it would observe of
+        everyone ``states`` ``(N, 4)``: seen rows as observed, the others held still."""
+        seen = self.visible[observer]
+        self.held[observer, seen, :2] = states[seen, :2]
+        self.held[observer, seen, 2:] = 0.0
+        return np.where(seen[:, None], states, self.held[observer])
+
+    def ages(self, observer: int, t: float) -> np.ndarray:
+        """Time since ``observer`` last saw each robot ``(N,)`` (s): 0 while seen, inf if never
+        seen or forgotten (longer ago than ``sensing.memory``)."""
+        age = t - self.last_seen[observer]
+        return np.where(age > self.params.memory + 1e-9, np.inf, np.maximum(age, 0.0))

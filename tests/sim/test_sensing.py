@@ -1,0 +1,93 @@
+"""Limited sight (issue 19 item 4): who sees whom, what is remembered, and trials under it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nodnav.scenario.schema import ScenarioError, scenario_from_dict, scenario_to_dict
+from nodnav.sim.sensing import Sight, visibility
+from nodnav.sim.simulator import Simulation, run_trial
+
+
+def _scenario(robots, **sensing):
+    raw = {"name": "sight", "robots": [{"origin": list(o), "destination": list(d)} for o, d in robots]}
+    if sensing:
+        raw["sensing"] = sensing
+    return scenario_from_dict(raw)
+
+
+# The paper's world: rooms x < -3 and x > 3, a corridor |y| < 0.35 between, walls elsewhere.
+BEHIND_WALL = [((-5.0, 2.0), (5.0, 2.0)), ((5.0, 2.0), (-5.0, 2.0))]  # the segment crosses the upper wall
+THROUGH_CORRIDOR = [((-5.0, 0.0), (5.0, 0.0)), ((5.0, 0.0), (-5.0, 0.0))]
+
+
+def test_a_robot_behind_a_wall_is_seen_only_when_walls_do_not_block():
+    positions = np.array([o for o, _ in BEHIND_WALL])
+    blocked = _scenario(BEHIND_WALL, walls_block=True)
+    assert not visibility(blocked.world, positions, blocked.sensing)[0, 1]
+    free = _scenario(BEHIND_WALL, walls_block=False, range=20.0)
+    assert visibility(free.world, positions, free.sensing)[0, 1]
+    # Along the corridor's axis nothing is in the way.
+    along = np.array([o for o, _ in THROUGH_CORRIDOR])
+    assert visibility(blocked.world, along, blocked.sensing)[0, 1]
+
+
+def test_range_by_hand():
+    s = _scenario(THROUGH_CORRIDOR, range=3.0)
+    # Distances 0-1: 2.9 m (seen), 0-2: 3.1 m (not), 1-2: 0.2 m (seen).
+    positions = np.array([[-5.0, 0.0], [-2.1, 0.0], [-1.9, 0.0]])
+    seen = visibility(s.world, positions, s.sensing)
+    assert seen.tolist() == [[True, True, False], [True, True, True], [False, True, True]]
+
+
+def test_a_robot_out_of_sight_is_held_still_then_forgotten():
+    s = _scenario(THROUGH_CORRIDOR, range=3.0, memory=2.0)
+    sight = Sight(s.world, s.sensing, s.destinations)
+    states = np.array([[-5.0, 0.0, 1.0, 0.0], [-3.0, 0.0, 0.5, 0.5]])
+    sight.update(0.0, states[:, :2])
+    assert np.array_equal(sight.apply(0, states), states)  # in range: as observed
+    moved = np.array([[-5.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 0.0]])  # 5 m away now
+    sight.update(1.5, moved[:, :2])
+    held = sight.apply(0, moved)
+    assert held[1].tolist() == [-3.0, 0.0, 0.0, 0.0]  # last seen place, at rest
+    assert sight.ages(0, 1.5).tolist() == [0.0, 1.5]
+    sight.update(2.5, moved[:, :2])
+    assert sight.ages(0, 2.5)[1] == np.inf  # 2.5 s > memory 2 s: forgotten
+
+
+def test_a_robot_never_seen_is_unknown_and_no_game_player():
+    s = _scenario([((-6.5, 2.0), (5.0, 0.0)), ((6.5, 2.0), (-5.0, 0.0))], walls_block=True)
+    sim = Simulation(s, seed=1)
+    view = sim.views()[0]
+    assert view.known.tolist() == [True, False]
+    sim.step()  # the first decision
+    assert sim.history.players[0].sum() == 0  # neither plays a game with a robot it cannot see
+
+
+def test_paper_sensing_is_the_default_and_leaves_the_scenario_file_unchanged():
+    s = _scenario(THROUGH_CORRIDOR)
+    assert not s.sensing.limited
+    assert "sensing" not in scenario_to_dict(s)
+    limited = _scenario(THROUGH_CORRIDOR, range=3.0, walls_block=True)
+    assert scenario_from_dict(scenario_to_dict(limited)).sensing == limited.sensing
+
+
+def test_bad_sensing_is_one_line():
+    with pytest.raises(ScenarioError, match="sensing.range"):
+        _scenario(THROUGH_CORRIDOR, range=-1.0)
+    with pytest.raises(ScenarioError, match="sensing"):
+        _scenario(THROUGH_CORRIDOR, ranges=3.0)
+
+
+def test_two_robots_with_limited_sight_pass():
+    # 10.8 m apart behind walls at the start: neither sees the other until one nears a mouth,
+    # and each sees the other before either is inside (in range 8 m > the 6 m corridor). With
+    # a range under the corridor's length both enter unseen and meet inside (issue 19 item 1).
+    s = _scenario(BEHIND_WALL[:1] + [((5.0, -2.0), (-5.0, -2.0))], range=8.0, walls_block=True)
+    sim = Simulation(s, seed=1)
+    assert not sim.views()[0].known[1]
+    result = run_trial(s, seed=1)
+    assert result.success, result.outcome
+    assert result.history.players[0].sum() == 0  # no game at the first decision: nobody in sight
+    assert any(p[0, 1] for p in result.history.players)  # and one once they see each other

@@ -91,3 +91,51 @@ def test_two_robots_with_limited_sight_pass():
     assert result.success, result.outcome
     assert result.history.players[0].sum() == 0  # no game at the first decision: nobody in sight
     assert any(p[0, 1] for p in result.history.players)  # and one once they see each other
+
+
+def test_kalman_covariance_reaches_the_riccati_solution():
+    from scipy.linalg import solve_discrete_are
+
+    from nodnav.sim.sensing import Tracker
+
+    dt, accel, sigma = 0.1, 1.0, 0.1
+    tracker = Tracker(dt, np.array([accel]), sigma)
+    rng = np.random.default_rng(0)
+    for _ in range(400):
+        tracker.update(rng.normal(0.0, sigma, size=(1, 4)), np.array([True]))
+    F = np.array([[1.0, dt], [0.0, 1.0]])
+    Q = accel ** 2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])
+    R = sigma ** 2 * np.eye(2)
+    prior = solve_discrete_are(F.T, np.eye(2), Q, R)  # steady a-priori covariance, H = I
+    posterior = prior - prior @ np.linalg.inv(prior + R) @ prior
+    assert np.allclose(tracker.cov[0], posterior, rtol=1e-6, atol=1e-12)
+    assert tracker.position_sigma[0] < sigma  # the filter knows more than one observation
+
+
+def test_kalman_estimate_of_constant_motion_beats_the_raw_observations():
+    from nodnav.sim.sensing import Tracker
+
+    dt, sigma = 0.1, 0.15
+    tracker = Tracker(dt, np.array([1.0]), sigma)
+    rng = np.random.default_rng(1)
+    raw_err, est_err = [], []
+    for k in range(300):
+        truth = np.array([[0.5 * k * dt, -1.0, 0.5, 0.0]])
+        seen = truth + rng.normal(0.0, sigma, size=truth.shape)
+        estimate = tracker.update(seen, np.array([k % 5 != 0]))  # every fifth observation lost
+        if k >= 50:
+            raw_err.append(seen[0, :2] - truth[0, :2])
+            est_err.append(estimate[0, :2] - truth[0, :2])
+    assert np.std(est_err) < 0.5 * np.std(raw_err)
+
+
+def test_dropped_observations_hold_the_last_one_without_a_filter():
+    s = scenario_from_dict({"name": "drop", "robots": [{"origin": [-5.0, 0.0], "destination": [5.0, 0.0]},
+                                                       {"origin": [5.0, 0.0], "destination": [-5.0, 0.0]}],
+                            "sensing": {"drop_probability": 0.99, "filter": "none"}})
+    sim = Simulation(s, seed=3)
+    first = sim.observed[0][-1][1].copy()
+    for _ in range(5):
+        sim.step()
+    lost = [np.array_equal(sim.observed[0][k][1], first) for k in range(-5, 0)]
+    assert sum(lost) >= 3  # with p = 0.99 robot 0 hardly ever gets a new observation of robot 1

@@ -306,6 +306,17 @@ class SensingParams:
     """Growth of the uncertainty radius kept around a remembered robot, per second since it was
     last seen (m/s); paper: unused."""
 
+    drop_probability: float = field(default=0.0, metadata=accepted(0.0, 0.99))
+    """Probability that an observation of another robot is lost at a control step (independent per
+    observer, robot and step); paper: 0."""
+    filter: Literal["kalman", "none"] = "kalman"
+    """How the others' states are estimated from noisy observations: ``kalman`` (a constant-velocity
+    Kalman filter per observer and robot, only when there is noise or loss) or ``none`` (the raw
+    observation, the behaviour before the filter); paper: exact observations, no filter runs."""
+    margin_sigmas: float = field(default=2.0, metadata=accepted(0.0, 10.0))
+    """Separation the MPC adds to another robot's radius, in standard deviations of the filter's
+    position estimate of it (dimensionless); paper: unused (exact observations)."""
+
     @property
     def limited(self) -> bool:
         """Whether sight is limited at all (otherwise the paper's: everyone sees everyone)."""

@@ -43,6 +43,9 @@ class RobotView:
     """Time since the observer last saw each robot ``(N_r,)`` (s): 0 while seen, inf if unknown
     (never seen, or forgotten); None with the paper's sensing, where everyone is always seen
     (:mod:`nodnav.sim.sensing`). A robot not seen now is held still where it was last seen."""
+    sigma: np.ndarray | None = None
+    """Standard deviation of the estimate of each robot's position along either axis ``(N_r,)``
+    (m), from the observer's filters; None when observations are exact or not filtered."""
 
     @property
     def seen(self) -> np.ndarray:

@@ -80,3 +80,61 @@ class Sight:
         seen or forgotten (longer ago than ``sensing.memory``)."""
         age = t - self.last_seen[observer]
         return np.where(age > self.params.memory + 1e-9, np.inf, np.maximum(age, 0.0))
+
+
+class Tracker:
+    """One observer's constant-velocity Kalman filters of every robot (docs/sensing.md).
+
+    Per robot and per axis the state is (p, v); between control steps ``dt`` it moves at
+    constant velocity, disturbed by white acceleration of standard deviation ``accel`` (the
+    observed robot's acceleration limit: the most it can change its motion), so
+    Q = accel^2 [[dt^4/4, dt^3/2], [dt^3/2, dt^2]]. A measurement is the observed (p, v) with
+    the sensor's independent noise ``sigma`` on each, R = sigma^2 I; a lost observation
+    (dropped, or out of sight) is a prediction only. The first observation initialises the
+    state with covariance R. The two axes share the model, so one 2 x 2 covariance per robot
+    serves both.
+    """
+
+    def __init__(self, dt: float, accel: np.ndarray, sigma: float):
+        n = accel.shape[0]
+        self.F = np.array([[1.0, dt], [0.0, 1.0]])
+        a2 = (np.asarray(accel, dtype=float) ** 2)[:, None, None]
+        self.Q = a2 * np.array([[dt ** 4 / 4, dt ** 3 / 2], [dt ** 3 / 2, dt ** 2]])[None]
+        self.R = max(sigma, 1e-6) ** 2 * np.eye(2)
+        self.mean = np.zeros((n, 4))
+        self.cov = np.repeat(self.R[None], n, axis=0)
+        self.started = np.zeros(n, dtype=bool)
+
+    def update(self, states: np.ndarray, measured: np.ndarray) -> np.ndarray:
+        """Fold one step's observations ``states`` ``(N, 4)`` of the robots ``measured`` ``(N,)``
+        into the estimates; return the estimated states ``(N, 4)``."""
+        F = self.F
+        fresh = measured & ~self.started
+        self.mean[fresh] = states[fresh]
+        self.started |= fresh
+        old = self.started & ~fresh
+        # Predict: x = F x per axis; P = F P F' + Q.
+        px, py, vx, vy = self.mean[:, 0].copy(), self.mean[:, 1].copy(), self.mean[:, 2], self.mean[:, 3]
+        dt = F[0, 1]
+        self.mean[old, 0] = px[old] + dt * vx[old]
+        self.mean[old, 1] = py[old] + dt * vy[old]
+        self.cov[old] = F @ self.cov[old] @ F.T + self.Q[old]
+        # Correct where there is a measurement: K = P (P + R)^-1.
+        upd = measured & old
+        if upd.any():
+            P = self.cov[upd]
+            K = P @ np.linalg.inv(P + self.R)
+            for axis in range(2):
+                z = states[upd][:, [axis, 2 + axis]]
+                x = self.mean[upd][:, [axis, 2 + axis]]
+                x = x + np.einsum("nij,nj->ni", K, z - x)
+                rows = np.flatnonzero(upd)
+                self.mean[rows, axis] = x[:, 0]
+                self.mean[rows, 2 + axis] = x[:, 1]
+            self.cov[upd] = (np.eye(2)[None] - K) @ P
+        return np.where(self.started[:, None], self.mean, states)
+
+    @property
+    def position_sigma(self) -> np.ndarray:
+        """Standard deviation of each robot's estimated position along either axis ``(N,)`` (m)."""
+        return np.sqrt(self.cov[:, 0, 0])

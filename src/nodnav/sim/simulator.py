@@ -28,7 +28,7 @@ from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
-from nodnav.sim.sensing import Sight
+from nodnav.sim.sensing import Sight, Tracker
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -183,8 +183,16 @@ class Simulation:
         None with the paper's sensing (everyone sees everyone)."""
         if self.sight is not None:
             self.sight.update(self.t, self.positions)
+        noisy = scenario.sim.observation_noise > 0 or sensing.drop_probability > 0
+        accel = np.array([r.max_accel for r in scenario.robots])
+        self.trackers = ([Tracker(self.dt, accel, scenario.sim.observation_noise) for _ in range(n)]
+                         if noisy and sensing.filter == "kalman" else None)
+        """Each robot's Kalman filters of the others (:class:`~nodnav.sim.sensing.Tracker`); None
+        without noise or loss, or with ``sensing.filter: none``."""
+        self.observed: list[list[np.ndarray]] = [[] for _ in range(n)]
         # Each robot's own record of what it observed (noisy for the others), newest last.
-        self.observed = [[self._observe(i)] for i in range(n)]
+        for i in range(n):
+            self.observed[i].append(self._observe(i))
         self.entered_seen: list[list[int]] = [[] for _ in range(n)]
         self.entered_true: list[int] = []
         self._update_entries()
@@ -209,6 +217,20 @@ class Simulation:
             noise = self.sensor_rngs[observer].normal(0.0, sigma, size=states.shape)
             noise[observer] = 0.0
             states = states + noise
+        drop = self.scenario.sensing.drop_probability
+        if drop > 0 or self.trackers is not None:
+            measured = np.ones(len(states), dtype=bool)
+            if drop > 0:  # drawn only when asked for, so that the noise streams stay the same
+                measured = self.sensor_rngs[observer].random(len(states)) >= drop
+                measured[observer] = True
+            if self.sight is not None:
+                measured &= self.sight.visible[observer]
+            if self.trackers is not None:
+                own = states[observer].copy()
+                states = self.trackers[observer].update(states, measured)
+                states[observer] = own
+            elif self.observed[observer]:  # a lost observation: the last one stands
+                states = np.where(measured[:, None], states, self.observed[observer][-1])
         if self.sight is not None:
             states = self.sight.apply(observer, states)
         return states
@@ -247,8 +269,12 @@ class Simulation:
             if len(window) < m:  # before one whole period has passed, pad with the first sample
                 window = [window[0]] * (m - len(window)) + window
             age = None if self.sight is None else self.sight.ages(i, self.t)
+            spread = None
+            if self.trackers is not None:
+                spread = self.trackers[i].position_sigma.copy()
+                spread[i] = 0.0
             out[i] = RobotView(t=self.t, window_times=times, window_states=np.stack(window, axis=1),
-                               entered=tuple(self.entered_seen[i]), age=age)
+                               entered=tuple(self.entered_seen[i]), age=age, sigma=spread)
         return out
 
     # -- the loop ------------------------------------------------------------------------------

@@ -215,7 +215,7 @@ def test_softened_rows_are_the_soft_groups_rows_only():
     rows = prob.softened_rows(soft)
     assert not rows[:prob.n_static].any()
     assert rows.sum() == prob.rows_per_group
-    assert (np.flatnonzero(rows) >= prob.n_rows - prob.rows_per_group).all()
+    assert (np.flatnonzero(rows) >= prob.n_separation - prob.rows_per_group).all()
     assert not prob.softened_rows(np.zeros(prob.n_groups, dtype=bool)).any()
 
 
@@ -484,7 +484,7 @@ def test_moves_away_from_an_approaching_robot_instead_of_braking_into_it():
     braking_gap = np.linalg.norm(braked - b, axis=1)
     assert np.all(evasive_gap >= braking_gap - 1e-9) and evasive_gap[-1] > braking_gap[-1] + 0.1
     # The earlier fallback, braking at once, stays in B's path and is hit.
-    closest_braking, results_braking = scripted_encounter(MPCParams(evasive=False))
+    closest_braking, results_braking = scripted_encounter(MPCParams(evasive=False, braking_tail=False))
     assert any(r.info["fallback"] == "braking" for r in results_braking)
     assert closest_braking < contact - 0.1
 
@@ -525,7 +525,7 @@ def test_two_robots_driving_at_each_other_keep_apart_with_the_evasive_fallback()
     closest, evasive, left = crossing(MPCParams())
     assert evasive > 0 and closest >= contact - 1e-3
     assert left < 0.05                                   # both got through
-    closest_braking, _, _ = crossing(MPCParams(evasive=False))
+    closest_braking, _, _ = crossing(MPCParams(evasive=False, braking_tail=False))
     assert closest_braking < contact - 1e-3              # braking along the velocity collides
 
 

@@ -62,7 +62,8 @@ def assert_valid(s):
         assert goal != 0 and goal != start, (s.name, k)  # everyone crosses
         if start == 0:
             assert abs(r.origin[1]) <= half - r.radius - 0.05 + 1e-9
-        assert 0.15 - 1e-9 <= r.radius <= 0.5 + 1e-9 and 0.5 - 1e-9 <= r.max_speed <= 1.0 + 1e-9
+        assert 0.15 - 1e-9 <= r.radius <= 0.5 + 1e-9 and 0.2 - 1e-9 <= r.max_speed <= 2.0 + 1e-9
+        assert 0.1 - 1e-9 <= r.max_accel <= 3.0 + 1e-9
     # Nobody stands on anybody, wherever robots stand still.
     spots = [(k, p, r.radius) for k, r in enumerate(s.robots) for p in (r.origin, r.destination)]
     for i, (k, p, rp) in enumerate(spots):
@@ -87,16 +88,26 @@ def routes(s):
 def test_every_draw_is_valid(draws, name):
     for s in draws[name]:
         assert_valid(s)
-        # The time limit's formula, by hand.
+        # The time limit's formula, by hand: rest to rest at the speed limit and half the
+        # acceleration limit, a trapezoid (or a triangle when the speed is never reached).
         v = [r.max_speed for r in s.robots]
+        a = [r.max_accel / 2 for r in s.robots]
+
+        def t(length, speed, accel):
+            accelerating = speed / accel  # seconds to reach the speed, and as many to stop
+            if speed * accelerating >= length:  # a triangle: half the way up, half down
+                return 2 * math.sqrt(length / accel)
+            return 2 * accelerating + (length - speed * accelerating) / speed
+
         L, r_max = 2 * s.world.corridor.x_max, max(r.radius for r in s.robots)
-        own = max(length / speed for length, speed in zip(routes(s), v))
-        assert s.time_limit == math.ceil(20 + 1.5 * (own + sum((L + 4 * r_max) / x for x in v)))
+        own = max(t(length, speed, acc) for length, speed, acc in zip(routes(s), v, a))
+        limit = math.ceil(20 + 1.5 * (own + sum(t(L + 4 * r_max, x, acc) for x, acc in zip(v, a))))
+        assert s.time_limit == limit
 
 
 def test_mixed_covers_what_the_family_promises(draws):
     seen = {"doorway": 0, "hallway": 0, "inside": 0, "one-sided": 0, "head-on": 0, "mouth": 0, "axis": 0,
-            "mixed radii": 0, "mixed speeds": 0, "queue": 0}
+            "mixed radii": 0, "mixed speeds": 0, "mixed accelerations": 0, "slow": 0, "queue": 0}
     counts = set()
     for s in draws["mixed"]:
         h = s.world.corridor.x_max
@@ -112,6 +123,8 @@ def test_mixed_covers_what_the_family_promises(draws):
         seen["axis"] += any(r.destination[1] == 0 for r in s.robots)
         seen["mixed radii"] += len({r.radius for r in s.robots}) > 1
         seen["mixed speeds"] += len({r.max_speed for r in s.robots}) > 1
+        seen["mixed accelerations"] += len({r.max_accel for r in s.robots}) > 1
+        seen["slow"] += any(r.max_accel < 0.5 for r in s.robots)
         # A queue: some robot's start within the 5-80 cm spacing of another's, behind it.
         seen["queue"] += any(0 < math.dist(a.origin, b.origin) - a.radius - b.radius < 0.81
                              for a in s.robots for b in s.robots if a is not b)
@@ -123,7 +136,7 @@ def test_paper_like_keeps_the_papers_geometry(draws):
     for s in draws["paper-like"]:
         assert s.world.bounds == (-7.0, -2.5, 7.0, 2.5)
         assert (s.world.corridor.x_min, s.world.corridor.x_max, s.world.corridor.width) == (-3.0, 3.0, 0.7)
-        assert {r.radius for r in s.robots} == {0.2} and {r.max_speed for r in s.robots} == {1.0}
+        assert {r.radius for r in s.robots} == {0.2}
         assert 2 <= s.n_robots <= 4
 
 

@@ -28,6 +28,11 @@ CASES = [
     ("waiting-aside-in-a-small-room.yaml", (347,)),
     ("person-at-the-mouth.yaml", (1,)),
     ("person-slow-into-a-narrow-mouth.yaml", (34,)),
+    ("accel-0.3-braking-into-the-wall-2-robots.yaml", (1,)),
+    ("accel-0.3-braking-into-the-wall-4-robots.yaml", (1,)),
+    ("accel-0.15-braking-into-the-wall.yaml", (1,)),
+    ("accel-0.5-braking-into-the-wall.yaml", (1,)),
+    ("doorway-small-slow-robots.yaml", (1,)),
 ]
 
 

@@ -44,7 +44,8 @@ def _bench_mpc(args: argparse.Namespace) -> None:
 def _bench_sim(args: argparse.Namespace) -> None:
     from nodnav.bench.closed_loop import benchmark_closed_loop
 
-    results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)))
+    results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)),
+                                     breakdown=not args.no_breakdown, players=args.sim_players or "all")
                for planner in (args.planner or ("fast",))]
     if args.json:
         print(json.dumps([r.to_dict() for r in results]))
@@ -66,6 +67,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from nodnav.planning import PLANNERS
     from nodnav.scenario.loading import load_scenario
 
+    args.sim_players = None
+    if args.target == "sim" and args.players is not None:  # one number of game players, or 'all'
+        from nodnav.cli.scaling import parse_players
+
+        text, args.players = args.players, None
+        args.sim_players, *more = parse_players(text)
+        if more:
+            raise NodnavError(f"--players: 'bench sim' takes one number of game players or 'all', got {shown(text)}")
     check_scaling_only(args)
     if args.target == "scaling":
         return cmd_bench_scaling(args)
@@ -93,5 +102,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--scenario", default="4r-case2", help="scenario of the 'sim' benchmark (default 4r-case2)")
     p.add_argument("--trials", type=whole(1, 100), help="trials (seeds 1..N) of the 'sim' benchmark "
                    "(default 3) and per cell of 'scaling' (default 1)")
+    p.add_argument("--no-breakdown", action="store_true", help="'sim': skip the second, measured run of each "
+                   "trial that splits its time by stage (decision, planning, control set-up, QP solve, simulation, "
+                   "bookkeeping)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_bench)

@@ -22,9 +22,12 @@ iteration. Every accepted plan is checked exactly and is safe at every instant w
 the predictions.
 
 When the tracking QP has no solution, the robot follows the plan that intrudes least into the
-others' predicted discs (:mod:`nodnav.control.evasive`); only if no such plan keeps clear of
-the walls does it brake along its current velocity. Both are reported with ``success=False``
-and ``info["fallback"]`` (``"evasive"`` or ``"braking"``).
+others' predicted discs (:mod:`nodnav.control.evasive`); if no such plan keeps clear of the
+walls, it brakes along its current velocity where that stops clear of the walls (what the
+others' firm predictions expect), and otherwise follows its committed trajectory, the last
+accepted plan and its braking tail, which is always clear of them (:mod:`nodnav.control.braking`,
+docs/safety.md). All are reported with ``success=False`` and ``info["fallback"]``
+(``"evasive"``, ``"braking"`` or ``"committed"``).
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ import numpy as np
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
+from nodnav.control.braking import Committed, braking_profile, tail_clearance
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
 from nodnav.control.mpc_rows import group_state
@@ -46,25 +50,6 @@ from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
-
-
-def braking_profile(position: np.ndarray, velocity: np.ndarray, max_accel: float,
-                    times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Positions and velocities ``(len(times), 2)`` when decelerating at ``max_accel`` along ``velocity``.
-
-    The direction never changes and the speed never increases; the robot stops after
-    ``|v| / max_accel`` seconds, ``|v|^2 / (2 max_accel)`` further on.
-    """
-    p = np.asarray(position, dtype=float)
-    v = np.asarray(velocity, dtype=float)
-    t = np.asarray(times, dtype=float)[:, None]
-    speed = float(np.linalg.norm(v))
-    if speed == 0.0:
-        return np.repeat(p[None], len(t), axis=0), np.zeros((len(t), 2))
-    u = v / speed
-    tt = np.minimum(t, speed / max_accel)
-    travelled = speed * tt - 0.5 * max_accel * tt**2
-    return p + travelled * u, np.maximum(speed - max_accel * t, 0.0) * u
 
 
 @register_controller("mpc")
@@ -93,11 +78,17 @@ class BSplineMPC:
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         self._previous: np.ndarray | None = None
         self._braking: tuple[np.ndarray, np.ndarray] | None = None
+        # The committed trajectory (docs/safety.md): the last accepted plan and its braking tail.
+        self._committed: Committed | None = None
+        self._following = False  # whether the last step followed the committed trajectory
+        self._expected = (np.zeros(2), np.zeros(2))  # its position and velocity one step on
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
         self._previous = None
         self._braking = None
+        self._committed = None
+        self._following = False
 
     def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
         """The motion chosen at the last control step, ``times`` after it: positions (``order`` 0)
@@ -107,9 +98,19 @@ class BSplineMPC:
             raise ValueError(f"order must be 0 (positions) or 1 (velocities), got {order}")
         if self._braking is not None:
             return braking_profile(*self._braking, self.robot.max_accel, times)[order]
+        if self._following and self._committed is not None:
+            return self._committed.motion(times, order)
         if self._previous is None:
             raise ValueError("no control step has been taken yet")
         return bspline.evaluate(self._previous, times, self.setup.knots, DEGREE, order)
+
+    def braking_trajectory(self, times: np.ndarray) -> np.ndarray | None:
+        """Positions ``(len(times), 2)`` of the committed trajectory ``times`` after the last
+        control step (the last accepted plan, then its straight braking tail, which stops), or
+        None if the robot holds none (before its first accepted plan, after braking blindly)."""
+        if self._committed is None:
+            return None
+        return self._committed.motion(np.asarray(times, dtype=float))
 
     # -- public ------------------------------------------------------------------------------
 
@@ -127,13 +128,14 @@ class BSplineMPC:
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii)
         effort = SolverEffort()
+        committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = float(min(data.dist_now[:m_w].min(initial=np.inf), data.gap_box.min()))
         if clearance0 < r - self.settings.contact_tolerance:
             return self._brake(request, prob, start, effort,
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
-        warm = self._warm_start()
+        warm = self._warm_start(committed)
         cold = warm is None
         lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
         dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
@@ -145,7 +147,7 @@ class BSplineMPC:
         else:
             best, why, conflict = self._track(prob, data, lin, cold, effort)
             if best is not None:
-                self._previous, self._braking = best, None
+                self._accept(best, prob)
                 return self._result(True, "", best, prob, data, start, {"fallback": "", **effort.as_info()})
         logger.debug("MPC at %s: %s", p0, why)
         # With no other robot the evasive QP would be the tracking QP again.
@@ -158,17 +160,71 @@ class BSplineMPC:
                 plan, intrusion, intruded = evasive_plan(prob, data, lin, cold, conflict, np.zeros_like(firm),
                                                           effort)
         if plan is None:
+            # Braking along the velocity at the limit is what the other robots expect of a robot
+            # that cannot plan (their firm predictions); it is kept wherever it stops clear of the
+            # walls, and the committed trajectory, always clear of them, is followed otherwise.
+            straight = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
+                                      self.setup.world_bounds)
+            if committed is not None and straight < r - self.settings.check_tolerance:
+                return self._follow(committed, prob, start, effort, why)
             return self._brake(request, prob, start, effort, why)
-        self._previous, self._braking = plan, None
+        self._accept(plan, prob)
         return self._result(False, f"infeasible: evasive: {why}", plan, prob, data, start,
                             {"fallback": "evasive", "intrusion": intrusion, "intruded": intruded.tolist(),
                              "firm_softened": firm_softened, **effort.as_info()})
 
     # -- internals ---------------------------------------------------------------------------
 
+    def _accept(self, c: np.ndarray, prob: MPCProblem) -> None:
+        """Make the plan ``c`` (its braking tail checked clear) the committed trajectory."""
+        self._previous, self._braking, self._following = c, None, False
+        end = prob.b_tail @ c
+        self._committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
+                                    end_velocity=end[1], decel=prob.tail_decel)
+
+    def _advance_committed(self, p0: np.ndarray, v0: np.ndarray) -> Committed | None:
+        """The committed trajectory one step on, if the robot is on it (exact observations put it
+        there; anything else, e.g. observation noise, leaves it without one)."""
+        c = self._committed
+        if c is None or self.settings.braking_tail is False:
+            return None
+        c.elapsed += self.dt
+        # Where the last step said the robot would be (the committed trajectory one step on).
+        at, vel = self._expected
+        if np.hypot(*(at - p0)) > 1e-6 or np.hypot(*(vel - v0)) > 1e-6:
+            self._committed = None
+            return None
+        return c
+
+    def _follow(self, committed: Committed, prob: MPCProblem, start: float, effort: SolverEffort,
+                why: str) -> ControlResult:
+        """Follow the committed trajectory: the last accepted plan, then its braking tail, both
+        checked clear of the walls when the plan was accepted (the braking invariant)."""
+        self._braking, self._following = None, True
+        times = np.concatenate([self.dt * STEP_FRACTIONS, prob.sample_times])
+        pos = committed.motion(times)
+        vel = committed.motion(np.array([self.dt]), 1)[0]
+        p0 = committed.motion(np.zeros(1))[0]
+        stage = "its plan" if committed.elapsed + self.dt <= self.horizon else "its braking tail"
+        self._expected = (pos[3], vel)
+        return ControlResult(
+            success=False, reason=f"infeasible: braking: following {stage} (clear of walls): {why}",
+            velocity=(pos[3] - p0) / self.dt, next_position=pos[3], next_velocity=vel,
+            planned_positions=pos[4:], solve_time=time.perf_counter() - start,
+            info={"fallback": "committed", **effort.as_info()}, step_positions=pos[:4])
+
+    def _fit(self, committed: Committed, offset: float) -> np.ndarray:
+        """Control points of the spline nearest (least squares) to the committed motion from ``offset`` on."""
+        if not hasattr(self, "_fit_map"):
+            fit = np.linspace(0.0, self.horizon, 4 * self.settings.segments + 1)
+            self._fit_times = fit
+            self._fit_map = np.linalg.pinv(bspline.basis(fit, self.setup.knots, DEGREE))
+        return self._fit_map @ committed.motion(offset + self._fit_times)
+
     def _result(self, success: bool, reason: str, c: np.ndarray, prob: MPCProblem, data: StepData, start: float,
                 info: dict) -> ControlResult:
         out = prob.b_out @ c
+        self._expected = (out[0], out[1])
         return ControlResult(
             success=success, reason=reason,
             velocity=(out[0] - data.p0) / self.dt,
@@ -267,11 +323,21 @@ class BSplineMPC:
             pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, full, prob.eps[0], self._reach)
         gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
         need_box = np.minimum(r, gap - prob.eps[0])
+        weight, reach = 0.0, 0.0
+        if self.settings.braking_tail:
+            # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
+            now = math.hypot(v0[0], v0[1])
+            top = min(robot.max_speed, now + robot.max_accel * self.horizon)
+            weight = top / (2.0 * prob.tail_decel)
+            reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
+                     + weight * top + 0.1)
         return StepData(
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
             static_lower=prob.static_lower(p0, v0, self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]),
+            tail_weight=weight, tail_reach=reach, box_low=self._bounds[0] + need_box[:2],
+            box_high=self._bounds[1] - need_box[2:],
         )
 
     def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -284,8 +350,12 @@ class BSplineMPC:
                 np.concatenate([np.full(n_walls, 1e-12), r + other_radii]))
         return self._clearance_cache[key]
 
-    def _warm_start(self) -> np.ndarray | None:
-        """The previous plan moved on by one step (control points), if there is one."""
+    def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
+        """The previous plan moved on by one step (control points), if there is one; after a
+        step that followed the committed trajectory, that trajectory from now on (not the old
+        plan's last polynomial continued past its horizon)."""
+        if self._following and committed is not None:
+            return self._fit(committed, 0.0)
         return None if self._previous is None else self.setup.shift @ self._previous
 
     def _brake(self, request: ControlRequest, prob: MPCProblem, start: float, effort: SolverEffort,
@@ -293,7 +363,13 @@ class BSplineMPC:
         """Decelerate along the current velocity at max_accel; the previous plan is discarded."""
         p0 = np.asarray(request.position, dtype=float)
         v0 = np.asarray(request.velocity, dtype=float)
-        self._previous, self._braking = None, (p0, v0)
+        self._previous, self._braking, self._committed, self._following = None, (p0, v0), None, False
+        clear = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
+                                      self.setup.world_bounds)
+        why = (f"{why}; braking along its velocity stops clear of the walls ({clear:.3f} m)"
+               if clear >= self.robot.radius - self.settings.check_tolerance else
+               f"{why}; no braking trajectory known to be clear of the walls from this state "
+               f"(braking along its velocity comes within {clear:.3f} m of a wall)")
         pos, vel = braking_profile(p0, v0, self.robot.max_accel, np.concatenate([[self.dt], prob.sample_times]))
         return ControlResult(
             success=False, reason=f"infeasible: braking: {why}",

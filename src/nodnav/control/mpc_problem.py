@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
+from nodnav.control.braking import tail_clearance, tail_decel, tail_rows
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
@@ -268,10 +269,21 @@ class MPCProblem:
         dyn_f = np.tile(np.concatenate([np.arange(n_end), f_term]), self.n_groups)
         self.dyn_phi = phi_t[dyn_f]
         self.dyn_line = phi_line[dyn_f]
-        self.n_rows = self.n_static + len(dyn_f)
-        # The group of every row (-1: static rows).
+        # Last, the rows of the braking tail (:func:`~nodnav.control.braking.tail_rows`): two per
+        # wall and four for the box, on p(T) and v(T); they belong to no group (never softened).
+        self.n_separation = self.n_static + len(dyn_f)
+        self.n_tail = 2 * self.n_walls + 4
+        self.n_rows = self.n_separation + self.n_tail
+        phi_tail = np.vstack([bspline.basis_derivative([horizon], knots, DEGREE, 0),
+                              bspline.basis_derivative([horizon], knots, DEGREE, 1)])
+        self.tail_phi = np.ascontiguousarray(phi_tail @ setup.nullspace)
+        self.tail_line = phi_tail @ setup.greville
+        self.b_tail = phi_tail
+        self.tail_decel = tail_decel(robot.max_accel, s.terminal_decel, s.accel_polygon_sides)
+        # The group of every row (-1: static and tail rows).
         self.row_group = np.concatenate([np.full(self.n_static, -1),
-                                         np.repeat(np.arange(self.n_groups), self.rows_per_group)])
+                                         np.repeat(np.arange(self.n_groups), self.rows_per_group),
+                                         np.full(self.n_tail, -1)])
         # Row alpha^T phi_f is [alpha_x phi_f, alpha_y phi_f]; the dynamic rows are written per QP.
         self.rows = np.zeros((self.n_rows, 2 * self.nz))
         by_coordinate = self.rows.reshape(self.n_rows, 2, self.nz)
@@ -365,7 +377,35 @@ class MPCProblem:
                         np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
                         self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
                         self.dyn_line, self.rows, lower, self.n_static)
+        self.write_tail(data, lin, cold, np.asarray(need, dtype=float), lower)
         return lower
+
+    def write_tail(self, data: "StepData", lin: np.ndarray, cold: bool, need: np.ndarray, lower: np.ndarray) -> None:
+        """Write the braking tail's rows (:func:`~nodnav.control.braking.tail_rows`) and their
+        bounds, linearised about the tail of ``lin`` (its last end, with the velocity of its last
+        interval); with ``settings.braking_tail`` off they constrain nothing."""
+        i0 = self.n_separation
+        if data.tail_weight <= 0.0:
+            lower[i0:] = -np.inf
+            return
+        lin_v = (lin[-1] - lin[-2]) / self.intervals[-1] if len(lin) > 1 else data.v0
+        tail_rows(lin[-1], lin_v, data.tail_weight, data.p0, data.v0, data.x_now[:self.n_walls, -1],
+                  data.away[:self.n_walls], data.dist_now[:self.n_walls], need[:self.n_walls], data.tail_reach,
+                  self.setup.obstacles, self.setup.pieces, data.box_low, data.box_high, self.tail_phi, self.tail_line,
+                  self.tol, cold, self.rows, lower, i0)
+
+    def tail_violation(self, data: "StepData", c: np.ndarray) -> str:
+        """Empty if the plan ``c``'s straight braking tail keeps ``need_clear`` from every wall and
+        bound (checked exactly, :func:`~nodnav.control.braking.tail_clearance`), else how far it intrudes."""
+        if data.tail_weight <= 0.0:
+            return ""
+        end = self.b_tail @ c
+        clear = tail_clearance(end[0], end[1], self.tail_decel, self.setup.obstacles, self.setup.pieces,
+                               self.setup.world_bounds)
+        short = data.need_clear - clear
+        if short > self.setup.settings.check_tolerance:
+            return f"plan's braking tail comes {1e3 * short:.2f} mm too close to a wall"
+        return ""
 
     def violation(self, data: StepData, c: np.ndarray, separation: bool) -> str:
         """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
@@ -383,6 +423,9 @@ class MPCProblem:
             j = int(np.argmax(short))
             if short[j] > tol:
                 return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
+        tail = self.tail_violation(data, c)
+        if tail:
+            return tail
         if speed > setup.robot.max_speed + tol:
             return f"plan exceeds the speed limit ({speed:.4f} m/s)"
         if accel > setup.robot.max_accel + tol:
@@ -438,6 +481,14 @@ class StepData:
     static_lower: np.ndarray
     """Lower bounds of the static rows in the QP's coordinates (:meth:`MPCProblem.static_lower`)."""
     n_walls: int
+    tail_weight: float = 0.0
+    """``V / (2 a_tail)`` (s): the braking tail's segment runs to ``p(T) + tail_weight v(T)``; 0: no tail rows."""
+    tail_reach: float = 0.0
+    """Walls farther than this from ``p0`` cannot meet the tail's segment (m)."""
+    box_low: np.ndarray | None = None
+    """Lowest allowed position ``(2,)``: the bounds' corner plus the clearance kept from them (m)."""
+    box_high: np.ndarray | None = None
+    """Highest allowed position ``(2,)`` (m)."""
 
     @property
     def need_clear(self) -> float:

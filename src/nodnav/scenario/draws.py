@@ -6,10 +6,11 @@ corridor for them, rooms, start formations, robots inside the corridor, destinat
 :func:`~nodnav.scenario.validity.check_scenario`: validity, room capacity and the witness of
 solvability. A drawn scenario is named ``FAMILY:SEED``; ``nodnav run mixed:17`` (or ``path/fam.yaml:17``)
 loads it wherever a scenario name is accepted. Its ``time_limit`` is
-``ceil(20 + 1.5 (max_i l_i / v_i + sum_i (L + 4 r_max) / v_i))`` seconds, with ``l_i`` robot i's
-route through the entrances and ``L`` the corridor's length: the slowest robot's own route plus
-every robot crossing in turn, each holding the corridor for its length and two diameters, with 50 %
-slack and 20 s to decide.
+``ceil(20 + 1.5 (max_i t_i(l_i) + sum_i t_i(L + 4 r_max)))`` seconds, with ``l_i`` robot i's
+route through the entrances, ``L`` the corridor's length and ``t_i(l)`` the least time robot i
+needs to cover ``l`` from rest to rest at its speed limit and half its acceleration limit
+(:func:`travel_time`): the slowest robot's own route plus every robot crossing in turn, each
+holding the corridor for its length and two diameters, with 50 % slack and 20 s to decide.
 
 Determinism: draws use their own :class:`numpy.random.Generator` seeded by
 ``SeedSequence(seed, spawn_key=(DRAW_STREAM,))``, a stream no trial generator
@@ -110,6 +111,7 @@ class _Robot:
     speed: float
     start: int  # LEFT, RIGHT or INSIDE
     goal: int  # LEFT or RIGHT
+    accel: float = 2.0
     origin: np.ndarray | None = None
     destination: np.ndarray | None = None
 
@@ -135,6 +137,12 @@ class _Attempt:
         radii = [_mm(d.uniform(r0, top)) for _ in range(n)] if d.chance(f.mixed_radii) else [r0] * n
         v0 = _mm(d.range(f.max_speed))
         speeds = [_mm(d.range(f.max_speed)) for _ in range(n)] if d.chance(f.mixed_speeds) else [v0] * n
+        # A single acceleration draws nothing: such a family's draws are what they were before
+        # accelerations were drawn.
+        accels = [f.max_accel.lo] * n
+        if f.max_accel.hi > f.max_accel.lo:
+            a0 = _mm(d.range(f.max_accel))
+            accels = [_mm(d.range(f.max_accel)) for _ in range(n)] if d.chance(f.mixed_accels) else [a0] * n
         n_in = 0
         if f.inside_max >= 1 and d.chance(f.inside_probability):
             n_in = d.integer(1, min(f.inside_max, n - 1))
@@ -149,7 +157,7 @@ class _Attempt:
         in_left = d.integer(0, n_in)
         roles = ([(LEFT, RIGHT)] * n_left + [(RIGHT, LEFT)] * (m - n_left)
                  + [(INSIDE, LEFT)] * in_left + [(INSIDE, RIGHT)] * (n_in - in_left))
-        return [_Robot(r, v, s, g) for r, v, (s, g) in zip(radii, speeds, roles)]
+        return [_Robot(r, v, s, g, a) for r, v, (s, g), a in zip(radii, speeds, roles, accels)]
 
     def corridor(self, robots: list[_Robot]) -> tuple[float, float]:
         """Half length and half width (m), the width single file for these radii."""
@@ -322,9 +330,9 @@ class _Attempt:
                       "entrances": [[-h, 0.0], [h, 0.0]]},
             "robots": [{"origin": [float(x) for x in _placed(r.origin)[:2]],
                         "destination": [float(x) for x in _placed(r.destination)[:2]],
-                        "radius": r.radius, "max_speed": r.speed, "max_accel": f.max_accel} for r in robots],
+                        "radius": r.radius, "max_speed": r.speed, "max_accel": r.accel} for r in robots],
             "time_limit": time_limit(robots_routes(h, robots), [r.speed for r in robots], 2 * h,
-                                     max(r.radius for r in robots)),
+                                     max(r.radius for r in robots), [r.accel for r in robots]),
         }
 
 
@@ -342,10 +350,24 @@ def robots_routes(h: float, robots: list[_Robot]) -> list[float]:
     return out
 
 
-def time_limit(routes, speeds, corridor_length: float, r_max: float) -> float:
-    """``ceil(20 + 1.5 (max_i l_i / v_i + sum_i (L + 4 r_max) / v_i))`` seconds (module docstring)."""
-    own = max(route / v for route, v in zip(routes, speeds))
-    queue = sum((corridor_length + 4 * r_max) / v for v in speeds)
+def travel_time(distance: float, speed: float, accel: float | None) -> float:
+    """Least time (s) to cover ``distance`` from rest to rest at most at ``speed`` and ``accel``
+    (``None``: at once at full speed): ``l / v + v / a`` if the robot reaches its speed (``l >=
+    v^2 / a``), else ``2 sqrt(l / a)``."""
+    if accel is None:
+        return distance / speed
+    if distance >= speed * speed / accel:
+        return distance / speed + speed / accel
+    return 2.0 * math.sqrt(distance / accel)
+
+
+def time_limit(routes, speeds, corridor_length: float, r_max: float, accels=None) -> float:
+    """``ceil(20 + 1.5 (max_i t(l_i) + sum_i t(L + 4 r_max)))`` seconds (module docstring), with
+    ``t(l)`` robot i's :func:`travel_time` over ``l`` at half its acceleration limit (the
+    controller brakes below its limit; ``accels`` None: ``l / v_i``)."""
+    half = [None] * len(speeds) if accels is None else [0.5 * a for a in accels]
+    own = max(travel_time(route, v, a) for route, v, a in zip(routes, speeds, half))
+    queue = sum(travel_time(corridor_length + 4 * r_max, v, a) for v, a in zip(speeds, half))
     return float(math.ceil(20.0 + 1.5 * (own + queue)))
 
 

@@ -28,9 +28,10 @@ number; weights are relative (they need not sum to 1); the defaults are those of
       count: [2, 4]              # whole numbers, 2..8
       radius: [0.15, 0.5]        # m: the smallest radius r0; mixed radii lie in [r0, min(high, 2 r0 - 0.08)]
       mixed_radii: 0.5           # probability that radii differ within a scenario
-      max_speed: [0.5, 1.0]      # m/s
+      max_speed: [0.2, 2.0]      # m/s
       mixed_speeds: 0.5          # probability that speeds differ within a scenario
-      max_accel: 2.0             # m/s^2, every robot
+      max_accel: [0.1, 3.0]      # m/s^2
+      mixed_accels: 0.5          # probability that acceleration limits differ within a scenario
     traffic: {head-on: 1, one-sided: 1, mixed: 1}   # weights: split as evenly as possible, all in one
                                  #   room, or any other split, of the robots that start outside
     inside: {probability: 0.2, max: 2}   # a scenario has 1..max robots starting in the corridor
@@ -116,12 +117,15 @@ class Family:
     """Smallest robot radius of a scenario (m)."""
     mixed_radii: float = 0.5
     """Probability that radii differ within a scenario."""
-    max_speed: Range = Range(0.5, 1.0)
+    max_speed: Range = Range(0.2, 2.0)
     """Robot speed limit (m/s); paper: 1."""
     mixed_speeds: float = 0.5
     """Probability that speed limits differ within a scenario."""
-    max_accel: float = 2.0
-    """Acceleration limit of every robot (m/s^2)."""
+    max_accel: Range = Range(0.1, 3.0)
+    """Robot acceleration limit (m/s^2); the paper gives none. A single number draws nothing
+    (the draws of a family with one acceleration are those it had before this key was a range)."""
+    mixed_accels: float = 0.5
+    """Probability that acceleration limits differ within a scenario."""
     traffic: tuple[tuple[str, float], ...] = (("head-on", 1.0), ("one-sided", 1.0), ("mixed", 1.0))
     """Weights of the ways the robots outside split between the rooms."""
     inside_probability: float = 0.2
@@ -150,7 +154,8 @@ class Family:
 _SECTIONS = {
     "corridor": ("length", "fit", "width"),
     "rooms": ("depth", "height", "offset", "grow"),
-    "robots": ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel"),
+    "robots": ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel",
+               "mixed_accels"),
     "inside": ("probability", "max"),
     "starts": ("formation", "gap", "spacing"),
     "destinations": ("mouth", "axis"),
@@ -270,7 +275,9 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     put("max_speed", robots, "max_speed", lambda v: _range(v, w + "robots.max_speed", 0.01, 5.0, " (m/s)"))
     put("mixed_speeds", robots, "mixed_speeds", lambda v: _real(v, w + "robots.mixed_speeds", 0.0, 1.0,
                                                                 " (a probability)"))
-    put("max_accel", robots, "max_accel", lambda v: _real(v, w + "robots.max_accel", 0.01, 20.0, " (m/s^2)"))
+    put("max_accel", robots, "max_accel", lambda v: _range(v, w + "robots.max_accel", 0.1, 20.0, " (m/s^2)"))
+    put("mixed_accels", robots, "mixed_accels", lambda v: _real(v, w + "robots.mixed_accels", 0.0, 1.0,
+                                                                " (a probability)"))
     if "traffic" in data:
         kw["traffic"] = _weights(data["traffic"], w + "traffic", TRAFFIC)
     put("inside_probability", inside, "probability", lambda v: _real(v, w + "inside.probability", 0.0, 1.0,

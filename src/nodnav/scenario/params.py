@@ -82,7 +82,8 @@ class RobotSpec:
     """Body radius r_robot (m); paper: not given, 0.2 chosen (see README)."""
     max_speed: float = field(default=1.0, metadata=accepted(0.05, 5.0))
     """Speed limit (m/s); paper: 1."""
-    max_accel: float = field(default=2.0, metadata=accepted(0.1, 50.0, why="below, the MPC brakes over tens of metres"))
+    max_accel: float = field(default=2.0, metadata=accepted(
+        0.1, 50.0, why="every accepted value is safe (the braking tail); below, a robot needs tens of metres to stop"))
     """Acceleration limit used by the MPC (m/s^2); paper: not given."""
     opinion: OpinionParams | None = None
     """This robot's own opinion parameters; ``None`` means the scenario's ``opinion``."""
@@ -208,6 +209,10 @@ class MPCParams(ControllerParams):
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
+    braking_tail: bool = True
+    """Whether every accepted plan must end in a straight braking tail clear of the walls, and
+    the robot follows the last accepted plan and its tail when no new plan is found
+    (docs/safety.md); off: the earlier controller, which braked along its velocity (not in the paper)."""
     evasive_penalty: float = field(default=1e3, metadata=accepted(1.0, 1e9))
     """Cost of the evasive QP per metre of intrusion into another robot's required separation
     at the end of the horizon; an intrusion at ``tau`` costs ``T_MPC / tau`` times more. Far above

@@ -47,6 +47,13 @@ Solvability (:func:`find_witness`)
     other, admit no schedule, and such a scenario is rejected. The condition is sufficient, not
     necessary: a scenario that needs a robot to back out of the corridor, or robots to shuffle
     while another passes, is rejected although a cleverer schedule might exist.
+
+Speed and acceleration limits (docs/safety.md)
+    The witness holds for any positive limits: every robot starts at rest, moves alone along a
+    path that keeps ``c`` beyond its radius, and can follow it at a speed low enough to stop
+    within its clearance, however slowly it accelerates. What slow acceleration changes is how
+    long the schedule takes, which the drawn time limit counts
+    (:func:`~nodnav.scenario.draws.travel_time`).
 """
 
 from __future__ import annotations

@@ -148,6 +148,12 @@ class TrialResult:
         }
 
 
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """``array``, made read-only (it is shared by every reader of a step's views)."""
+    array.flags.writeable = False
+    return array
+
+
 def trial_generators(seed: int, n_robots: int) -> tuple[list[np.random.Generator], list[np.random.Generator]]:
     """Independent generators for one trial: one per robot for its decisions, one per robot for its sensing."""
     children = np.random.SeedSequence(seed).spawn(2 * n_robots)
@@ -193,6 +199,12 @@ class Simulation:
         # Each robot's own record of what it observed (noisy for the others), newest last.
         for i in range(n):
             self.observed[i].append(self._observe(i))
+        # Each robot's window of the last opinion period (N_r, M, 4), shifted by one sample a
+        # step rather than stacked anew; before one whole period has passed it is padded with
+        # the first sample. Read-only: every view of a step shares it.
+        m = self.steps_per_decision + 1
+        self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed]
+        self._window_offsets = self.dt * np.arange(m)[::-1]
         self.entered_seen: list[list[int]] = [[] for _ in range(n)]
         self.entered_true: list[int] = []
         self._update_entries()
@@ -261,19 +273,15 @@ class Simulation:
 
     def views(self) -> dict[int, RobotView]:
         """Every robot's view of the last opinion period."""
-        m = self.steps_per_decision + 1
-        times = self.t - self.dt * np.arange(m)[::-1]
+        times = self.t - self._window_offsets
         out = {}
         for i in range(self.scenario.n_robots):
-            window = self.observed[i][-m:]
-            if len(window) < m:  # before one whole period has passed, pad with the first sample
-                window = [window[0]] * (m - len(window)) + window
             age = None if self.sight is None else self.sight.ages(i, self.t)
             spread = None
             if self.trackers is not None:
                 spread = self.trackers[i].position_sigma.copy()
                 spread[i] = 0.0
-            out[i] = RobotView(t=self.t, window_times=times, window_states=np.stack(window, axis=1),
+            out[i] = RobotView(t=self.t, window_times=times, window_states=self._windows[i],
                                entered=tuple(self.entered_seen[i]), age=age, sigma=spread)
         return out
 
@@ -303,8 +311,10 @@ class Simulation:
         if self.sight is not None:
             self.sight.update(self.t, self.positions)
         for i in range(self.scenario.n_robots):
-            self.observed[i].append(self._observe(i))
+            seen = self._observe(i)
+            self.observed[i].append(seen)
             del self.observed[i][: -(self.steps_per_decision + 2)]
+            self._windows[i] = _frozen(np.concatenate((self._windows[i][:, 1:], seen[:, None]), axis=1))
         self._update_entries()
         self._record_state()
         self._judge(path)

@@ -1,0 +1,244 @@
+"""The MPC's braking invariant: every accepted plan ends in a straight braking tail clear of the walls.
+
+The invariant (docs/safety.md). At every control step the robot holds a *committed
+trajectory*: the last accepted plan (a cubic spline over ``[0, T_MPC]``), continued after its
+end by braking in a straight line along its final velocity ``v(T)`` at ``a_tail`` until it
+stops, ``|v(T)|^2 / (2 a_tail)`` further on. A plan is accepted only if this whole trajectory
+keeps ``r_i`` from every wall and inside the world's bounds, checked exactly
+(:func:`segment_clearance` on the tail, the existing check on the spline). With exact
+observations the robot is on its committed trajectory at the next step whatever happens, so
+following it (:class:`Committed`) is always possible and never touches a wall; a new plan
+replaces it only if it has a clear tail of its own. The horizon can be far shorter than the
+time to stop (1 m/s at 0.15 m/s^2 needs 6.7 s and 3.3 m): the tail is what covers the rest.
+
+``a_tail`` is the deceleration the terminal rows already assume (``terminal_decel`` of the
+acceleration polygon's inscribed radius): below the limit, so that braking is always within it
+and the next plan has room to differ from the tail.
+
+The QP keeps the tail clear through linear rows (:func:`tail_rows`): with ``V`` an upper bound
+of ``|v(T)|`` (the speed the robot can reach by ``T`` from its present speed, at most its
+limit), the tail is a part of the segment from ``p(T)`` to ``p(T) + V v(T) / (2 a_tail)``; both
+ends in a half-plane clear of a wall put the whole segment there (half-planes are convex). Each
+wall's half-plane is tangent to it (inflated by ``r_i``) at its point nearest to the
+linearisation's tail, so a linearisation whose tail is clear meets its own rows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.compiled import compiled
+from nodnav.control import bspline
+from nodnav.geometry import piece_closest_point_one, piece_signed_distance_one
+
+
+def tail_decel(max_accel: float, terminal_decel: float, accel_polygon_sides: int) -> float:
+    """The deceleration of the braking tail (m/s^2): the terminal rows' ``terminal_decel`` times
+    the radius inscribed in the acceleration polygon, times ``max_accel``."""
+    return terminal_decel * max_accel * math.cos(math.pi / accel_polygon_sides)
+
+
+def stopping_distance(speed: float, decel: float) -> float:
+    """Distance (m) to stop from ``speed`` braking at ``decel``: ``speed^2 / (2 decel)``."""
+    return speed * speed / (2.0 * decel)
+
+
+@compiled
+def _box_distance(x, y, box):
+    """Signed distance from ``(x, y)`` to the rectangle ``(x0, y0, x1, y1)`` (negative inside)."""
+    dx = max(box[0] - x, x - box[2])
+    dy = max(box[1] - y, y - box[3])
+    return math.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0)
+
+
+@compiled
+def _wall_distance(x, y, g, boxes, pieces):
+    """Signed distance from ``(x, y)`` to wall ``g``: the boxes ``(M, 4)`` first, then the convex
+    pieces ``(P, K, 2)`` of polygon walls (negative inside)."""
+    if g < boxes.shape[0]:
+        return _box_distance(x, y, boxes[g])
+    return piece_signed_distance_one(x, y, pieces[g - boxes.shape[0]])
+
+
+@compiled
+def _wall_closest_point(x, y, g, boxes, pieces):
+    """The point of wall ``g`` (boxes, then pieces) nearest to ``(x, y)``."""
+    if g < boxes.shape[0]:
+        return min(max(x, boxes[g, 0]), boxes[g, 2]), min(max(y, boxes[g, 1]), boxes[g, 3])
+    return piece_closest_point_one(x, y, pieces[g - boxes.shape[0]])
+
+
+@compiled
+def _closest_on_segment(ax, ay, bx, by, g, boxes, pieces):
+    """Parameter ``s`` in ``[0, 1]`` of the point of segment ``a -> b`` nearest to wall ``g`` and
+    its signed distance. The distance to a convex set is convex along a line: golden-section search."""
+    lo, hi = 0.0, 1.0
+    gold = 0.5 * (math.sqrt(5.0) - 1.0)
+    for _ in range(64):
+        if hi - lo < 1e-12:
+            break
+        m1 = hi - gold * (hi - lo)
+        m2 = lo + gold * (hi - lo)
+        f1 = _wall_distance(ax + m1 * (bx - ax), ay + m1 * (by - ay), g, boxes, pieces)
+        f2 = _wall_distance(ax + m2 * (bx - ax), ay + m2 * (by - ay), g, boxes, pieces)
+        if f1 <= f2:
+            hi = m2
+        else:
+            lo = m1
+    best, dist = 0.0, _wall_distance(ax, ay, g, boxes, pieces)
+    for s in (0.5 * (lo + hi), 1.0):
+        d = _wall_distance(ax + s * (bx - ax), ay + s * (by - ay), g, boxes, pieces)
+        if d < dist:
+            best, dist = s, d
+    return best, dist
+
+
+@compiled
+def segment_clearance(a, b, boxes, pieces, bounds):
+    """Smallest signed clearance of the segment ``a -> b`` from the rectangles ``boxes`` ``(M, 4)``,
+    the convex pieces ``pieces`` ``(P, K, 2)`` of polygon walls and the world's bounds ``(x0, y0,
+    x1, y1)`` (as :meth:`World.clearance`, at every point; negative where it enters a wall)."""
+    clear = np.inf
+    for p in (a, b):  # the bounds' clearance is linear along the segment: least at an end
+        clear = min(clear, min(min(p[0] - bounds[0], bounds[2] - p[0]), min(p[1] - bounds[1], bounds[3] - p[1])))
+    for g in range(boxes.shape[0] + pieces.shape[0]):
+        clear = min(clear, _closest_on_segment(a[0], a[1], b[0], b[1], g, boxes, pieces)[1])
+    return clear
+
+
+def braking_profile(position: np.ndarray, velocity: np.ndarray, max_accel: float,
+                    times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions and velocities ``(len(times), 2)`` when decelerating at ``max_accel`` along ``velocity``.
+
+    The direction never changes and the speed never increases; the robot stops after
+    ``|v| / max_accel`` seconds, ``|v|^2 / (2 max_accel)`` further on.
+    """
+    p = np.asarray(position, dtype=float)
+    v = np.asarray(velocity, dtype=float)
+    t = np.asarray(times, dtype=float)[:, None]
+    speed = float(np.linalg.norm(v))
+    if speed == 0.0:
+        return np.repeat(p[None], len(t), axis=0), np.zeros((len(t), 2))
+    u = v / speed
+    tt = np.minimum(t, speed / max_accel)
+    travelled = speed * tt - 0.5 * max_accel * tt**2
+    return p + travelled * u, np.maximum(speed - max_accel * t, 0.0) * u
+
+
+def tail_end(position: np.ndarray, velocity: np.ndarray, decel: float) -> np.ndarray:
+    """Where braking in a straight line from ``position`` at ``velocity`` stops ``(2,)`` (m)."""
+    v = np.asarray(velocity, dtype=float)
+    return np.asarray(position, dtype=float) + v * float(np.hypot(v[0], v[1])) / (2.0 * decel)
+
+
+def tail_clearance(position: np.ndarray, velocity: np.ndarray, decel: float, boxes: np.ndarray,
+                   pieces: np.ndarray, bounds: np.ndarray) -> float:
+    """Smallest clearance (m) of the straight braking tail from ``position`` at ``velocity``."""
+    p = np.asarray(position, dtype=float)
+    return float(segment_clearance(p, tail_end(p, velocity, decel), boxes, pieces, bounds))
+
+
+@compiled
+def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, boxes, pieces, box_low, box_high,
+              phi, line, tol, cold, rows, lower, row0):
+    """Write the rows that keep the braking tail's segment clear of the walls and inside the box.
+
+    The segment runs from ``p(T)`` to ``p(T) + weight v(T)`` (``weight = V / (2 a_tail)``); its
+    functional on the QP's variables is ``phi`` ``(2, nz)`` (position and velocity at ``T``,
+    combined with ``weight``, in the QP's coordinates) with ``line`` its value on the line
+    ``tau -> tau``. Per wall two rows (both ends of the segment in the half-plane tangent to the
+    wall inflated by ``need``, at the wall's point nearest to the linearisation's segment ``lin_p ->
+    lin_p + weight lin_v``), then four rows for the box ``[box_low, box_high]`` at the far end.
+    A wall farther from ``p0`` than ``reach`` gets no rows (``-inf``). Where the linearisation's
+    segment comes closer than ``need`` to a wall, the wall's point nearest to ``lin_p`` is used
+    (the half-plane of the last end's row). A linearisation point inside the wall, or on a
+    ``cold`` start (the linearisation is the reference) a half-plane that would exclude ``p0``,
+    gives way to the half-plane through the robot's present side (``x_now``, ``away``), as for
+    the other rows.
+    """
+    nz = phi.shape[1]
+    n_walls = boxes.shape[0] + pieces.shape[0]
+    ex, ey = lin_p[0] + weight * lin_v[0], lin_p[1] + weight * lin_v[1]
+    for g in range(n_walls):
+        i0 = row0 + 2 * g
+        if dist_now[g] > reach:
+            lower[i0] = -np.inf
+            lower[i0 + 1] = -np.inf
+            for k in range(2 * nz):
+                rows[i0, k] = 0.0
+                rows[i0 + 1, k] = 0.0
+            continue
+        s, d = _closest_on_segment(lin_p[0], lin_p[1], ex, ey, g, boxes, pieces)
+        if d < need[g]:
+            # The linearisation's tail comes too close: the half-plane of its start, the one the
+            # last end's row uses, pushes the tail out of the wall on the side the plan is on.
+            s = 0.0
+        px, py = lin_p[0] + s * (ex - lin_p[0]), lin_p[1] + s * (ey - lin_p[1])
+        qx, qy = _wall_closest_point(px, py, g, boxes, pieces)
+        vx, vy = px - qx, py - qy
+        dist = math.hypot(vx, vy)
+        replace = dist < 1e-9
+        if not replace:
+            nx, ny = vx / dist, vy / dist
+            # A cold start's linearisation is the reference, not a motion the robot can make:
+            # never a half-plane that excludes where the robot is.
+            replace = cold and nx * (p0[0] - qx) + ny * (p0[1] - qy) < need[g]
+        if replace:
+            qx, qy = x_now[g, 0], x_now[g, 1]
+            nx, ny = away[g, 0], away[g, 1]
+        for j in range(2):
+            w = 0.0 if j == 0 else weight
+            i = i0 + j
+            coef_line = line[0] + w * line[1]
+            lower[i] = nx * (qx - p0[0]) + ny * (qy - p0[1]) + need[g] + tol - (nx * v0[0] + ny * v0[1]) * coef_line
+            for k in range(nz):
+                f = phi[0, k] + w * phi[1, k]
+                rows[i, k] = nx * f
+                rows[i, nz + k] = ny * f
+    i0 = row0 + 2 * n_walls
+    coef_line = line[0] + weight * line[1]
+    for d in range(4):
+        axis = d % 2
+        sign = 1.0 if d < 2 else -1.0
+        bound = box_low[axis] if d < 2 else box_high[axis]
+        lower[i0 + d] = sign * (bound - p0[axis] - v0[axis] * coef_line) + tol
+        for k in range(2 * nz):
+            rows[i0 + d, k] = 0.0
+        for k in range(nz):
+            rows[i0 + d, axis * nz + k] = sign * (phi[0, k] + weight * phi[1, k])
+
+
+@dataclass
+class Committed:
+    """The committed trajectory: an accepted plan (control points ``points``, made ``elapsed``
+    seconds ago) and its straight braking tail from ``(end_position, end_velocity)`` at ``decel``."""
+
+    points: np.ndarray
+    """The plan's control points ``(n, 2)``."""
+    knots: np.ndarray
+    """The spline's knots."""
+    horizon: float
+    """The plan's length T_MPC (s)."""
+    end_position: np.ndarray
+    """``p(T)`` ``(2,)``."""
+    end_velocity: np.ndarray
+    """``v(T)`` ``(2,)``."""
+    decel: float
+    """The tail's deceleration (m/s^2)."""
+    elapsed: float = 0.0
+    """Time since the plan was made (s)."""
+
+    def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
+        """Positions (``order`` 0) or velocities (1) ``(len(times), 2)`` ``times`` after now."""
+        tau = self.elapsed + np.atleast_1d(np.asarray(times, dtype=float))
+        out = np.empty((len(tau), 2))
+        on_plan = tau <= self.horizon
+        if on_plan.any():
+            out[on_plan] = bspline.evaluate(self.points, tau[on_plan], self.knots, 3, order)
+        if (~on_plan).any():
+            out[~on_plan] = braking_profile(self.end_position, self.end_velocity, self.decel,
+                                            tau[~on_plan] - self.horizon)[order]
+        return out

@@ -1,0 +1,76 @@
+"""The stage breakdown of a trial's time: it partitions the wall time and moves where the work moves."""
+
+import time
+
+import numpy as np
+
+from nodnav.bench.stages import STAGES, StageClock, measure_stages
+from nodnav.control.qp import SolverEffort
+from nodnav.scenario.loading import load_scenario
+from nodnav.sim.simulator import run_trial
+
+
+def test_clock_charges_nested_calls_to_the_innermost_stage():
+    """Hand-made nesting with known sleeps: the outer stage keeps only its own time."""
+    clock = StageClock()
+    inner = clock.wrap("planning", lambda: time.sleep(0.03))
+
+    def outer():
+        time.sleep(0.02)
+        inner()
+
+    clock.start()
+    clock.wrap("decision", outer)()
+    clock.stop()
+    assert 0.02 <= clock.totals["decision"] < 0.03 + 0.01
+    assert 0.03 <= clock.totals["planning"] < 0.03 + 0.01
+    assert clock.calls["decision"] == clock.calls["planning"] == 1
+
+
+def test_stages_partition_a_short_trial_and_leave_it_unchanged():
+    """Every stage non-negative, their sum the measured wall time, every stage that runs in a NOD
+    trial seen, and the trial's outcome and simulated time those of the unmeasured trial."""
+    scenario = load_scenario("2r-case2").with_overrides(game_players="all")
+    times = measure_stages(scenario, seed=1)
+    alone = run_trial(scenario, seed=1)
+    assert (times.outcome, times.sim_time) == (alone.outcome, alone.sim_time)
+    seconds = np.array([times.seconds[k] for k in STAGES])
+    assert (seconds >= 0).all()
+    assert abs(seconds.sum() - times.wall_time) <= 1e-3 * times.wall_time + 1e-4
+    assert (seconds > 0).all()  # each stage has work in a 2-robot NOD trial
+    cpu = np.array([times.cpu_seconds[k] for k in STAGES])
+    assert (cpu >= 0).all()
+    assert abs(cpu.sum() - times.cpu_time) <= 1e-3 * times.cpu_time + 1e-4
+    assert times.calls["QP solve"] >= times.calls["control set-up"] > 0
+    # The solver is unwrapped again afterwards.
+    assert not hasattr(SolverEffort.solve, "__wrapped__")
+
+
+def test_more_frequent_decisions_put_more_time_into_decision():
+    """Deciding every control step instead of every opinion period makes decision a larger share."""
+    base = load_scenario("2r-case2").with_overrides(game_players="all", time_limit=6.0)
+    dt = base.controller.dt
+    heavy = base.with_overrides(**{"opinion.T": 2 * dt})
+    share = {}
+    for name, s in (("base", base), ("heavy", heavy)):
+        t = measure_stages(s, seed=1)
+        share[name] = t.cpu_seconds["decision"] / t.cpu_time
+    assert share["heavy"] > 1.3 * share["base"]  # five times the decisions; measured about twice the share
+
+
+def test_cli_prints_the_breakdown_as_json_and_refuses_several_player_counts(capsys):
+    """``bench sim --json``: the stages' percents add up to 100 and their processor seconds to the
+    measured trials'; ``--players 1,2`` is one line and exit code 2."""
+    import json
+
+    from nodnav.cli import main
+
+    assert main(["bench", "sim", "--scenario", "2r-case2", "--trials", "1", "--players", "1", "--json"]) == 0
+    (report,) = json.loads(capsys.readouterr().out)
+    stages = report["breakdown"]["stages"]
+    assert list(stages) == list(STAGES)
+    assert abs(sum(v["percent"] for v in stages.values()) - 100.0) < 0.1
+    assert abs(report["breakdown"]["sum_of_stages_cpu_s"] - report["breakdown"]["measured_cpu_time_s"]) < 1e-3
+    assert main(["bench", "sim", "--players", "1,2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--players" in err[0]

@@ -222,7 +222,11 @@ class PlannedMethod:
             firm = self._firm
             if view.age is not None or view.sigma is not None:
                 predictions, radii, firm = self._sensed(i, view, predictions, radii)
-            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
+            # Writable copies: the views' windows are read-only, and the compiled braking check
+            # (control/braking.py, segment_clearance over (a, b)) cannot type a tuple of a
+            # read-only and a writable array.
+            request = ControlRequest(position=view.positions[i].copy(), velocity=view.velocities[i].copy(),
+                                     reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=firm)
             out[i] = self.controllers[i].control(request)

@@ -139,3 +139,16 @@ def test_dropped_observations_hold_the_last_one_without_a_filter():
         sim.step()
     lost = [np.array_equal(sim.observed[0][k][1], first) for k in range(-5, 0)]
     assert sum(lost) >= 3  # with p = 0.99 robot 0 hardly ever gets a new observation of robot 1
+
+
+def test_speed_limit_stops_within_half_the_range():
+    from nodnav.sim.sensing import REACTION_TIME, STOP_SLACK, sight_speeds
+
+    s = scenario_from_dict({"name": "fast", "robot_defaults": {"max_speed": 5.0, "max_accel": 0.8, "radius": 0.3},
+                            "robots": [{"origin": list(o), "destination": list(d)} for o, d in THROUGH_CORRIDOR],
+                            "sensing": {"range": 3.0}})
+    v = sight_speeds(s)
+    half = (3.0 - 2 * 0.3 - STOP_SLACK) / 2
+    # Reaction distance plus braking distance fill exactly half of what is left of the range.
+    assert np.allclose(v * REACTION_TIME + v ** 2 / (2 * 0.8), half)
+    assert np.array_equal(sight_speeds(_scenario(THROUGH_CORRIDOR)), _scenario(THROUGH_CORRIDOR).max_speeds)

@@ -311,6 +311,10 @@ class SensingParams:
     """Growth of the uncertainty radius kept around a remembered robot, per second since it was
     last seen (m/s); paper: unused."""
 
+    stop_within_sight: bool = True
+    """With a range: each robot drives no faster than it can stop within half of what it sees
+    (:func:`nodnav.sim.sensing.sight_speeds`), so two robots that meet head-on as they come into
+    range stop apart; paper: unused (unlimited range)."""
     drop_probability: float = field(default=0.0, metadata=accepted(0.0, 0.99))
     """Probability that an observation of another robot is lost at a control step (independent per
     observer, robot and step); paper: 0."""

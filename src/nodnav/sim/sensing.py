@@ -16,10 +16,44 @@ view's ages first.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from nodnav.scenario.params import SensingParams
+from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
+
+#: Slack (m) kept between two robots that stop as they come into each other's range.
+STOP_SLACK = 0.3
+#: Time (s) before a robot brakes for one that comes into range: a decision or control step or two.
+REACTION_TIME = 0.2
+
+
+def sight_speeds(scenario: Scenario) -> np.ndarray:
+    """Each robot's speed limit under ``sensing.stop_within_sight`` ``(N,)`` (m/s): the speed v
+    from which it stops, reacting after ``REACTION_TIME`` t and braking at its ``max_accel`` a,
+    within half of the sensor range less the largest two radii and ``STOP_SLACK`` (``d``):
+    v t + v^2 / (2 a) = d / 2, v = a (sqrt(t^2 + d / a) - t). Two robots heading at each other that
+    come into range both stop in their halves. The scenario's limit where that is lower."""
+    sensing = scenario.sensing
+    limits = scenario.max_speeds.astype(float).copy()
+    if sensing.range <= 0 or not sensing.stop_within_sight:
+        return limits
+    room = max(sensing.range - 2 * float(scenario.radii.max()) - STOP_SLACK, 0.0)
+    a = np.array([r.max_accel for r in scenario.robots])
+    t = REACTION_TIME
+    return np.maximum(np.minimum(limits, a * (np.sqrt(t * t + room / a) - t)), 1e-3)
+
+
+def within_sight(scenario: Scenario) -> Scenario:
+    """``scenario`` with every robot's ``max_speed`` limited by :func:`sight_speeds` (itself when
+    nothing changes, as with the paper's sensing)."""
+    speeds = sight_speeds(scenario)
+    if np.array_equal(speeds, scenario.max_speeds):
+        return scenario
+    robots = tuple(dataclasses.replace(r, max_speed=float(v)) for r, v in zip(scenario.robots, speeds))
+    return dataclasses.replace(scenario, robots=robots)
 
 
 def visibility(world: World, positions: np.ndarray, params: SensingParams) -> np.ndarray:

@@ -28,7 +28,7 @@ from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
-from nodnav.sim.sensing import Sight, Tracker
+from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -165,6 +165,7 @@ class Simulation:
     """One trial of ``scenario`` with ``method``, seeded by ``seed``."""
 
     def __init__(self, scenario: Scenario, method: str = "nod", seed: int = 0, planner=None):
+        scenario = within_sight(scenario)  # speed limits for a sensor range (itself by default)
         self.scenario = scenario
         self.seed = int(seed)
         n = scenario.n_robots

@@ -77,7 +77,7 @@ def test_a_value_just_outside_a_declared_range_is_refused_in_one_line(bound, sid
             robot.pop(name)
         where = where.replace("robots.", "robot_defaults.")
     elif section:
-        raw[section] = {**raw[section], name: written}
+        raw[section] = {**raw.get(section, {}), name: written}  # sensing is absent when it is the paper's
         if bound.owner:
             raw[section] = {"name": bound.owner, name: written}
     else:

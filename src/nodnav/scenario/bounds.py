@@ -31,6 +31,7 @@ from nodnav.scenario.params import (
     PlannerParams,
     PRMParams,
     RobotSpec,
+    SensingParams,
     SimParams,
 )
 from nodnav.scenario.schema import Scenario
@@ -45,6 +46,7 @@ SECTIONS: tuple[tuple[str, tuple[tuple[type, str], ...]], ...] = (
     ("sim", ((SimParams, ""),)),
     ("execution", ((ExecutionParams, ""),)),
     ("baselines", ((BaselineParams, ""),)),
+    ("sensing", ((SensingParams, ""),)),
     ("", ((Scenario, ""),)),
 )
 

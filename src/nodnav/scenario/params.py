@@ -301,3 +301,41 @@ class SimParams:
     mouths falling by ``progress_epsilon`` (before issue 19); ``plan`` (default), that or advancing
     ``progress_epsilon`` along the successful plan the robot follows, e.g. backing out of the
     passage for another robot (:mod:`nodnav.sim.progress`)."""
+
+
+@dataclass(frozen=True)
+class SensingParams:
+    """What each robot can see of the others (docs/sensing.md); the defaults are the paper's:
+    every robot sees every other one, through walls and at any distance."""
+
+    range: float = field(default=0.0, metadata=accepted(0.0, MAX_WORLD_SIZE))
+    """Sensor range: another robot is seen while its centre is within this distance (m); 0 means
+    unlimited; paper: unlimited (0)."""
+    walls_block: bool = False
+    """Whether walls and obstacles block the line of sight between two robots' centres; paper: false."""
+    memory: float = field(default=3.0, metadata=accepted(0.0, 3600.0))
+    """How long a robot remembers another it no longer sees, held still where last seen (s); paper:
+    unused (everyone is always seen)."""
+    uncertainty_rate: float = field(default=0.5, metadata=accepted(0.0, 10.0))
+    """Growth of the uncertainty radius kept around a remembered robot, per second since it was
+    last seen (m/s); paper: unused."""
+
+    stop_within_sight: bool = True
+    """With a range: each robot drives no faster than it can stop within half of what it sees
+    (:func:`nodnav.sim.sensing.sight_speeds`), so two robots that meet head-on as they come into
+    range stop apart; paper: unused (unlimited range)."""
+    drop_probability: float = field(default=0.0, metadata=accepted(0.0, 0.99))
+    """Probability that an observation of another robot is lost at a control step (independent per
+    observer, robot and step); paper: 0."""
+    filter: Literal["kalman", "none"] = "kalman"
+    """How the others' states are estimated from noisy observations: ``kalman`` (a constant-velocity
+    Kalman filter per observer and robot, only when there is noise or loss) or ``none`` (the raw
+    observation, the behaviour before the filter); paper: exact observations, no filter runs."""
+    margin_sigmas: float = field(default=2.0, metadata=accepted(0.0, 10.0))
+    """Separation the MPC adds to another robot's radius, in standard deviations of the filter's
+    position estimate of it (dimensionless); paper: unused (exact observations)."""
+
+    @property
+    def limited(self) -> bool:
+        """Whether sight is limited at all (otherwise the paper's: everyone sees everyone)."""
+        return self.range > 0.0 or self.walls_block

@@ -46,6 +46,7 @@ from nodnav.scenario.params import (
     PlannerParams,
     PRMParams,
     RobotSpec,
+    SensingParams,
     SimParams,
 )
 from nodnav.scenario.world import World
@@ -83,6 +84,8 @@ class Scenario:
     """How robots follow their plans between decisions."""
     baselines: BaselineParams = BaselineParams()
     """Settings of the methods NOD is compared with."""
+    sensing: SensingParams = SensingParams()
+    """What each robot sees of the others (default: everyone, exactly, as in the paper)."""
 
     @property
     def n_robots(self) -> int:
@@ -172,7 +175,7 @@ def _opinion(data: dict, n_robots: int, where: str) -> OpinionParams:
 
 
 _TOP_KEYS = ("name", "description", "world", "robot_defaults", "robots", "opinion", "game_players",
-             "time_limit", "planner", "controller", "sim", "execution", "baselines")
+             "time_limit", "planner", "controller", "sim", "execution", "baselines", "sensing")
 _ROBOT_KEYS = tuple(f.name for f in dataclasses.fields(RobotSpec))
 _BODY_KEYS = ("radius", "max_speed", "max_accel")
 
@@ -357,9 +360,10 @@ def scenario_from_dict(data: Any, source: str = "scenario") -> Scenario:
     sim = read_params(SimParams, data.get("sim"), "sim")
     execution = read_params(ExecutionParams, data.get("execution"), "execution")
     baselines = read_params(BaselineParams, data.get("baselines"), "baselines")
+    sensing = read_params(SensingParams, data.get("sensing"), "sensing")
     return Scenario(name=name, description=description, world=world, robots=robots, opinion=opinion,
                     game_players=game_players, time_limit=time_limit, planner=planner,
-                    controller=controller, sim=sim, execution=execution, baselines=baselines)
+                    controller=controller, sim=sim, execution=execution, baselines=baselines, sensing=sensing)
 
 
 def _opinion_to_raw(opinion: OpinionParams) -> dict:
@@ -399,6 +403,8 @@ def _world_to_raw(w: World) -> dict:
 def _to_raw(scenario: Scenario) -> dict:
     """Inverse of :func:`scenario_from_dict`, for overrides and for storing a scenario with results."""
     w = scenario.world
+    # Absent when it is the paper's, so that the keys and records of existing trials do not change.
+    sensing = {} if scenario.sensing == SensingParams() else {"sensing": dataclasses.asdict(scenario.sensing)}
     return {
         "name": scenario.name,
         "description": scenario.description,
@@ -412,6 +418,7 @@ def _to_raw(scenario: Scenario) -> dict:
         "sim": dataclasses.asdict(scenario.sim),
         "execution": dataclasses.asdict(scenario.execution),
         "baselines": dataclasses.asdict(scenario.baselines),
+        **sensing,
     }
 
 

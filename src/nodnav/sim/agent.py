@@ -39,6 +39,27 @@ class RobotView:
     """Observed states (px, py, vx, vy) of every robot over the window ``(N_r, M, 4)``; own row is exact."""
     entered: tuple[int, ...]
     """Robots the observer has seen enter the corridor, in the order they did."""
+    age: np.ndarray | None = None
+    """Time since the observer last saw each robot ``(N_r,)`` (s): 0 while seen, inf if unknown
+    (never seen, or forgotten); None with the paper's sensing, where everyone is always seen
+    (:mod:`nodnav.sim.sensing`). A robot not seen now is held still where it was last seen."""
+    sigma: np.ndarray | None = None
+    """Standard deviation of the estimate of each robot's position along either axis ``(N_r,)``
+    (m), from the observer's filters; None when observations are exact or not filtered."""
+
+    @property
+    def seen(self) -> np.ndarray:
+        """Which robots the observer sees now ``(N_r,)``."""
+        if self.age is None:
+            return np.ones(self.window_states.shape[0], dtype=bool)
+        return self.age == 0.0
+
+    @property
+    def known(self) -> np.ndarray:
+        """Which robots the observer sees or remembers ``(N_r,)``."""
+        if self.age is None:
+            return np.ones(self.window_states.shape[0], dtype=bool)
+        return np.isfinite(self.age)
 
     @property
     def positions(self) -> np.ndarray:
@@ -160,6 +181,17 @@ def clearing_plan(scenario: Scenario, view: RobotView, planning: tuple[int, ...]
     return clear_the_way(request, planning.index(robot), failed.reason, scenario.planner, graphs)
 
 
+def players_in_sight(L: np.ndarray, view: RobotView, i: int, k: int) -> tuple[int, ...]:
+    """Robot ``i``'s ``k`` game players by eq. (7) from the likelihoods ``L`` ``(N, N)``, among
+    the robots it sees now: one it does not see has no observed window for eq. (4), so it is
+    no candidate (fewer than ``k`` players when fewer are in sight)."""
+    if view.age is not None:
+        seen = view.seen
+        k = min(k, int(seen.sum()) - 1)
+        L = np.where(seen[None, :], L, -np.inf)
+    return tuple(sorted(select_game_players(L, i, k)))
+
+
 def approach_sides(scenario: Scenario) -> np.ndarray:
     """The side each robot approaches the corridor from (towards its destination)."""
     direction = crossing_directions(scenario.world, scenario.origins, scenario.destinations)
@@ -260,7 +292,7 @@ class NODAgent:
         L = conflict_likelihood(view.positions, d_corr, self.params.delta)
         if self.params.conflict == "undecided" and view.entered:
             L = undecided_first(L, view.entered)
-        return tuple(sorted(select_game_players(L, self.index, self.n_players)))
+        return players_in_sight(L, view, self.index, self.n_players)
 
     def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:
         """The joint plan of the robots ``planning`` (increasing index) for every order of ``game``.
@@ -292,7 +324,7 @@ class NODAgent:
         """
         if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
-        inside = self.scenario.world.in_corridor(view.positions)
+        inside = self.scenario.world.in_corridor(view.positions) & view.known
         return tuple(k for k in view.entered if inside[k] and k != self.index and k not in players)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:

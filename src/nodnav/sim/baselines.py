@@ -41,7 +41,7 @@ import numpy as np
 from nodnav.control import ControlResult
 from nodnav.decision.games import strategy_order
 from nodnav.decision.opinion import strategy_probabilities
-from nodnav.decision.players import conflict_likelihood, select_game_players
+from nodnav.decision.players import conflict_likelihood
 from nodnav.decision.strategies import passing_orders, strategy_index
 from nodnav.errors import NodnavError
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, relabel
@@ -59,9 +59,14 @@ from nodnav.sim.agent import (
     clearing_plan,
     joint_requests,
     local_order,
+    players_in_sight,
 )
 from nodnav.sim.methods import PlannedMethod
 from nodnav.sim.metrics import arrival_times
+
+#: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
+#: beyond any neighbour distance, so that it constrains nothing.
+UNKNOWN_OFFSET = np.array([1e4, 1e4])
 
 log = logging.getLogger(__name__)
 
@@ -232,7 +237,7 @@ class FixedOrderMethod(PlannedMethod):
         """Robot ``i``'s game players, eqs. (6)-(7) on its observed positions."""
         d_corr = self.scenario.world.corridor_distance(view.positions, self.sides)
         L = conflict_likelihood(view.positions, d_corr, self.scenario.opinion.delta)
-        return select_game_players(L, i, self.scenario.n_players)
+        return players_in_sight(L, view, i, self.scenario.n_players)
 
     def decide_robot(self, i: int, view: RobotView) -> Decision:
         players = self.players(i, view)
@@ -297,8 +302,9 @@ class ClosestFirstMethod(FixedOrderMethod):
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
         world = self.scenario.world
         tie = self.scenario.baselines.closest_first_tie
-        return {i: strategy_index(closest_first_order(world.corridor_distance(view.positions, self.sides), tie))
-                for i, view in views.items()}
+        # A robot not in sight at the first decision is ranked last (limited sight, docs/sensing.md).
+        return {i: strategy_index(closest_first_order(np.where(view.seen, world.corridor_distance(
+            view.positions, self.sides), np.inf), tie)) for i, view in views.items()}
 
 
 @register_method("oracle", help="a central coordinator gives everyone the order with the smallest planned makespan")
@@ -421,8 +427,11 @@ class OrcaMethod:
         for i, view in views.items():
             start = time.perf_counter()
             p = view.positions[i]
+            known = view.known
             for k in range(n):
-                self.rvo.set_agent_position(k, tuple(map(float, view.positions[k])))
+                # A robot i does not know of is put far beyond every neighbour distance.
+                where = view.positions[k] if known[k] else view.positions[i] + UNKNOWN_OFFSET
+                self.rvo.set_agent_position(k, tuple(map(float, where)))
                 self.rvo.set_agent_velocity(k, tuple(map(float, view.velocities[k])))
                 # Only robot i's new velocity is used; the others' preferred velocities do not enter it.
                 self.rvo.set_agent_pref_velocity(k, tuple(map(float, view.velocities[k])))

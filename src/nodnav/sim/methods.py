@@ -171,13 +171,41 @@ class PlannedMethod:
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self.reactions.radii(i, view, self._other_radii[i])
+            firm = self._firm
+            if view.age is not None or view.sigma is not None:
+                predictions, radii, firm = self._sensed(i, view, predictions, radii)
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=self._firm)
+                                     other_radii=radii, firm=firm)
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
 
+    def _sensed(self, i: int, view: RobotView, predictions: np.ndarray,
+                radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Robot ``i``'s predictions, radii and firm flags of the others under limited or noisy
+        sight (:mod:`nodnav.sim.sensing`): a robot it does not know of is not predicted; one it
+        remembers is held where it was last seen (its observed state holds it still) with its
+        radius grown by ``sensing.uncertainty_rate`` times the time since, never beyond the
+        present gap less ``execution.reaction_slack`` (a robot is never "inside" an uncertainty
+        disc at once, which would leave its MPC no feasible plan). With filtered observations the
+        radius also grows by ``sensing.margin_sigmas`` standard deviations of the estimate, so
+        the margin is kept from where the robot may be, not only from where it is estimated."""
+        others = self._others[i]
+        sensing = self.scenario.sensing
+        age = np.zeros(len(others)) if view.age is None else view.age[others]
+        known = np.isfinite(age)
+        remembered = known & (age > 0.0)
+        growth = np.where(remembered, sensing.uncertainty_rate * np.where(known, age, 0.0), 0.0)
+        if view.sigma is not None:  # k sigma of the filter's position estimate
+            growth = growth + sensing.margin_sigmas * view.sigma[others]
+        if growth.any():
+            gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
+                   - self.scenario.radii[others] - self.scenario.controller.safety_margin)
+            allowed = np.clip(np.minimum(growth, gap - self.scenario.execution.reaction_slack), 0.0, None)
+            radii = radii + np.tile(allowed, 3)
+        keep = np.tile(known, 3)
+        return predictions[keep], radii[keep], self._firm[keep]
 
 
 @register_method("nod", help="the paper: every robot runs Algorithm 1 (opinions, game players, planning per "

@@ -29,6 +29,7 @@ from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
 from nodnav.sim.progress import PlanProgress
+from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -36,6 +37,10 @@ log = logging.getLogger(__name__)
 #: Sub-steps at which contacts are checked between two control steps: where the controllers
 #: report their motion (:data:`~nodnav.control.base.STEP_FRACTIONS`), else on straight lines.
 CONTACT_SUBSTEPS = len(STEP_FRACTIONS)
+
+#: Side code of a robot the observer does not see: neither inside nor on a side, so that it
+#: neither enters nor leaves the observer's record of corridor entries.
+UNSEEN = 99
 
 
 def straight_substeps(previous: np.ndarray, current: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -161,6 +166,7 @@ class Simulation:
     """One trial of ``scenario`` with ``method``, seeded by ``seed``."""
 
     def __init__(self, scenario: Scenario, method: str = "nod", seed: int = 0, planner=None):
+        scenario = within_sight(scenario)  # speed limits for a sensor range (itself by default)
         self.scenario = scenario
         self.seed = int(seed)
         n = scenario.n_robots
@@ -179,8 +185,22 @@ class Simulation:
         self.t = 0.0
         self.positions = scenario.origins.copy()
         self.velocities = np.zeros_like(self.positions)
+        sensing = scenario.sensing
+        self.sight = Sight(scenario.world, sensing, scenario.destinations) if sensing.limited else None
+        """Who sees whom and what each robot keeps of those it does not (:mod:`nodnav.sim.sensing`);
+        None with the paper's sensing (everyone sees everyone)."""
+        if self.sight is not None:
+            self.sight.update(self.t, self.positions)
+        noisy = scenario.sim.observation_noise > 0 or sensing.drop_probability > 0
+        accel = np.array([r.max_accel for r in scenario.robots])
+        self.trackers = ([Tracker(self.dt, accel, scenario.sim.observation_noise) for _ in range(n)]
+                         if noisy and sensing.filter == "kalman" else None)
+        """Each robot's Kalman filters of the others (:class:`~nodnav.sim.sensing.Tracker`); None
+        without noise or loss, or with ``sensing.filter: none``."""
+        self.observed: list[list[np.ndarray]] = [[] for _ in range(n)]
         # Each robot's own record of what it observed (noisy for the others), newest last.
-        self.observed = [[self._observe(i)] for i in range(n)]
+        for i in range(n):
+            self.observed[i].append(self._observe(i))
         # Each robot's window of the last opinion period (N_r, M, 4), shifted by one sample a
         # step rather than stacked anew; before one whole period has passed it is padded with
         # the first sample. Read-only: every view of a step shares it.
@@ -212,6 +232,22 @@ class Simulation:
             noise = self.sensor_rngs[observer].normal(0.0, sigma, size=states.shape)
             noise[observer] = 0.0
             states = states + noise
+        drop = self.scenario.sensing.drop_probability
+        if drop > 0 or self.trackers is not None:
+            measured = np.ones(len(states), dtype=bool)
+            if drop > 0:  # drawn only when asked for, so that the noise streams stay the same
+                measured = self.sensor_rngs[observer].random(len(states)) >= drop
+                measured[observer] = True
+            if self.sight is not None:
+                measured &= self.sight.visible[observer]
+            if self.trackers is not None:
+                own = states[observer].copy()
+                states = self.trackers[observer].update(states, measured)
+                states[observer] = own
+            elif self.observed[observer]:  # a lost observation: the last one stands
+                states = np.where(measured[:, None], states, self.observed[observer][-1])
+        if self.sight is not None:
+            states = self.sight.apply(observer, states)
         return states
 
     def _update_entries(self) -> None:
@@ -228,6 +264,9 @@ class Simulation:
         s = passage.along(seen)
         left_ahead = np.where(self.sides == RIGHT, s - passage.s_start, passage.s_end - s)
         sides = passage.side_of_along(s)
+        if self.sight is not None:  # a robot's record changes only with what it sees now
+            sides = sides.copy()
+            sides[1:][~self.sight.visible] = UNSEEN
         for log_, side, ahead in zip([self.entered_true] + self.entered_seen, sides.tolist(), left_ahead):
             new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
             log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
@@ -238,8 +277,16 @@ class Simulation:
     def views(self) -> dict[int, RobotView]:
         """Every robot's view of the last opinion period."""
         times = self.t - self._window_offsets
-        return {i: RobotView(t=self.t, window_times=times, window_states=self._windows[i],
-                             entered=tuple(self.entered_seen[i])) for i in range(self.scenario.n_robots)}
+        out = {}
+        for i in range(self.scenario.n_robots):
+            age = None if self.sight is None else self.sight.ages(i, self.t)
+            spread = None
+            if self.trackers is not None:
+                spread = self.trackers[i].position_sigma.copy()
+                spread[i] = 0.0
+            out[i] = RobotView(t=self.t, window_times=times, window_states=self._windows[i],
+                               entered=tuple(self.entered_seen[i]), age=age, sigma=spread)
+        return out
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -264,6 +311,8 @@ class Simulation:
             self.velocities[i] = res.next_velocity
         self.k += 1
         self.t = self.k * self.dt
+        if self.sight is not None:
+            self.sight.update(self.t, self.positions)
         for i in range(self.scenario.n_robots):
             seen = self._observe(i)
             self.observed[i].append(seen)

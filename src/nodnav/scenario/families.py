@@ -76,7 +76,7 @@ MAX_ROBOTS = 8
 TRAFFIC = ("head-on", "one-sided", "mixed")
 FORMATIONS = ("scatter", "abreast", "line")
 INSIDE_ORDERS = ("apart", "any", "facing")
-SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim", "execution", "baselines")
+SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim", "execution", "baselines", "sensing")
 
 
 class FamilyError(ScenarioError):

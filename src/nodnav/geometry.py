@@ -210,18 +210,10 @@ def segment_clearance_one(ax, ay, bx, by, walls, bounds, pieces):
     x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
     d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
     if walls.shape[0]:
-        dx, dy = bx - ax, by - ay
         nearest = np.inf
         for w in range(walls.shape[0]):
-            lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
-            d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
-            d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
-                                 _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
-                             min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
-                                 _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
-            if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
-                d2 = 0.0
-            nearest = min(nearest, d2)
+            nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1], walls[w, 2],
+                                                      walls[w, 3]))
         d = min(d, math.sqrt(nearest))
     if pieces.shape[0]:
         nearest = np.inf
@@ -229,6 +221,21 @@ def segment_clearance_one(ax, ay, bx, by, walls, bounds, pieces):
             nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
         d = min(d, math.sqrt(nearest))
     return d
+
+
+@compiled
+def segment_box_d2_one(ax, ay, bx, by, lx, ly, hx, hy):
+    """Squared distance between the segment ``(ax, ay) -> (bx, by)`` and the rectangle
+    ``(lx, ly, hx, hy)``: 0 when they touch, else the least of the ends' distances to the box and
+    the corners' distances to the segment."""
+    dx, dy = bx - ax, by - ay
+    if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
+        return 0.0
+    d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy), _point_box_d2_one(bx, by, lx, ly, hx, hy))
+    return min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
+                           _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
+                       min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
+                           _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
 
 
 @compiled

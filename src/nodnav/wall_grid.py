@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from nodnav.compiled import compiled
-from nodnav.geometry import _hit_one, _point_box_d2_one, _segment_piece_d2_one, _segment_point_d2_one
+from nodnav.geometry import _segment_piece_d2_one, segment_box_d2_one
 
 
 class WallGrid:
@@ -87,7 +87,6 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
         x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
         d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
         if walls.shape[0]:
-            dx, dy = bx - ax, by - ay
             nearest = np.inf
             reach = cell
             while True:
@@ -102,16 +101,8 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
                             if seen[w] == stamp:
                                 continue
                             seen[w] = stamp
-                            lx, ly, hx, hy = walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]
-                            d2 = min(_point_box_d2_one(ax, ay, lx, ly, hx, hy),
-                                     _point_box_d2_one(bx, by, lx, ly, hx, hy))
-                            d2 = min(d2, min(min(_segment_point_d2_one(ax, ay, dx, dy, lx, ly),
-                                                 _segment_point_d2_one(ax, ay, dx, dy, hx, ly)),
-                                             min(_segment_point_d2_one(ax, ay, dx, dy, hx, hy),
-                                                 _segment_point_d2_one(ax, ay, dx, dy, lx, hy))))
-                            if _hit_one(ax, ay, dx, dy, lx, ly, hx, hy):
-                                d2 = 0.0
-                            nearest = min(nearest, d2)
+                            nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1],
+                                                                      walls[w, 2], walls[w, 3]))
                 whole = i0 == 0 and j0 == 0 and i1 == nx - 1 and j1 == ny - 1
                 if nearest <= reach * reach or whole:
                     break

@@ -216,8 +216,12 @@ class _Attempt:
         """Robots in the corridor, those heading left left of those heading right: nobody must pass."""
         if not group:
             return
-        d = self.d
         group.sort(key=lambda r: r.goal)
+        self._place(group)
+
+    def _place(self, group: list[_Robot]) -> None:
+        """Robots ``group`` in the corridor in the given order, spaced as the family says."""
+        d = self.d
         gaps = [d.range(self.f.spacing) + SLACK for _ in group[1:]]
         span = sum(a.radius + b.radius + g for a, b, g in zip(group, group[1:], gaps))
         room = 2 * self.h - 2 * SLACK

@@ -18,11 +18,9 @@ the mouths, that one robot fits into beside the line (the planner finds it from 
 
 from __future__ import annotations
 
-import numpy as np
-
 from nodnav.scenario.bay_walls import with_bay
 from nodnav.scenario.families import Family
-from nodnav.scenario.layout import MIN_WALL, SLACK, _Attempt, _mm, _Robot
+from nodnav.scenario.layout import MIN_WALL, _Attempt, _mm, _Robot
 from nodnav.scenario.validity import CLEARANCE
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT
 
@@ -61,23 +59,6 @@ class MeetingAttempt(_Attempt):
         placed = sorted(group, key=lambda r: -r.goal) if self.order == "facing" else self.d.shuffled(group)
         group[:] = placed
         self._place(group)
-
-    def _place(self, group: list[_Robot]) -> None:
-        """The placement of :meth:`_Attempt.inside` for robots in the given order."""
-        d = self.d
-        gaps = [d.range(self.f.spacing) + SLACK for _ in group[1:]]
-        span = sum(a.radius + b.radius + g for a, b, g in zip(group, group[1:], gaps))
-        room = 2 * self.h - 2 * SLACK
-        if span > room:
-            from nodnav.scenario.layout import _Reject
-
-            raise _Reject("the corridor is too short for the robots inside it")
-        x = -self.h + SLACK + d.uniform(0.0, room - span)
-        for k, r in enumerate(group):
-            if k:
-                x += group[k - 1].radius + r.radius + gaps[k - 1]
-            lateral = max(0.0, self.half - r.radius - CLEARANCE - SLACK)
-            r.origin = np.array([_mm(x), _mm(d.uniform(-lateral, lateral))])
 
     def mapping(self, seed: int, robots: list[_Robot]) -> dict:
         out = super().mapping(seed, robots)

@@ -15,7 +15,8 @@ How a query is answered
 2. Robots are planned one by one in the (planned) passing order; each one moves along its own
    geometric path and chooses only its timing, treating the robots planned before it as moving
    obstacles (path-velocity decomposition).
-3. Geometric path: the shortest collision-free polyline (:class:`VisibilityGraph`) around the
+3. Geometric path (:mod:`nodnav.planning.geometric_paths`): the shortest collision-free
+   polyline (:class:`VisibilityGraph`) around the
    walls, around where the robots after it in the order stand (so that every later robot can
    always wait there), and around the destinations of the robots before it (where they will
    park for good). A robot that starts closer than required to one of these may move away but
@@ -80,7 +81,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from nodnav.geometry import TOL, segment_clearance, segment_point_distance
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
 from nodnav.planning.fast_state import (
     Attempt,
@@ -88,12 +88,12 @@ from nodnav.planning.fast_state import (
     Joint,
     Layout,
     RobotPlan,
-    Route,
     State,
     Track,
     reject_request,
     state_problem,
 )
+from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import (
@@ -101,16 +101,14 @@ from nodnav.planning.occupancy import (
     blocked_bits,
     close_gates,
     conflict_intervals,
-    entry_cell,
     join_motions,
     mask_words,
-    polyline_segments,
     relaxed_bits,
     separation_requirements,
 )
 from nodnav.planning.parking import DeferredParking
 from nodnav.planning.timing import Timing, earliest_arrival_bits
-from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, disc_violations, polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph, disc_violations
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.registry import register_planner
 from nodnav.scenario.params import FastPlannerParams
@@ -120,7 +118,7 @@ logger = logging.getLogger(__name__)
 
 
 @register_planner("fast")
-class PrioritizedPlanner(MakingWay, DeferredParking):
+class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     """Prioritised space-time planner (see the module docstring); deterministic, no precomputation."""
 
     name = "fast"
@@ -135,23 +133,6 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
         self._states: dict[tuple, State] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
-
-    @property
-    def wall_margin(self) -> float:
-        """Extra clearance kept from walls where there is room: half the pair margin (m)."""
-        return 0.5 * self.params.margin
-
-    def graph(self, world: World, radius: float) -> VisibilityGraph:
-        """The visibility graph for robots of ``radius`` in ``world`` (built once, then kept)."""
-        key = (world, float(radius))
-        g = self._graphs.get(key)
-        if g is None:
-            # The wall margin where there is room: in a passage that leaves a robot less than
-            # twice the margin beside the centreline, half of what it leaves (issue 19).
-            room = 0.5 * world.passage.width - float(radius)
-            g = VisibilityGraph(world, radius, min(self.wall_margin, max(0.0, 0.5 * room)))
-            remember(self._graphs, key, g)
-        return g
 
     def plan(self, request: PlanRequest) -> PlanResult:
         """Plan every robot of the request through the corridor in its (feasible) passing order."""
@@ -349,92 +330,6 @@ class PrioritizedPlanner(MakingWay, DeferredParking):
         rads = np.concatenate([req[k, later], req[k, earlier]])
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))
-
-    def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
-               centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track:
-        """The robot's prepared path (memoised: the closed loop asks the same from every order)."""
-        key = (world, radius, step, start.tobytes(), goal.tobytes(), centres.tobytes(), rads.tobytes(), n_later)
-        track = self._tracks.get(key)
-        if track is None:
-            route = self._route(world, radius, start, goal, centres, rads, n_later)
-            track = self._prepare(world, radius, step, route)
-            remember(self._tracks, key, track)
-        return track
-
-    def _route(self, world: World, radius: float, start: np.ndarray, goal: np.ndarray,
-               centres: np.ndarray, rads: np.ndarray, n_later: int) -> Route:
-        """The geometric path, keeping clear of later robots' positions and earlier robots'
-        destinations if possible, else of the destinations only, else of the walls only."""
-        graph = self.graph(world, radius)
-        attempts = [(centres, rads)]
-        if n_later:
-            attempts.append((centres[n_later:], rads[n_later:]))
-        if len(attempts[-1][0]):
-            attempts.append((np.zeros((0, 2)), np.zeros(0)))
-        level = 0  # how many sets of discs had to be given up
-        for c, r in attempts:
-            path = graph.shortest_path(start, goal, c, r)
-            if path.success:
-                break
-            level += 1
-        return Route(path, c, r, detour=bool(n_later) and level > 0)
-
-    def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track:
-        """The path cut into cells (:meth:`_cut`), with the full-speed moves that would cut a
-        corner closer to a standing robot than the polyline comes removed."""
-        cut = self._cut(world, radius, step, route.path.points)
-        ok2 = cut.ok2
-        if len(cut.corners) and len(route.centres):
-            a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
-            keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
-            bad = (segment_point_distance(a, b, route.centres) < keep - TOL).any(axis=1)
-            if bad.any():
-                ok2 = ok2.copy()
-                ok2[cut.corners[bad]] = False
-        return Track(route, cut.cells, cut.arc, ok2, cut.inside, cut.entry, cut.doors, cut.segments)
-
-    def _cut(self, world: World, radius: float, step: float, path: np.ndarray) -> Cut:
-        """Cut a path into cells of at most half a step and find the full-speed moves the walls
-        allow (memoised by path: many disc sets give the same path).
-
-        A move ``c -> c+2`` leaves the polyline only where it cuts a corner; there the straight
-        chord must keep the robot's radius from the walls (or not go deeper than its ends
-        already are). The polyline keeps ``g = min(radius + wall margin, end clearance)`` from
-        the walls (the least clearance of its two ends), and no point of a chord is farther
-        from the polyline than the corner is from the chord (``h``), so ``g - h >= radius``
-        settles most corners without computing distances.
-        """
-        key = (world, radius, step, path.tobytes())
-        cut = self._cuts.get(key)
-        if cut is not None:
-            return cut
-        grid = arc_length_grid(path, step / 2.0)
-        cells = grid.points
-        n = len(cells)
-        ok = np.zeros(n, dtype=bool)
-        corners = np.zeros(0, dtype=int)
-        if n >= 3:
-            ok[:n - 2] = True
-            u, w = cells[1:-1] - cells[:-2], cells[2:] - cells[1:-1]
-            cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
-            corners = np.nonzero(np.abs(cross) > 1e-12)[0]
-            if len(corners):
-                a, b = cells[corners], cells[corners + 2]
-                height = np.abs(cross[corners]) / np.linalg.norm(b - a, axis=1)
-                end_clearance = float(world.clearance(path[[0, -1]]).min())
-                good = min(radius + self.wall_margin, end_clearance) - height >= radius
-                unsure = np.nonzero(~good)[0]
-                if len(unsure):
-                    au, bu = a[unsure], b[unsure]
-                    limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
-                    good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
-                ok[corners] = good
-        inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
-        door = self.params.door_clearance
-        doors = (entry_cell(in_door_zone(world, cells, 0, door)), entry_cell(in_door_zone(world, cells, 1, door)))
-        cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
-        remember(self._cuts, key, cut)
-        return cut
 
     def _gates(self, state: State, k: int, track: Track, plans: dict) -> tuple[list, str]:
         """The corridor and door rules for robot ``k`` after the robots ``plans``: ``(cell,

@@ -1,0 +1,138 @@
+"""The fast planner's geometric paths: the shortest polyline for one robot, cut into cells.
+
+Step 3 of :mod:`nodnav.planning.prioritized` (its module docstring): a robot's path around the
+walls, the robots after it standing and the destinations of those before it (giving up those
+discs in turn when no path keeps clear of them), cut into cells of at most half a step with the
+full-speed moves the walls allow. Everything here depends only on the world, the robot's radius
+and step and the discs, so it is memoised across the orders the closed loop asks for.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from nodnav.geometry import TOL, segment_clearance, segment_point_distance
+from nodnav.planning.fast_state import Cut, Route, Track
+from nodnav.planning.memo import remember
+from nodnav.planning.occupancy import entry_cell, polyline_segments
+from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.waiting_spots import in_door_zone
+from nodnav.scenario.world import World
+
+if TYPE_CHECKING:
+    from nodnav.scenario.params import FastPlannerParams
+
+
+class GeometricPaths:
+    """Geometric paths of :class:`~nodnav.planning.prioritized.PrioritizedPlanner`, which owns the memos."""
+
+    if TYPE_CHECKING:  # set by PrioritizedPlanner.__init__
+        params: FastPlannerParams
+        _graphs: dict[tuple[World, float], VisibilityGraph]
+        _tracks: dict[tuple, Track]
+        _cuts: dict[tuple, Cut]
+
+    @property
+    def wall_margin(self) -> float:
+        """Extra clearance kept from walls where there is room: half the pair margin (m)."""
+        return 0.5 * self.params.margin
+
+    def graph(self, world: World, radius: float) -> VisibilityGraph:
+        """The visibility graph for robots of ``radius`` in ``world`` (built once, then kept)."""
+        key = (world, float(radius))
+        g = self._graphs.get(key)
+        if g is None:
+            # The wall margin where there is room: in a passage that leaves a robot less than
+            # twice the margin beside the centreline, half of what it leaves (issue 19).
+            room = 0.5 * world.passage.width - float(radius)
+            g = VisibilityGraph(world, radius, min(self.wall_margin, max(0.0, 0.5 * room)))
+            remember(self._graphs, key, g)
+        return g
+
+    def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
+               centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track:
+        """The robot's prepared path (memoised: the closed loop asks the same from every order)."""
+        key = (world, radius, step, start.tobytes(), goal.tobytes(), centres.tobytes(), rads.tobytes(), n_later)
+        track = self._tracks.get(key)
+        if track is None:
+            route = self._route(world, radius, start, goal, centres, rads, n_later)
+            track = self._prepare(world, radius, step, route)
+            remember(self._tracks, key, track)
+        return track
+
+    def _route(self, world: World, radius: float, start: np.ndarray, goal: np.ndarray,
+               centres: np.ndarray, rads: np.ndarray, n_later: int) -> Route:
+        """The geometric path, keeping clear of later robots' positions and earlier robots'
+        destinations if possible, else of the destinations only, else of the walls only."""
+        graph = self.graph(world, radius)
+        attempts = [(centres, rads)]
+        if n_later:
+            attempts.append((centres[n_later:], rads[n_later:]))
+        if len(attempts[-1][0]):
+            attempts.append((np.zeros((0, 2)), np.zeros(0)))
+        level = 0  # how many sets of discs had to be given up
+        for c, r in attempts:
+            path = graph.shortest_path(start, goal, c, r)
+            if path.success:
+                break
+            level += 1
+        return Route(path, c, r, detour=bool(n_later) and level > 0)
+
+    def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track:
+        """The path cut into cells (:meth:`_cut`), with the full-speed moves that would cut a
+        corner closer to a standing robot than the polyline comes removed."""
+        cut = self._cut(world, radius, step, route.path.points)
+        ok2 = cut.ok2
+        if len(cut.corners) and len(route.centres):
+            a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
+            keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
+            bad = (segment_point_distance(a, b, route.centres) < keep - TOL).any(axis=1)
+            if bad.any():
+                ok2 = ok2.copy()
+                ok2[cut.corners[bad]] = False
+        return Track(route, cut.cells, cut.arc, ok2, cut.inside, cut.entry, cut.doors, cut.segments)
+
+    def _cut(self, world: World, radius: float, step: float, path: np.ndarray) -> Cut:
+        """Cut a path into cells of at most half a step and find the full-speed moves the walls
+        allow (memoised by path: many disc sets give the same path).
+
+        A move ``c -> c+2`` leaves the polyline only where it cuts a corner; there the straight
+        chord must keep the robot's radius from the walls (or not go deeper than its ends
+        already are). The polyline keeps ``g = min(radius + wall margin, end clearance)`` from
+        the walls (the least clearance of its two ends), and no point of a chord is farther
+        from the polyline than the corner is from the chord (``h``), so ``g - h >= radius``
+        settles most corners without computing distances.
+        """
+        key = (world, radius, step, path.tobytes())
+        cut = self._cuts.get(key)
+        if cut is not None:
+            return cut
+        grid = arc_length_grid(path, step / 2.0)
+        cells = grid.points
+        n = len(cells)
+        ok = np.zeros(n, dtype=bool)
+        corners = np.zeros(0, dtype=int)
+        if n >= 3:
+            ok[:n - 2] = True
+            u, w = cells[1:-1] - cells[:-2], cells[2:] - cells[1:-1]
+            cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+            corners = np.nonzero(np.abs(cross) > 1e-12)[0]
+            if len(corners):
+                a, b = cells[corners], cells[corners + 2]
+                height = np.abs(cross[corners]) / np.linalg.norm(b - a, axis=1)
+                end_clearance = float(world.clearance(path[[0, -1]]).min())
+                good = min(radius + self.wall_margin, end_clearance) - height >= radius
+                unsure = np.nonzero(~good)[0]
+                if len(unsure):
+                    au, bu = a[unsure], b[unsure]
+                    limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
+                    good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
+                ok[corners] = good
+        inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
+        door = self.params.door_clearance
+        doors = (entry_cell(in_door_zone(world, cells, 0, door)), entry_cell(in_door_zone(world, cells, 1, door)))
+        cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
+        remember(self._cuts, key, cut)
+        return cut

@@ -52,6 +52,27 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
+#: Setups and their problems (by number of other robots and sample times) shared by every
+#: controller of the same world, body and parameters in this process: they are read-only but for
+#: the rows a step writes before it reads them, and a step runs to its end before the next begins.
+_SHARED: dict[tuple, tuple[MPCSetup, dict[tuple, MPCProblem]]] = {}
+_SHARED_MAX = 16
+
+
+def _shared_setup(world: World, robot: RobotSpec, params: MPCParams) -> tuple[MPCSetup, dict[tuple, MPCProblem]]:
+    """The setup of a controller of ``robot`` in ``world`` and its problems, built once per process
+    for every robot of the same radius and limits (the setup's ``robot`` is the first such robot;
+    only its radius and limits are read)."""
+    key = (world.obstacle_array.tobytes(), world.piece_array.shape, world.piece_array.tobytes(),
+           world.bounds_array.tobytes(), robot.radius, robot.max_speed, robot.max_accel, params)
+    shared = _SHARED.get(key)
+    if shared is None:
+        if len(_SHARED) >= _SHARED_MAX:
+            _SHARED.pop(next(iter(_SHARED)))
+        shared = _SHARED[key] = (MPCSetup.of(world, robot, params), {})
+    return shared
+
+
 @register_controller("mpc")
 class BSplineMPC:
     """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
@@ -67,9 +88,8 @@ class BSplineMPC:
         self.settings = params  # the numerical choices, read as settings.*
         self.horizon = float(params.horizon)
         self.dt = float(params.dt)
-        self.setup = MPCSetup.of(world, robot, params)
+        self.setup, self._problems = _shared_setup(world, robot, params)
         self.obstacles = self.setup.obstacles
-        self._problems: dict[tuple, MPCProblem] = {}
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
         self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}

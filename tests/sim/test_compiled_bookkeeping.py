@@ -1,15 +1,14 @@
 """The compiled loops of the per-step bookkeeping against the plain NumPy code they replace."""
 
-import dataclasses
 
 import numpy as np
 import pytest
 
+from nodnav.planning.base import JointTrajectory
 from nodnav.planning.dependencies import gate_sample, observed_progress, plan_dependencies
 from nodnav.scenario.loading import load_scenario
 from nodnav.sim.agent import RobotView
 from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins
-from nodnav.planning.base import JointTrajectory
 
 
 def _view(t, positions, velocities):
@@ -67,4 +66,3 @@ def test_observe_equals_observed_progress_and_gate_sample():
         gates = [gate_sample(deps, c, progress) for c in range(3)]
         assert execution.progress.tolist() == progress.tolist()
         assert execution.gates.tolist() == gates
-    assert dataclasses.is_dataclass(settings)

@@ -66,3 +66,51 @@ def test_observe_equals_observed_progress_and_gate_sample():
         gates = [gate_sample(deps, c, progress) for c in range(3)]
         assert execution.progress.tolist() == progress.tolist()
         assert execution.gates.tolist() == gates
+
+
+def _advanced_plain(progress, positions, reach):
+    """PlanProgress.advanced as it was written in NumPy before it was compiled."""
+    from nodnav.sim.progress import OFF_ROUTE
+
+    out = np.zeros(len(positions), dtype=bool)
+    for k, points in enumerate(progress.routes):
+        if points is None:
+            continue
+        arc, c = progress.arcs[k], int(progress.cursor[k])
+        end = int(np.searchsorted(arc, arc[c] + reach[k], side="right"))
+        window = points[c:max(end, c + 1)]
+        gap = np.linalg.norm(window - positions[k], axis=1)
+        best = int(np.argmin(gap))
+        if gap[best] <= OFF_ROUTE:
+            progress.cursor[k] = c + best
+        if arc[progress.cursor[k]] >= progress.credited[k] + progress.epsilon:
+            progress.credited[k] = arc[progress.cursor[k]]
+            out[k] = True
+    return out
+
+
+def test_plan_progress_equals_the_plain_computation():
+    from nodnav.sim.progress import PlanProgress
+
+    rng = np.random.default_rng(5)
+    compiled_progress, plain = PlanProgress(3, 0.05), PlanProgress(3, 0.05)
+    # A route out and back the same way, a zigzag, and a robot without a plan.
+    out_back = np.concatenate([np.linspace([0, 0], [2, 0], 21), np.linspace([2, 0], [0, 0], 21)[1:]])
+    zigzag = np.cumsum(rng.normal(0.0, 0.1, (40, 2)), axis=0)
+    for p in (compiled_progress, plain):
+        p.follow(0, out_back)
+        p.follow(1, zigzag)
+        p.follow(2, None)
+    credited = 0
+    for step in range(80):
+        t = step / 80
+        positions = np.array([out_back[int(t * (len(out_back) - 1))], zigzag[int(t * 39)], [0.0, 0.0]])
+        positions = positions + rng.normal(0.0, 0.02, positions.shape)
+        reach = np.full(3, 0.3)
+        got = compiled_progress.advanced(positions, reach)
+        want = _advanced_plain(plain, positions, reach)
+        assert got.tolist() == want.tolist()
+        assert compiled_progress.cursor.tolist() == plain.cursor.tolist()
+        credited += got.sum()
+    assert compiled_progress.credited.tobytes() == plain.credited.tobytes()
+    assert credited > 10

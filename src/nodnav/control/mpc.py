@@ -92,7 +92,7 @@ class BSplineMPC:
         self.obstacles = self.setup.obstacles
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._wall_clearances: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
@@ -362,13 +362,13 @@ class BSplineMPC:
 
     def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Clearance wanted from each group, and the distance under which it is in contact."""
-        key = (n_walls, other_radii.tobytes())
-        if key not in self._clearance_cache:
-            r = self.robot.radius
-            self._clearance_cache[key] = (
-                np.concatenate([np.full(n_walls, r), r + other_radii + self.params.safety_margin]),
-                np.concatenate([np.full(n_walls, 1e-12), r + other_radii]))
-        return self._clearance_cache[key]
+        # The radii change from step to step (reaction margins): the walls' part is kept.
+        walls = self._wall_clearances.get(n_walls)
+        if walls is None:
+            walls = self._wall_clearances[n_walls] = (np.full(n_walls, self.robot.radius), np.full(n_walls, 1e-12))
+        r = self.robot.radius
+        return (np.concatenate([walls[0], r + other_radii + self.params.safety_margin]),
+                np.concatenate([walls[1], r + other_radii]))
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

@@ -351,13 +351,13 @@ class BSplineMPC:
             weight = top / (2.0 * prob.tail_decel)
             reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
                      + weight * top + 0.1)
+        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return StepData(
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
-            static_lower=prob.static_lower(p0, v0, self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]),
-            tail_weight=weight, tail_reach=reach, box_low=self._bounds[0] + need_box[:2],
-            box_high=self._bounds[1] - need_box[2:],
+            static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
+            box_low=box_low, box_high=box_high,
         )
 
     def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

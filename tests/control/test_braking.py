@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from nodnav.control import ControlRequest
-from nodnav.control.braking import segment_clearance, tail_clearance, tail_decel
+from nodnav.control.braking import segment_clearance, tail_clearance, tail_decel, tail_end
 from nodnav.control.mpc import BSplineMPC
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -178,3 +178,15 @@ def test_follows_its_committed_trajectory_where_braking_straight_would_hit_a_wal
         p, v = res.next_position, res.next_velocity
     assert kinds and kinds[0] == "committed"
     assert np.hypot(*v) < 1e-9 and clearance_along(p[None]) >= robot.radius  # at rest, clear
+
+
+def test_tail_clearance_is_segment_clearance_of_the_tail_bit_for_bit():
+    """The compiled tail_clearance against its plain composition: tail_end, then segment_clearance."""
+    world = load_scenario("4r-case2").world
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        p, v = rng.uniform([-6.0, 0.0], [6.0, 3.0]), rng.normal(0.0, 1.0, 2)
+        want = float(segment_clearance(p, tail_end(p, v, 1.2), world.obstacle_array, world.piece_array,
+                                       world.bounds_array))
+        got = tail_clearance(p, v, 1.2, world.obstacle_array, world.piece_array, world.bounds_array)
+        assert np.float64(got).tobytes() == np.float64(want).tobytes()

@@ -91,19 +91,17 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     walls, bounds and limits; the softened groups, or None if walls, bounds, limits and firm
     predictions alone conflict).
     """
-    n, spg = 2 * prob.nz, len(prob.slack_weights)
+    n = 2 * prob.nz
     soft = soft.copy()
     gradient = np.concatenate([prob.gradient(data.v0, data.ref_local), prob.slack_gradient])
     while True:
         robots = np.flatnonzero(soft[prob.n_walls:])
         lower = prob.write_separation(data, lin, cold, np.where(soft, data.full, data.need),
                                       soft if keep_arrangement else None)
-        slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
-        var = np.concatenate([np.arange(n), n + slacks])
-        rows = np.hstack([prob.rows, prob.slack_columns[:, slacks]])
-        sol = effort.solve(prob.evasive_hessian[np.ix_(var, var)], gradient[var], rows, lower,
-                           prob.setup.settings.qp_tolerance, bounds=prob.slack_bounds[var],
-                           start_active=prob.slack_bounds[var] == 0.0)
+        var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
+        rows[:, :n] = prob.rows
+        sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
+                           start_active=start_active)
         if sol.success:
             c = prob.control_points(data, sol.x[:n])
             return (None if prob.violation(data, c, separation=False) else c), soft
@@ -115,3 +113,28 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
         if soft[more].all():  # also when the certificate names no robot at all
             return None, None
         soft[more] = True
+
+
+#: How many sets of softened robots :func:`evasive_structure` remembers per problem.
+MEMO_SIZE = 8
+
+
+def evasive_structure(prob: MPCProblem, robots: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                                                    np.ndarray]:
+    """What the evasive QP with the other robots ``robots`` softened keeps from step to step
+    (memoised per set of robots on the problem): its variables (``z``, then those robots'
+    slacks), its Hessian, its rows (the first ``2 nz`` columns to be written with the problem's
+    rows at each solve, then the slack columns), its bounds and which bounds start active."""
+    key = robots.tobytes()
+    hit = prob.evasive_memo.get(key)
+    if hit is None:
+        n, spg = 2 * prob.nz, len(prob.slack_weights)
+        slacks = (spg * robots[:, None] + np.arange(spg)).ravel()
+        var = np.concatenate([np.arange(n), n + slacks])
+        rows = np.zeros((prob.n_rows, len(var)))
+        rows[:, n:] = prob.slack_columns[:, slacks]
+        bounds = prob.slack_bounds[var]
+        if len(prob.evasive_memo) >= MEMO_SIZE:
+            prob.evasive_memo.pop(next(iter(prob.evasive_memo)))
+        hit = prob.evasive_memo[key] = (var, prob.evasive_hessian[np.ix_(var, var)], rows, bounds, bounds == 0.0)
+    return hit

@@ -52,6 +52,27 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
+#: Setups and their problems (by number of other robots and sample times) shared by every
+#: controller of the same world, body and parameters in this process: they are read-only but for
+#: the rows a step writes before it reads them, and a step runs to its end before the next begins.
+_SHARED: dict[tuple, tuple[MPCSetup, dict[tuple, MPCProblem]]] = {}
+_SHARED_MAX = 16
+
+
+def _shared_setup(world: World, robot: RobotSpec, params: MPCParams) -> tuple[MPCSetup, dict[tuple, MPCProblem]]:
+    """The setup of a controller of ``robot`` in ``world`` and its problems, built once per process
+    for every robot of the same radius and limits (the setup's ``robot`` is the first such robot;
+    only its radius and limits are read)."""
+    key = (world.obstacle_array.tobytes(), world.piece_array.shape, world.piece_array.tobytes(),
+           world.bounds_array.tobytes(), robot.radius, robot.max_speed, robot.max_accel, params)
+    shared = _SHARED.get(key)
+    if shared is None:
+        if len(_SHARED) >= _SHARED_MAX:
+            _SHARED.pop(next(iter(_SHARED)))
+        shared = _SHARED[key] = (MPCSetup.of(world, robot, params), {})
+    return shared
+
+
 @register_controller("mpc")
 class BSplineMPC:
     """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
@@ -67,12 +88,11 @@ class BSplineMPC:
         self.settings = params  # the numerical choices, read as settings.*
         self.horizon = float(params.horizon)
         self.dt = float(params.dt)
-        self.setup = MPCSetup.of(world, robot, params)
+        self.setup, self._problems = _shared_setup(world, robot, params)
         self.obstacles = self.setup.obstacles
-        self._problems: dict[tuple, MPCProblem] = {}
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        self._clearance_cache: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._wall_clearances: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
@@ -331,24 +351,24 @@ class BSplineMPC:
             weight = top / (2.0 * prob.tail_decel)
             reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
                      + weight * top + 0.1)
+        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return StepData(
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
-            static_lower=prob.static_lower(p0, v0, self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]),
-            tail_weight=weight, tail_reach=reach, box_low=self._bounds[0] + need_box[:2],
-            box_high=self._bounds[1] - need_box[2:],
+            static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
+            box_low=box_low, box_high=box_high,
         )
 
     def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Clearance wanted from each group, and the distance under which it is in contact."""
-        key = (n_walls, other_radii.tobytes())
-        if key not in self._clearance_cache:
-            r = self.robot.radius
-            self._clearance_cache[key] = (
-                np.concatenate([np.full(n_walls, r), r + other_radii + self.params.safety_margin]),
-                np.concatenate([np.full(n_walls, 1e-12), r + other_radii]))
-        return self._clearance_cache[key]
+        # The radii change from step to step (reaction margins): the walls' part is kept.
+        walls = self._wall_clearances.get(n_walls)
+        if walls is None:
+            walls = self._wall_clearances[n_walls] = (np.full(n_walls, self.robot.radius), np.full(n_walls, 1e-12))
+        r = self.robot.radius
+        return (np.concatenate([walls[0], r + other_radii + self.params.safety_margin]),
+                np.concatenate([walls[1], r + other_radii]))
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

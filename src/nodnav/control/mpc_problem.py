@@ -319,6 +319,7 @@ class MPCProblem:
                            (len(self.slack_weights) * np.arange(n_others)[:, None] + self.slack_of_row).ravel()] = 1.0
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
+        self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
         """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);

@@ -93,12 +93,12 @@ def observed_progress(path: np.ndarray, position: np.ndarray, since: int, tolera
     sample where its wait begins until it actually moves on, and a path that comes back over
     itself from counting as travelled before it has been.
     """
-    return int(_progress_kernel(np.ascontiguousarray(path, dtype=float), np.asarray(position, dtype=float),
+    return int(progress_kernel(np.ascontiguousarray(path, dtype=float), np.asarray(position, dtype=float),
                                 int(since), float(tolerance)))
 
 
 @compiled
-def _progress_kernel(path, position, since, tolerance):
+def progress_kernel(path, position, since, tolerance):
     """The scan of :func:`observed_progress`."""
     n_samples = path.shape[0]
     since = min(max(since, 0), n_samples - 1)
@@ -120,12 +120,12 @@ def gate_sample(dependencies: np.ndarray, robot: int, progress: np.ndarray) -> i
     A dependency ``[k, robot, j]`` is met when robot ``j`` has got past it:
     ``progress[j] > dependencies[k, robot, j]``.
     """
-    return int(_gate_kernel(np.ascontiguousarray(dependencies[:, robot, :]),
+    return int(gate_kernel(np.ascontiguousarray(dependencies[:, robot, :]),
                             np.ascontiguousarray(progress, dtype=np.int64), int(robot)))
 
 
 @compiled
-def _gate_kernel(row, progress, robot):
+def gate_kernel(row, progress, robot):
     """The scan of :func:`gate_sample` over the running maxima ``row`` ``(K, n)``."""
     n_samples, n = row.shape[0], row.shape[1]
     for k in range(n_samples):

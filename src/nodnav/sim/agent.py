@@ -103,6 +103,13 @@ class Decision:
         return self.plan.trajectory.subset([0])
 
 
+def state_key(request: PlanRequest) -> tuple[bytes, ...]:
+    """The part of a plan cache's key that requests sharing their state arrays share
+    (:func:`joint_requests`): the bytes of those arrays."""
+    return (request.positions.tobytes(), request.velocities.tobytes(), request.destinations.tobytes(),
+            request.radii.tobytes(), request.max_speeds.tobytes())
+
+
 class PlanCache:
     """Plans already computed in this decision round, shared by agents that pose the same query.
 
@@ -122,11 +129,10 @@ class PlanCache:
         self._plans.clear()
         self._states.clear()
 
-    def plan(self, request: PlanRequest) -> PlanResult:
-        """The planner's answer to ``request``, computed at most once per round."""
-        key = (request.order, request.entered, request.t0, request.positions.tobytes(),
-               request.velocities.tobytes(), request.destinations.tobytes(), request.radii.tobytes(),
-               request.max_speeds.tobytes())
+    def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
+        """The planner's answer to ``request``, computed at most once per round; ``state`` is
+        :func:`state_key` of the request if the caller has it already."""
+        key = (request.order, request.entered, request.t0, *(state_key(request) if state is None else state))
         result = self._plans.get(key)
         if result is None:
             self.misses += 1
@@ -309,7 +315,9 @@ class NODAgent:
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
-        return [self.plans.plan(request) for request in joint_requests(self.scenario, view, planning, orders)]
+        requests = joint_requests(self.scenario, view, planning, orders)
+        state = state_key(requests[0]) if requests else ()  # the requests share their state (equal arrays)
+        return [self.plans.plan(request, state) for request in requests]
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order

@@ -25,8 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.planning.base import JointTrajectory
-from nodnav.planning.dependencies import gate_sample, observed_progress, plan_dependencies
+from nodnav.planning.dependencies import gate_kernel, plan_dependencies, progress_kernel
 from nodnav.scenario.schema import Scenario
 from nodnav.sim.agent import RobotView
 
@@ -81,11 +82,9 @@ class PlanExecution:
         plan's robots (call once per control step, before reading references)."""
         if not self.settings.gated:
             return
-        for c in range(len(self.robots)):
-            self.progress[c] = observed_progress(self.samples[:, c], positions[c], self.progress[c],
-                                                 self.settings.tolerance)
-        for c in range(len(self.robots)):
-            self.gates[c] = gate_sample(self.dependencies, c, self.progress)
+        # observed_progress for every robot, then gate_sample for every robot, in one compiled call.
+        _observe_kernel(self.samples, np.ascontiguousarray(positions, dtype=float), self.settings.tolerance,
+                        self.dependencies, self.progress, self.gates)
 
     def limits(self) -> np.ndarray:
         """Plan time (s after the plan's start) at which each robot's clock stops for now."""
@@ -104,6 +103,19 @@ class PlanExecution:
     def advance(self) -> None:
         """Run every clock on by one control step, up to its limit."""
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
+
+
+@compiled
+def _observe_kernel(samples, positions, tolerance, dependencies, progress, gates):
+    """:meth:`PlanExecution.observe` as one compiled loop: each robot's progress
+    (:func:`~nodnav.planning.dependencies.observed_progress`) from ``positions`` ``(n, 2)``, then
+    each robot's gate (:func:`~nodnav.planning.dependencies.gate_sample`); updates ``progress``
+    and ``gates`` in place."""
+    n = positions.shape[0]
+    for c in range(n):
+        progress[c] = progress_kernel(samples[:, c], positions[c], progress[c], tolerance)
+    for c in range(n):
+        gates[c] = gate_kernel(dependencies[:, c, :], progress, c)
 
 
 def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
@@ -137,6 +149,49 @@ def unexpected_approach(seen_positions: np.ndarray, seen_velocities: np.ndarray,
     return np.einsum("ij,ij->i", positions[others] - expected, towards) > threshold
 
 
+_MODES = ("off", "always", "conflict", "surprised", "moving")
+"""``execution.reaction_margin``'s values, numbered for :func:`careful_radii`."""
+_SURPRISED = _MODES.index("surprised")
+
+
+@compiled
+def careful_radii(positions, velocities, seen_positions, seen_velocities, has_seen, i, others, accel, radii, safety,
+                  slack, dt, threshold, mode, surprised, surprise_steps, conflicted, base):
+    """:meth:`ReactionMargins.radii` and :meth:`ReactionMargins._careful` as one compiled loop
+    over the other robots (``others``), numbered ``mode`` in :data:`_MODES`: the same operations
+    as :func:`unexpected_approach` and :func:`reaction_margin`, element by element. Updates
+    ``surprised`` (steps left per other robot) in place; returns ``base`` (the three predictions'
+    radii of every other robot) with the braking ones widened."""
+    m = others.shape[0]
+    out = base.copy()
+    if mode == 0:
+        return out
+    for c in range(m):
+        j = others[c]
+        careful = True
+        if mode >= 2:
+            if mode >= 3 and has_seen:  # unexpected_approach
+                ex = seen_positions[j, 0] + seen_velocities[j, 0] * dt
+                ey = seen_positions[j, 1] + seen_velocities[j, 1] * dt
+                tx, ty = positions[i, 0] - positions[j, 0], positions[i, 1] - positions[j, 1]
+                norm = max(np.sqrt(tx * tx + ty * ty), 1e-9)
+                tx, ty = tx / norm, ty / norm
+                off = (positions[j, 0] - ex) * tx + (positions[j, 1] - ey) * ty > threshold
+                surprised[c] = surprise_steps if off else max(surprised[c] - 1, 0)
+            careful = surprised[c] > 0 or conflicted
+            if mode == 4:
+                vx, vy = velocities[j, 0], velocities[j, 1]
+                careful = careful or np.sqrt(vx * vx + vy * vy) * dt > threshold
+        if careful:
+            vx, vy = velocities[j, 0], velocities[j, 1]
+            speed = np.sqrt(vx * vx + vy * vy)
+            margin = accel[j] * dt * dt + (speed + 0.5 * accel[j] * dt) * dt
+            dx, dy = positions[j, 0] - positions[i, 0], positions[j, 1] - positions[i, 1]
+            gap = np.sqrt(dx * dx + dy * dy) - radii[i] - radii[j] - safety
+            out[2 * m + c] += max(min(margin, gap - slack), 0.0)
+    return out
+
+
 class ReactionMargins:
     """The reaction margin (``execution.reaction_margin``, docs/execution.md) of every robot of a
     trial: towards which other robots it keeps :func:`reaction_margin` from their braking
@@ -155,17 +210,33 @@ class ReactionMargins:
         self._surprise = scenario.execution.surprise
         self._surprise_steps = int(round(scenario.execution.surprise_memory / self.dt))
         self._last_seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._mode = _MODES.index(self._braking_margin)
+        self._others_array = [np.array(o, dtype=np.int64) for o in self._others]
 
     def radii(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """The radii ``radii`` of robot ``i``'s three predictions of every other robot, the braking
-        ones widened by the reaction margin towards the robots it is careful of this step."""
+        ones widened by the reaction margin towards the robots it is careful of this step
+        (:meth:`_careful`): :func:`reaction_margin`, never more than the present gap leaves (where
+        the other robot is now is known), so that the robot is not "inside" the other's braking
+        disc at once. One compiled call (:func:`careful_radii`) per robot and step."""
+        seen = self._last_seen.get(i)
+        positions, velocities = view.positions, view.velocities
+        out = careful_radii(positions, velocities, positions if seen is None else seen[0],
+                            velocities if seen is None else seen[1], seen is not None, i, self._others_array[i],
+                            self._accel, self.scenario.radii, self.scenario.controller.safety_margin,
+                            self.scenario.execution.reaction_slack, self.dt, self._surprise, self._mode,
+                            self._surprised[i], self._surprise_steps, bool(self.conflicted[i]), radii)
+        if self._mode >= _SURPRISED:
+            self._last_seen[i] = (positions.copy(), velocities.copy())
+        return out
+
+    def radii_plain(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
+        """:meth:`radii` in NumPy, the reference its compiled loop is tested against."""
         careful = self._careful(i, view)
         if careful.any():
             others = self._others[i]
             radii = radii.copy()
             margin = reaction_margin(np.linalg.norm(view.velocities[others], axis=1), self._accel[others], self.dt)
-            # Where the other robot is now is known: never more margin than the present gap
-            # leaves, so that the robot is not "inside" the other's braking disc at once.
             gap = (np.linalg.norm(view.positions[others] - view.positions[i], axis=1) - self.scenario.radii[i]
                    - self.scenario.radii[others] - self.scenario.controller.safety_margin)
             allowed = np.clip(np.minimum(margin, gap - self.scenario.execution.reaction_slack), 0.0, None)

@@ -109,7 +109,7 @@ class PlannedMethod:
         self._execution_settings = ExecutionSettings(
             gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
             margin=scenario.planner.margin, tolerance=ex.tolerance)
-        self._executions: dict[int, tuple[Decision, PlanExecution]] = {}
+        self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
         self.reactions = ReactionMargins(scenario)
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
@@ -139,25 +139,33 @@ class PlannedMethod:
 
     def execution(self, i: int) -> PlanExecution:
         """Robot ``i``'s execution of its current decision's plan (a new one after each decision)."""
+        return self._held(i)[1]
+
+    def _held(self, i: int) -> tuple[Decision, PlanExecution, np.ndarray, np.ndarray]:
+        """Robot ``i``'s current decision, its execution, the rows of the decision's robots in a
+        view and each other robot's column in the decision's plan (-1: not in it), built once
+        per decision."""
         decision = self.decisions[i]
         held = self._executions.get(i)
         if held is None or held[0] is not decision:
-            radii = self.scenario.radii[list(decision.robots)]
-            held = self._executions[i] = (decision, PlanExecution(decision.plan.trajectory, decision.robots, radii,
-                                                                  self._execution_settings))
-        return held[1]
+            rows = np.array(decision.robots, dtype=np.int64)
+            columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in self._others[i]],
+                               dtype=np.int64)
+            held = self._executions[i] = (decision, PlanExecution(decision.plan.trajectory, decision.robots,
+                                                                  self.scenario.radii[rows], self._execution_settings),
+                                          rows, columns)
+        return held
 
     def _horizon(self, i: int, t: float, view: RobotView) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``i``'s reference (its path in its selected plan at the MPC sample times after
         ``t``, ``(K, 2)``) and :meth:`predictions`; read by precedence or by the clock
         (:mod:`nodnav.sim.execution`)."""
-        decision = self.decisions[i]
+        decision, execution, _, columns = self._held(i)
         if self._execution_settings.gated:
-            planned = self.execution(i).read(self._offsets)
+            planned = execution.read(self._offsets)
         else:
             planned = decision.plan.trajectory.positions_at(t + self._offsets)
         others = self._others[i]
-        columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in others], dtype=np.int64)
         predictions = horizon_predictions(planned, columns, view.positions[others], view.velocities[others],
                                           self._decel[i], self.sample_times)
         return planned[1:, 0], predictions
@@ -166,8 +174,8 @@ class PlannedMethod:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
         for i, view in views.items():
-            execution = self.execution(i)
-            execution.observe(view.positions[list(self.decisions[i].robots)])
+            _, execution, rows, _ = self._held(i)
+            execution.observe(view.positions[rows])
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self.reactions.radii(i, view, self._other_radii[i])

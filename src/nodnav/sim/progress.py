@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from nodnav.compiled import compiled
+
 #: A robot farther than this from every point of its plan's route ahead of its cursor (m) is not
 #: following it; its cursor stays.
 OFF_ROUTE = 0.5
@@ -55,16 +57,36 @@ class PlanProgress:
         far along the route the cursor may look ahead in one step."""
         out = np.zeros(len(positions), dtype=bool)
         for k, points in enumerate(self.routes):
-            if points is None:
-                continue
-            arc, c = self.arcs[k], int(self.cursor[k])
-            end = int(np.searchsorted(arc, arc[c] + reach[k], side="right"))
-            window = points[c:max(end, c + 1)]
-            gap = np.linalg.norm(window - positions[k], axis=1)
-            best = int(np.argmin(gap))
-            if gap[best] <= OFF_ROUTE:
-                self.cursor[k] = c + best
-            if arc[self.cursor[k]] >= self.credited[k] + self.epsilon:
-                self.credited[k] = arc[self.cursor[k]]
-                out[k] = True
+            if points is not None:
+                out[k] = _advance_cursor(points, self.arcs[k], positions[k], float(reach[k]), self.epsilon, k,
+                                         self.cursor, self.credited)
         return out
+
+
+@compiled
+def _advance_cursor(points, arc, position, reach, epsilon, k, cursor, credited):
+    """One robot's step of :meth:`PlanProgress.advanced` (updates ``cursor[k]`` and
+    ``credited[k]``): the cursor moves to the route's point nearest ``position`` (the first of
+    equals) within ``reach`` along the route ahead, if it is within :data:`OFF_ROUTE`; whether
+    that gains ``epsilon`` over the last credited arc length."""
+    c = cursor[k]
+    limit = arc[c] + reach
+    end = c + 1
+    for e in range(arc.shape[0]):  # searchsorted(arc, limit, side="right"), at least c + 1
+        if arc[e] > limit:
+            end = max(e, c + 1)
+            break
+    else:
+        end = max(arc.shape[0], c + 1)
+    best, best_gap = 0, np.inf
+    for e in range(c, min(end, points.shape[0])):
+        dx, dy = points[e, 0] - position[0], points[e, 1] - position[1]
+        gap = np.sqrt(dx * dx + dy * dy)
+        if gap < best_gap:
+            best, best_gap = e - c, gap
+    if best_gap <= OFF_ROUTE:
+        cursor[k] = c + best
+    if arc[cursor[k]] >= credited[k] + epsilon:
+        credited[k] = arc[cursor[k]]
+        return True
+    return False

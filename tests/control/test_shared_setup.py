@@ -4,7 +4,7 @@ a controller's results must not depend on what the others sharing them did in be
 import numpy as np
 
 from nodnav.control import ControlRequest
-from nodnav.control.mpc import BSplineMPC
+from nodnav.control.mpc import BSplineMPC, SharedSetups
 from nodnav.scenario.loading import load_scenario
 
 
@@ -41,7 +41,9 @@ def test_controllers_sharing_a_setup_do_not_disturb_each_other():
     first = _requests(s, 0, 1)
     alone = _run(BSplineMPC(s.world, s.robots[0], s.controller), first, 40)
 
-    mine, theirs = BSplineMPC(s.world, s.robots[0], s.controller), BSplineMPC(s.world, s.robots[2], s.controller)
+    shared = SharedSetups()
+    mine = BSplineMPC(s.world, s.robots[0], s.controller, shared)
+    theirs = BSplineMPC(s.world, s.robots[2], s.controller, shared)
     assert mine.setup is theirs.setup  # one setup for the same world, body and parameters
     second = _requests(s, 2, 3)
     state = {"p": second[0], "v": second[1]}

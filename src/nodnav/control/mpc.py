@@ -52,25 +52,26 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
-#: Setups and their problems (by number of other robots and sample times) shared by every
-#: controller of the same world, body and parameters in this process: they are read-only but for
-#: the rows a step writes before it reads them, and a step runs to its end before the next begins.
-_SHARED: dict[tuple, tuple[MPCSetup, dict[tuple, MPCProblem]]] = {}
-_SHARED_MAX = 16
+class SharedSetups:
+    """MPC setups, and their problems by number of other robots and sample times, shared by the
+    controllers of one trial whose robots have the same body and limits in the same world.
 
+    One object per trial (the method builds it with its controllers), never per process: a
+    problem's rows are scratch space that a step writes before it reads them, which is safe only
+    while the controllers sharing it step one after another, as one trial's do.
+    """
 
-def _shared_setup(world: World, robot: RobotSpec, params: MPCParams) -> tuple[MPCSetup, dict[tuple, MPCProblem]]:
-    """The setup of a controller of ``robot`` in ``world`` and its problems, built once per process
-    for every robot of the same radius and limits (the setup's ``robot`` is the first such robot;
-    only its radius and limits are read)."""
-    key = (world.obstacle_array.tobytes(), world.piece_array.shape, world.piece_array.tobytes(),
-           world.bounds_array.tobytes(), robot.radius, robot.max_speed, robot.max_accel, params)
-    shared = _SHARED.get(key)
-    if shared is None:
-        if len(_SHARED) >= _SHARED_MAX:
-            _SHARED.pop(next(iter(_SHARED)))
-        shared = _SHARED[key] = (MPCSetup.of(world, robot, params), {})
-    return shared
+    def __init__(self) -> None:
+        self._by_body: dict[tuple, tuple[MPCSetup, dict[tuple, MPCProblem]]] = {}
+
+    def get(self, world: World, robot: RobotSpec, params: MPCParams) -> tuple[MPCSetup, dict[tuple, MPCProblem]]:
+        """The setup of a controller of ``robot`` in ``world`` and its problems (the setup's
+        ``robot`` is the first such robot; only its radius and limits are read)."""
+        key = (id(world), robot.radius, robot.max_speed, robot.max_accel, params)
+        shared = self._by_body.get(key)
+        if shared is None:
+            shared = self._by_body[key] = (MPCSetup.of(world, robot, params), {})
+        return shared
 
 
 @register_controller("mpc")
@@ -79,7 +80,8 @@ class BSplineMPC:
 
     name = "mpc"
 
-    def __init__(self, world: World, robot: RobotSpec, params: MPCParams = MPCParams()):
+    def __init__(self, world: World, robot: RobotSpec, params: MPCParams = MPCParams(),
+                 shared: SharedSetups | None = None):
         if params.dt <= 0 or params.horizon <= 0 or params.dt > params.horizon:
             raise ValueError(f"need 0 < dt <= horizon, got dt={params.dt}, horizon={params.horizon}")
         self.world = world
@@ -88,7 +90,8 @@ class BSplineMPC:
         self.settings = params  # the numerical choices, read as settings.*
         self.horizon = float(params.horizon)
         self.dt = float(params.dt)
-        self.setup, self._problems = _shared_setup(world, robot, params)
+        # The trial's robots of the same body share one setup (building it is most of the start-up).
+        self.setup, self._problems = (shared if shared is not None else SharedSetups()).get(world, robot, params)
         self.obstacles = self.setup.obstacles
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None

@@ -14,7 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from nodnav.compiled import compiled
-from nodnav.control import ControlRequest, ControlResult, make_controller
+from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
@@ -89,7 +89,8 @@ class PlannedMethod:
         self.scenario = scenario
         self.rngs = rngs
         self.plans = PlanCache(planner if planner is not None else make_planner(scenario.planner, scenario.world))
-        self.controllers = [make_controller(scenario.controller, scenario.world, r) for r in scenario.robots]
+        shared = SharedSetups()
+        self.controllers = [make_controller(scenario.controller, scenario.world, r, shared) for r in scenario.robots]
         self.decisions: dict[int, Decision] = {}
         horizon = scenario.controller.horizon
         samples = scenario.controller.samples

@@ -6,9 +6,9 @@ Importing this package registers the built-in controller (:data:`~nodnav.registr
 
 from __future__ import annotations
 
-from nodnav.control.base import Controller, ControlRequest, ControlResult
 import inspect
 
+from nodnav.control.base import Controller, ControlRequest, ControlResult
 from nodnav.control.mpc import BSplineMPC, SharedSetups
 from nodnav.registry import CONTROLLERS
 from nodnav.scenario.params import ControllerParams, RobotSpec
@@ -43,4 +43,5 @@ def make_controller(params: ControllerParams, world: World, robot: RobotSpec,
     return CONTROLLERS.create(params.name, world, robot, params)
 
 
-__all__ = ["BSplineMPC", "Controller", "ControlRequest", "ControlResult", "make_controller", "CONTROLLERS", "SharedSetups"]
+__all__ = ["BSplineMPC", "Controller", "ControlRequest", "ControlResult", "make_controller", "CONTROLLERS",
+           "SharedSetups"]

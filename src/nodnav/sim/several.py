@@ -1,0 +1,294 @@
+"""Several passages: each robot's route, the passages on it, and the one-passage view of each.
+
+A world may hold several single-file passages (docs/several-passages.md). The paper's machinery
+(game players (7), opinions (1)-(6), eq. (4)'s estimation, the planners) reasons about one
+passage; it is kept as it is and run on a per-passage *view*: the same walls with that passage
+alone (:meth:`~nodnav.scenario.world.World.with_passage`), and each robot's destination replaced
+by the end of the stretch of its route on the passage's far side (its *local goal*).
+
+- :func:`robot_route`: a robot's shortest route around the walls (the visibility graph) and the
+  passages it crosses, in order, with the side it enters each from and its local goal there;
+- :class:`PassageViews`: the trial's routes and, per passage, the one-passage scenario, the
+  approach sides and a plan cache;
+- :class:`PassageAgent`: one robot, with one one-passage decider per passage on its route; it
+  plays the game of the next passage on its route, among the robots it sees whose next passage
+  it is, and drives alone once it has no passage left.
+
+Everything a robot infers about another's route it infers from what the paper lets it know: the
+other's destination (and where it started), and where it sees it now.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Callable, Protocol
+
+import numpy as np
+
+from nodnav.errors import NodnavError
+from nodnav.planning.base import Planner, PlanRequest
+from nodnav.planning.visibility import VisibilityGraph
+from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World
+
+#: Spacing of the samples along a route at which passages are looked for (m).
+ROUTE_STEP = 0.02
+
+#: A local goal is put this far back (m, along the route) from where the route leaves the far
+#: side of its passage (only when it leaves it before its destination).
+GOAL_SETBACK = 0.3
+
+
+@dataclass(frozen=True)
+class RobotRoute:
+    """One robot's route through a world with several passages."""
+
+    points: np.ndarray
+    """The route's polyline ``(V, 2)`` from the origin to the destination (m)."""
+    passages: tuple[int, ...]
+    """Indices of ``world.passages`` the route crosses, in the order it crosses them."""
+    entry_sides: tuple[int, ...]
+    """The side (``LEFT`` or ``RIGHT``, in that passage's frame) it enters each from."""
+    goals: tuple[tuple[float, float], ...]
+    """Its local goal beyond each: the destination if the route stays on the passage's far side
+    from there on, else the last point before it leaves that side (less :data:`GOAL_SETBACK`)."""
+
+    @property
+    def length(self) -> float:
+        """Length of the route (m)."""
+        return float(np.linalg.norm(np.diff(self.points, axis=0), axis=1).sum())
+
+    def to_go(self, position: np.ndarray) -> float:
+        """Length (m) still to go along the route from ``position``: the distance to the route's
+        nearest point and the route beyond it (a measure of progress, not a plan)."""
+        a, b = self.points[:-1], self.points[1:]
+        if not len(a):
+            return float(np.linalg.norm(np.asarray(position) - self.points[0]))
+        ab = b - a
+        seg = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18)
+        w = np.clip(np.einsum("ij,ij->i", np.asarray(position) - a, ab) / seg, 0.0, 1.0)
+        near = a + w[:, None] * ab
+        lengths = np.sqrt(seg)
+        after = np.concatenate([np.cumsum(lengths[::-1])[::-1][1:], [0.0]])
+        total = np.linalg.norm(np.asarray(position) - near, axis=1) + (1.0 - w) * lengths + after
+        return float(total.min())
+
+
+def _samples(points: np.ndarray) -> np.ndarray:
+    """Points along a polyline at most :data:`ROUTE_STEP` apart, its vertices included."""
+    out = [points[:1]]
+    for a, b in zip(points[:-1], points[1:]):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / ROUTE_STEP)))
+        out.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
+    return np.vstack(out)
+
+
+def route_crossings(world: World, points: np.ndarray) -> RobotRoute:
+    """The passages a route ``points`` ``(V, 2)`` crosses, in order: those whose clear rectangle
+    (between the mouths, within half the width of the centreline) it passes through, entering
+    from one side and leaving on the other."""
+    pts = np.asarray(points, dtype=float)
+    samples = _samples(pts)
+    found = []
+    for k, g in enumerate(world.passages):
+        s = g.along(samples)
+        inside = (g.side_of_along(s) == INSIDE) & (np.abs(g.across(samples) - g.t_centre) <= 0.5 * g.width + 1e-9)
+        if not inside.any():
+            continue
+        first, last = int(np.argmax(inside)), len(inside) - 1 - int(np.argmax(inside[::-1]))
+        side = g.side_of_along(s)
+        before, after = side[:first][side[:first] != INSIDE], side[last + 1:][side[last + 1:] != INSIDE]
+        if not len(before) or not len(after) or before[-1] == after[0]:
+            continue  # starts or ends inside, or dips in and comes back: no crossing
+        entry, exit_ = int(before[-1]), int(after[0])
+        beyond = side[last + 1:]
+        leaves = np.flatnonzero(beyond != exit_)  # the route leaves the far side (or comes back into the slab)
+        if len(leaves):  # the route comes back across: stop short of that
+            stop = last + 1 + int(leaves[0]) - 1 - int(round(GOAL_SETBACK / ROUTE_STEP))
+            goal = tuple(float(c) for c in samples[max(stop, last + 1)])
+        else:
+            goal = (float(pts[-1, 0]), float(pts[-1, 1]))
+        found.append((first, k, entry, goal))
+    found.sort()
+    return RobotRoute(points=pts, passages=tuple(k for _, k, _, _ in found),
+                      entry_sides=tuple(e for _, _, e, _ in found), goals=tuple(g for _, _, _, g in found))
+
+
+def robot_route(world: World, origin: np.ndarray, destination: np.ndarray, radius: float,
+                graphs: dict[float, VisibilityGraph]) -> RobotRoute:
+    """A robot's shortest route around the walls (:class:`VisibilityGraph` for its radius) and
+    the passages it crosses; one line when no route fits it."""
+    graph = graphs.get(float(radius))
+    if graph is None:
+        graph = graphs[float(radius)] = VisibilityGraph(world, radius)
+    path = graph.shortest_path(np.asarray(origin, dtype=float), np.asarray(destination, dtype=float))
+    if not path.success:
+        raise NodnavError(f"a robot of radius {radius:g} m has no route from {list(origin)} to {list(destination)} "
+                          f"that fits it: {path.reason}")
+    return route_crossings(world, path.points)
+
+
+_ROUTES: dict[tuple, list[RobotRoute]] = {}
+
+
+def trial_routes(scenario: Scenario) -> list[RobotRoute]:
+    """Every robot's route (:func:`robot_route`), computed once for a scenario (the simulator and
+    the robots' methods ask for the same; the last few answers are kept)."""
+    key = (scenario.world, scenario.origins.tobytes(), scenario.destinations.tobytes(), scenario.radii.tobytes())
+    routes = _ROUTES.get(key)
+    if routes is None:
+        graphs: dict[float, VisibilityGraph] = {}
+        routes = [robot_route(scenario.world, r.origin, r.destination, r.radius, graphs) for r in scenario.robots]
+        if len(_ROUTES) >= 8:
+            _ROUTES.pop(next(iter(_ROUTES)))
+        _ROUTES[key] = routes
+    return routes
+
+
+def passage_sides(scenario: Scenario, routes: list[RobotRoute], k: int) -> np.ndarray:
+    """The side each robot approaches passage ``k`` from ``(N_r,)``: where its route enters it,
+    else (a robot whose route does not cross it) as the one-passage code says."""
+    from nodnav.sim.agent import approach_sides
+
+    sides = approach_sides(replace(scenario, world=scenario.world.with_passage(k))).copy()
+    for j, route in enumerate(routes):
+        if k in route.passages:
+            sides[j] = route.entry_sides[route.passages.index(k)]
+    return sides
+
+
+class Decider(Protocol):
+    """A one-passage decision rule for one robot (a :class:`~nodnav.sim.agent.NODAgent`, ...)."""
+
+    def decide(self, view):  # noqa: ANN001, ANN201 - a RobotView in, a Decision out
+        ...
+
+
+class PassageViews:
+    """The trial's routes and, for each passage, the one-passage scenario robots reason in."""
+
+    def __init__(self, scenario: Scenario, planner_for: Callable[[World], Planner],
+                 plan_cache: Callable[[Planner], object]):
+        self.scenario = scenario
+        world = scenario.world
+        self.routes = trial_routes(scenario)
+        n = scenario.n_robots
+        self.scenarios: list[Scenario] = []
+        self.free: list[Scenario] = []
+        self.sides: list[np.ndarray] = []
+        for k in range(len(world.passages)):
+            view = world.with_passage(k)
+            robots = tuple(replace(r, destination=route.goals[route.passages.index(k)]) if k in route.passages else r
+                           for r, route in zip(scenario.robots, self.routes))
+            self.free.append(replace(scenario, world=view))
+            one = replace(scenario, world=view, robots=robots)
+            self.scenarios.append(one)
+            self.sides.append(passage_sides(scenario, self.routes, k))
+        planners = [planner_for(one.world) for one in self.scenarios]
+        self.plans = [plan_cache(planner) for planner in planners]
+        """One planner and plan cache per passage (its queries are in that passage's view)."""
+        self.free_plans = [plan_cache(planner) for planner in planners]
+        """Plan caches for robots driving alone to their destinations (no passage left)."""
+        self.exits = [tuple(-s for s in route.entry_sides) for route in self.routes]
+        self._first = np.zeros(n, dtype=int)
+
+    def clear(self) -> None:
+        """Forget the round's plans (every decision time)."""
+        for cache in (*self.plans, *self.free_plans):
+            cache.clear()  # type: ignore[attr-defined]
+
+    def start(self) -> np.ndarray:
+        """How many passages of its route each robot has left behind at the start: none."""
+        return self._first.copy()
+
+    def advance(self, stage: np.ndarray, positions: np.ndarray, known: np.ndarray) -> np.ndarray:
+        """``stage`` (passages of each robot's route it has left) moved on for the robots seen
+        beyond the far mouth of the passage they were crossing."""
+        stage = stage.copy()
+        passages = self.scenario.world.passages
+        for j, route in enumerate(self.routes):
+            while known[j] and stage[j] < len(route.passages):
+                g = passages[route.passages[stage[j]]]
+                if int(g.side_of_along(g.along(positions[j]))) != self.exits[j][stage[j]]:
+                    break
+                stage[j] += 1
+        return stage
+
+    def current(self, j: int, stage: np.ndarray) -> int:
+        """The passage robot ``j`` is heading for or crossing (``world.passages`` index), -1 for none."""
+        route = self.routes[j]
+        return route.passages[stage[j]] if stage[j] < len(route.passages) else -1
+
+    def players_of(self, k: int, stage: np.ndarray) -> np.ndarray:
+        """Which robots' next passage is ``k`` ``(N_r,)``: the robots of its game."""
+        return np.array([self.current(j, stage) == k for j in range(len(self.routes))], dtype=bool)
+
+    def last_passage(self, j: int) -> int:
+        """The last passage on robot ``j``'s route (0 without any): its view once it has none left."""
+        return self.routes[j].passages[-1] if self.routes[j].passages else 0
+
+    def to_go(self, positions: np.ndarray) -> np.ndarray:
+        """Length still to go along each robot's route ``(N_r,)`` (m)."""
+        return np.array([route.to_go(p) for route, p in zip(self.routes, positions)])
+
+
+class PassageAgent:
+    """Robot ``index`` in a world of several passages: a one-passage decider for each passage on
+    its route (``make(k)``), the one of its next passage deciding; with none left, it drives
+    alone to its destination.
+
+    The robot keeps, from what it sees, how many passages of each robot's route that robot has
+    left behind (:meth:`PassageViews.advance`); the robots of its game are those whose next
+    passage is its own. Its decider sees the view restricted to that passage (its entries) and
+    is told the robots it may play with (``eligible``)."""
+
+    def __init__(self, views: PassageViews, index: int, make: Callable[[int], Decider]):
+        self.views = views
+        self.index = index
+        self.make = make
+        self.stage = views.start()
+        self.deciders: dict[int, Decider] = {}
+
+    @property
+    def passage(self) -> int:
+        """The passage whose game this robot plays, -1 for none."""
+        return self.views.current(self.index, self.stage)
+
+    def decide(self, view):  # noqa: ANN001, ANN201 - RobotView -> Decision
+        self.stage = self.views.advance(self.stage, view.positions, view.known)
+        k = self.passage
+        if k < 0:
+            return drive_alone(self.views, self.index, view)
+        decider = self.deciders.get(k)
+        if decider is None:
+            decider = self.deciders[k] = self.make(k)
+            if self.views.routes[self.index].passages[0] != k and hasattr(decider, "start_positions"):
+                decider.start_positions = view.positions.copy()  # type: ignore[attr-defined]
+        eligible = self.views.players_of(k, self.stage)
+        eligible[self.index] = False
+        decider.eligible = eligible  # type: ignore[attr-defined]
+        entered = view.passage_entered[k] if view.passage_entered else view.entered
+        return decider.decide(replace(view, entered=entered))
+
+
+def drive_alone(views: PassageViews, i: int, view):  # noqa: ANN001, ANN201 - RobotView -> Decision
+    """Robot ``i``'s decision with no passage left on its route: a plan of itself alone to its
+    destination (the others are the MPC's moving obstacles, as for any robot outside a game)."""
+    from nodnav.sim.agent import Decision
+
+    k = views.last_passage(i)
+    s = views.free[k]
+    request = PlanRequest(world=s.world, positions=view.positions[[i]].copy(), velocities=view.velocities[[i]].copy(),
+                          destinations=s.destinations[[i]], radii=s.radii[[i]], max_speeds=s.max_speeds[[i]],
+                          order=(0,), entered=(), t0=view.t)
+    plan = views.free_plans[k].plan(request)  # type: ignore[attr-defined]
+    return Decision(strategy=-1, robots=(i,), plan=plan, opinions=np.zeros(0), probabilities=np.zeros(0), players=())
+
+
+def several(scenario: Scenario) -> bool:
+    """Whether the scenario's world has several passages."""
+    return len(scenario.world.passages) > 1
+
+
+__all__ = ["LEFT", "RIGHT", "PassageAgent", "PassageViews", "RobotRoute", "drive_alone", "robot_route",
+           "route_crossings", "several", "passage_sides", "trial_routes"]

@@ -61,7 +61,7 @@ from nodnav.sim.agent import (
     local_order,
     players_in_sight,
 )
-from nodnav.sim.methods import PlannedMethod
+from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
@@ -179,7 +179,9 @@ class NoCoordinationMethod(PlannedMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
-        self.agents = [NODAgent(scenario, i, rngs[i], self.plans, n_players=0) for i in range(scenario.n_robots)]
+        self.agents: list = [NODAgent(scenario, i, rngs[i], self.plans, n_players=0) for i in range(scenario.n_robots)]
+        if self.passages is not None:
+            self.agents = self.passage_agents(passage_nod_agent(self.passages, rngs, n_players=0))
 
     def decide_robot(self, i: int, view: RobotView) -> Decision:
         return self.agents[i].decide(view)
@@ -203,6 +205,14 @@ def enumerable(scenario: Scenario, method: str) -> None:
     if math.factorial(scenario.n_robots) > MAX_STRATEGIES:
         raise NodnavError(f"method '{method}' weighs all {scenario.n_robots}! passing orders; it supports at most "
                           f"{MAX_GAME} robots ({MAX_STRATEGIES} orders), this scenario has {scenario.n_robots}")
+
+
+def one_passage(scenario: Scenario, method: str) -> None:
+    """Refuse, in one line, a method that weighs whole passing orders of one passage in a world
+    of several (docs/several-passages.md)."""
+    if len(scenario.world.passages) > 1:
+        raise NodnavError(f"method '{method}' follows one passing order of one passage; this world has "
+                          f"{len(scenario.world.passages)} passages (use nod, no-coordination, closest-first or orca)")
 
 
 class FixedOrderMethod(PlannedMethod):
@@ -272,6 +282,7 @@ class IndependentMethod(FixedOrderMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         enumerable(scenario, self.name)
+        one_passage(scenario, self.name)
         super().__init__(scenario, rngs, planner)
 
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
@@ -299,12 +310,68 @@ class ClosestFirstMethod(FixedOrderMethod):
 
     name = "closest-first"
 
+    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
+        super().__init__(scenario, rngs, planner)
+        self.agents = None
+        if self.passages is not None:  # the convention at each passage of several (docs/several-passages.md)
+            passages = self.passages
+
+            def make(one: Scenario, k: int, i: int) -> ClosestFirstPassage:
+                return ClosestFirstPassage(one, i, passages.plans[k], passages.sides[k])  # type: ignore[arg-type]
+
+            self.agents = self.passage_agents(make)
+
+    def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
+        if self.agents is None:
+            return super().decide(views)
+        self.plans.clear()
+        if self.passages is not None:
+            self.passages.clear()
+        self.decisions = {i: self.agents[i].decide(view) for i, view in views.items()}
+        return self.decisions
+
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
         world = self.scenario.world
         tie = self.scenario.baselines.closest_first_tie
         # A robot not in sight at the first decision is ranked last (limited sight, docs/sensing.md).
         return {i: strategy_index(closest_first_order(np.where(view.seen, world.corridor_distance(
             view.positions, self.sides), np.inf), tie)) for i, view in views.items()}
+
+
+class ClosestFirstPassage:
+    """Robot ``index``'s closest-first convention at one passage of several, on the passage's
+    one-passage ``scenario``: at its first decision there it ranks the robots whose next passage
+    it is (``eligible``, set by :class:`~nodnav.sim.several.PassageAgent`) and itself by their
+    distance to the entrance they approach (eq. (10)), nearest first, the others after them by
+    number; it keeps that order while it plays there, with the game players of eqs. (6)-(7)
+    among the eligible robots, exactly as :class:`FixedOrderMethod` does with one passage."""
+
+    def __init__(self, scenario: Scenario, index: int, plans: PlanCache, sides: np.ndarray):
+        self.scenario = scenario
+        self.index = index
+        self.plans = plans
+        self.sides = sides
+        self.eligible: np.ndarray | None = None
+        self.order: tuple[int, ...] | None = None
+        self._graphs: dict = {}
+
+    def decide(self, view: RobotView) -> Decision:
+        s, i = self.scenario, self.index
+        d_corr = s.world.corridor_distance(view.positions, self.sides)
+        L = conflict_likelihood(view.positions, d_corr, s.opinion.delta)
+        players = players_in_sight(L, view, i, s.n_players, self.eligible)
+        if self.order is None:
+            ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
+            ranked[i] = True
+            self.order = closest_first_order(np.where(ranked, d_corr, np.inf), s.baselines.closest_first_tie)
+        robots = (i, *players)
+        plan = plan_for_order(s, self.plans, view, robots, self.order)
+        if not plan.success:  # nothing to follow: get out of everybody's way
+            canonical = tuple(sorted(robots))
+            plan = relabel(clearing_plan(s, view, canonical, i, plan, self._graphs),
+                           [canonical.index(k) for k in robots])
+        return Decision(strategy=strategy_index(self.order), robots=robots, plan=plan, opinions=NO_OPINION,
+                        probabilities=NO_OPINION, players=players, game=tuple(range(s.n_robots)), order=self.order)
 
 
 @register_method("oracle", help="a central coordinator gives everyone the order with the smallest planned makespan")
@@ -322,6 +389,7 @@ class OracleMethod(FixedOrderMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         enumerable(scenario, self.name)
+        one_passage(scenario, self.name)
         super().__init__(scenario, rngs, planner)
         self.orders = passing_orders(scenario.n_robots)
         self.makespans = np.full(len(self.orders), np.nan)

@@ -101,11 +101,13 @@ def route_crossings(world: World, points: np.ndarray) -> RobotRoute:
         if not len(before) or not len(after) or before[-1] == after[0]:
             continue  # starts or ends inside, or dips in and comes back: no crossing
         entry, exit_ = int(before[-1]), int(after[0])
-        beyond = side[last + 1:]
-        leaves = np.flatnonzero(beyond != exit_)  # the route leaves the far side (or comes back into the slab)
-        if len(leaves):  # the route comes back across: stop short of that
-            stop = last + 1 + int(leaves[0]) - 1 - int(round(GOAL_SETBACK / ROUTE_STEP))
-            goal = tuple(float(c) for c in samples[max(stop, last + 1)])
+        # Where the route is first beyond the far mouth (it may turn off the centreline between
+        # the wall's end and the mouth's line), and whether it comes back across that line later.
+        out = last + 1 + int(np.argmax(side[last + 1:] == exit_))
+        leaves = np.flatnonzero(side[out:] != exit_)
+        if len(leaves):  # the route comes back: stop short of that
+            stop = out + int(leaves[0]) - 1 - int(round(GOAL_SETBACK / ROUTE_STEP))
+            goal = tuple(float(c) for c in samples[max(stop, out)])
         else:
             goal = (float(pts[-1, 0]), float(pts[-1, 1]))
         found.append((first, k, entry, goal))
@@ -203,10 +205,16 @@ class PassageViews:
 
     def advance(self, stage: np.ndarray, positions: np.ndarray, known: np.ndarray) -> np.ndarray:
         """``stage`` (passages of each robot's route it has left) moved on for the robots seen
-        beyond the far mouth of the passage they were crossing."""
+        beyond the far mouth of the passage they were crossing, and back for those seen again on
+        the near side of the passage they had left (they backed out of the way)."""
         stage = stage.copy()
         passages = self.scenario.world.passages
         for j, route in enumerate(self.routes):
+            while known[j] and stage[j] > 0:
+                g = passages[route.passages[stage[j] - 1]]
+                if int(g.side_of_along(g.along(positions[j]))) != route.entry_sides[stage[j] - 1]:
+                    break
+                stage[j] -= 1
             while known[j] and stage[j] < len(route.passages):
                 g = passages[route.passages[stage[j]]]
                 if int(g.side_of_along(g.along(positions[j]))) != self.exits[j][stage[j]]:
@@ -222,6 +230,24 @@ class PassageViews:
     def players_of(self, k: int, stage: np.ndarray) -> np.ndarray:
         """Which robots' next passage is ``k`` ``(N_r,)``: the robots of its game."""
         return np.array([self.current(j, stage) == k for j in range(len(self.routes))], dtype=bool)
+
+    def previous(self, j: int, stage: np.ndarray) -> int:
+        """The passage robot ``j`` left last (``world.passages`` index), -1 for none."""
+        return self.routes[j].passages[stage[j] - 1] if stage[j] > 0 else -1
+
+    def eligible(self, i: int, stage: np.ndarray) -> np.ndarray:
+        """The robots robot ``i`` may play with ``(N_r,)``: those whose next passage is its own,
+        and those heading for the passage it has just left from the side it came out on (they
+        are in the room between the two passages, or in that passage coming towards it: it
+        meets them before its next passage, and planning with them is what lets two robots
+        swap through a small room between two passages)."""
+        k = self.current(i, stage)
+        out = self.players_of(k, stage)
+        q = self.previous(i, stage)
+        if q >= 0:
+            out |= self.players_of(q, stage) & (self.sides[q] == -self.sides[q][i])
+        out[i] = False
+        return out
 
     def last_passage(self, j: int) -> int:
         """The last passage on robot ``j``'s route (0 without any): its view once it has none left."""
@@ -248,6 +274,8 @@ class PassageAgent:
         self.make = make
         self.stage = views.start()
         self.deciders: dict[int, Decider] = {}
+        self.playing = -1
+        """The passage whose game the robot played at its last decision, -1 for none."""
 
     @property
     def passage(self) -> int:
@@ -258,17 +286,22 @@ class PassageAgent:
         self.stage = self.views.advance(self.stage, view.positions, view.known)
         k = self.passage
         if k < 0:
+            self.playing = -1
             return drive_alone(self.views, self.index, view)
         decider = self.deciders.get(k)
-        if decider is None:
+        if decider is None or k != self.playing:  # a game joined (again): it starts afresh
             decider = self.deciders[k] = self.make(k)
             if self.views.routes[self.index].passages[0] != k and hasattr(decider, "start_positions"):
                 decider.start_positions = view.positions.copy()  # type: ignore[attr-defined]
-        eligible = self.views.players_of(k, self.stage)
-        eligible[self.index] = False
-        decider.eligible = eligible  # type: ignore[attr-defined]
+        self.playing = k
+        decider.eligible = self.views.eligible(self.index, self.stage)  # type: ignore[attr-defined]
+        # The entries into this passage of the robots whose next passage it is: a robot met from
+        # the passage this one has just left came out of this one and is no longer in its line;
+        # between the two, the game's order (not who came through first) says who gives way.
         entered = view.passage_entered[k] if view.passage_entered else view.entered
-        return decider.decide(replace(view, entered=entered))
+        ours = self.views.players_of(k, self.stage)
+        ours[self.index] = True
+        return decider.decide(replace(view, entered=tuple(j for j in entered if ours[j])))
 
 
 def drive_alone(views: PassageViews, i: int, view):  # noqa: ANN001, ANN201 - RobotView -> Decision

@@ -24,6 +24,7 @@ from dataclasses import dataclass, replace
 from typing import Callable, Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from nodnav.errors import NodnavError
 from nodnav.planning.base import Planner, PlanRequest
@@ -107,7 +108,8 @@ def route_crossings(world: World, points: np.ndarray) -> RobotRoute:
         leaves = np.flatnonzero(side[out:] != exit_)
         if len(leaves):  # the route comes back: stop short of that
             stop = out + int(leaves[0]) - 1 - int(round(GOAL_SETBACK / ROUTE_STEP))
-            goal = tuple(float(c) for c in samples[max(stop, out)])
+            at = samples[max(stop, out)]
+            goal = (float(at[0]), float(at[1]))
         else:
             goal = (float(pts[-1, 0]), float(pts[-1, 1]))
         found.append((first, k, entry, goal))
@@ -116,7 +118,7 @@ def route_crossings(world: World, points: np.ndarray) -> RobotRoute:
                       entry_sides=tuple(e for _, _, e, _ in found), goals=tuple(g for _, _, _, g in found))
 
 
-def robot_route(world: World, origin: np.ndarray, destination: np.ndarray, radius: float,
+def robot_route(world: World, origin: ArrayLike, destination: ArrayLike, radius: float,
                 graphs: dict[float, VisibilityGraph]) -> RobotRoute:
     """A robot's shortest route around the walls (:class:`VisibilityGraph` for its radius) and
     the passages it crosses; one line when no route fits it."""
@@ -125,7 +127,8 @@ def robot_route(world: World, origin: np.ndarray, destination: np.ndarray, radiu
         graph = graphs[float(radius)] = VisibilityGraph(world, radius)
     path = graph.shortest_path(np.asarray(origin, dtype=float), np.asarray(destination, dtype=float))
     if not path.success:
-        raise NodnavError(f"a robot of radius {radius:g} m has no route from {list(origin)} to {list(destination)} "
+        raise NodnavError(f"a robot of radius {radius:g} m has no route from {np.asarray(origin).tolist()} to "
+                          f"{np.asarray(destination).tolist()} "
                           f"that fits it: {path.reason}")
     return route_crossings(world, path.points)
 
@@ -292,9 +295,9 @@ class PassageAgent:
         if decider is None or k != self.playing:  # a game joined (again): it starts afresh
             decider = self.deciders[k] = self.make(k)
             if self.views.routes[self.index].passages[0] != k and hasattr(decider, "start_positions"):
-                decider.start_positions = view.positions.copy()  # type: ignore[attr-defined]
+                decider.start_positions = view.positions.copy()
         self.playing = k
-        decider.eligible = self.views.eligible(self.index, self.stage)  # type: ignore[attr-defined]
+        decider.eligible = self.views.eligible(self.index, self.stage)
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;
         # between the two, the game's order (not who came through first) says who gives way.

@@ -8,10 +8,10 @@ import pytest
 import yaml
 
 from nodnav.cli import main
+from nodnav.planning import make_planner
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import ScenarioError, scenario_from_dict
 from nodnav.scenario.world import LEFT, RIGHT
-from nodnav.sim.agent import PlanCache
 from nodnav.sim.several import PassageViews, route_crossings, trial_routes
 from nodnav.sim.simulator import Simulation, run_trial
 
@@ -69,7 +69,7 @@ def test_a_route_that_comes_back_gets_a_local_goal_short_of_the_turn():
 
 def test_game_membership_follows_the_next_passage_on_each_route():
     s = load_scenario(str(EXAMPLE))
-    views = PassageViews(s, lambda world: None, lambda planner: PlanCache(planner))  # type: ignore[arg-type]
+    views = PassageViews(s, lambda world: make_planner(s.planner, world))
     stage = views.start()
     # Robots 1 and 3 start in the left room (next: corridor 1), robots 2 and 4 in the right one.
     assert views.players_of(0, stage).tolist() == [True, False, True, False]

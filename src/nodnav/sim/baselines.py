@@ -63,6 +63,7 @@ from nodnav.sim.agent import (
 )
 from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
+from nodnav.sim.several import PassageAgent
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
 #: beyond any neighbour distance, so that it constrains nothing.
@@ -312,12 +313,14 @@ class ClosestFirstMethod(FixedOrderMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
-        self.agents = None
+        self.agents: list[PassageAgent] | None = None
         if self.passages is not None:  # the convention at each passage of several (docs/several-passages.md)
+            from nodnav.sim.passage_baselines import ClosestFirstPassage  # it builds on this module
+
             passages = self.passages
 
             def make(one: Scenario, k: int, i: int) -> ClosestFirstPassage:
-                return ClosestFirstPassage(one, i, passages.plans[k], passages.sides[k])  # type: ignore[arg-type]
+                return ClosestFirstPassage(one, i, passages.plans[k], passages.sides[k])
 
             self.agents = self.passage_agents(make)
 
@@ -336,42 +339,6 @@ class ClosestFirstMethod(FixedOrderMethod):
         # A robot not in sight at the first decision is ranked last (limited sight, docs/sensing.md).
         return {i: strategy_index(closest_first_order(np.where(view.seen, world.corridor_distance(
             view.positions, self.sides), np.inf), tie)) for i, view in views.items()}
-
-
-class ClosestFirstPassage:
-    """Robot ``index``'s closest-first convention at one passage of several, on the passage's
-    one-passage ``scenario``: at its first decision there it ranks the robots whose next passage
-    it is (``eligible``, set by :class:`~nodnav.sim.several.PassageAgent`) and itself by their
-    distance to the entrance they approach (eq. (10)), nearest first, the others after them by
-    number; it keeps that order while it plays there, with the game players of eqs. (6)-(7)
-    among the eligible robots, exactly as :class:`FixedOrderMethod` does with one passage."""
-
-    def __init__(self, scenario: Scenario, index: int, plans: PlanCache, sides: np.ndarray):
-        self.scenario = scenario
-        self.index = index
-        self.plans = plans
-        self.sides = sides
-        self.eligible: np.ndarray | None = None
-        self.order: tuple[int, ...] | None = None
-        self._graphs: dict = {}
-
-    def decide(self, view: RobotView) -> Decision:
-        s, i = self.scenario, self.index
-        d_corr = s.world.corridor_distance(view.positions, self.sides)
-        L = conflict_likelihood(view.positions, d_corr, s.opinion.delta)
-        players = players_in_sight(L, view, i, s.n_players, self.eligible)
-        if self.order is None:
-            ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
-            ranked[i] = True
-            self.order = closest_first_order(np.where(ranked, d_corr, np.inf), s.baselines.closest_first_tie)
-        robots = (i, *players)
-        plan = plan_for_order(s, self.plans, view, robots, self.order)
-        if not plan.success:  # nothing to follow: get out of everybody's way
-            canonical = tuple(sorted(robots))
-            plan = relabel(clearing_plan(s, view, canonical, i, plan, self._graphs),
-                           [canonical.index(k) for k in robots])
-        return Decision(strategy=strategy_index(self.order), robots=robots, plan=plan, opinions=NO_OPINION,
-                        probabilities=NO_OPINION, players=players, game=tuple(range(s.n_robots)), order=self.order)
 
 
 @register_method("oracle", help="a central coordinator gives everyone the order with the smallest planned makespan")

@@ -118,7 +118,7 @@ class PlannedMethod:
             def planner_for(world: World) -> Any:
                 return planner if planner is not None else make_planner(scenario.planner, world)
 
-            self.passages = PassageViews(scenario, planner_for, PlanCache)
+            self.passages = PassageViews(scenario, planner_for)
         """With several passages, the routes and each passage's one-passage view
         (:mod:`nodnav.sim.several`); None with one."""
 
@@ -255,7 +255,7 @@ def passage_nod_agent(passages: PassageViews, rngs: list[np.random.Generator],
     from the robot's own generator."""
 
     def make(scenario: Scenario, k: int, i: int) -> NODAgent:
-        agent = NODAgent(scenario, i, rngs[i], passages.plans[k], **options)  # type: ignore[arg-type]
+        agent = NODAgent(scenario, i, rngs[i], passages.plans[k], **options)
         agent.sides = passages.sides[k]
         return agent
 

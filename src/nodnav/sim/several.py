@@ -31,6 +31,7 @@ from nodnav.planning.base import Planner, PlanRequest
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World
+from nodnav.sim.agent import Decision, PlanCache, RobotView, approach_sides
 
 #: Spacing of the samples along a route at which passages are looked for (m).
 ROUTE_STEP = 0.02
@@ -153,8 +154,6 @@ def trial_routes(scenario: Scenario) -> list[RobotRoute]:
 def passage_sides(scenario: Scenario, routes: list[RobotRoute], k: int) -> np.ndarray:
     """The side each robot approaches passage ``k`` from ``(N_r,)``: where its route enters it,
     else (a robot whose route does not cross it) as the one-passage code says."""
-    from nodnav.sim.agent import approach_sides
-
     sides = approach_sides(replace(scenario, world=scenario.world.with_passage(k))).copy()
     for j, route in enumerate(routes):
         if k in route.passages:
@@ -165,15 +164,18 @@ def passage_sides(scenario: Scenario, routes: list[RobotRoute], k: int) -> np.nd
 class Decider(Protocol):
     """A one-passage decision rule for one robot (a :class:`~nodnav.sim.agent.NODAgent`, ...)."""
 
-    def decide(self, view):  # noqa: ANN001, ANN201 - a RobotView in, a Decision out
+    eligible: np.ndarray | None
+    """The robots it may play with (set before each decision)."""
+
+    def decide(self, view: RobotView) -> Decision:
+        """The robot's decision from its view (restricted to the passage's entries)."""
         ...
 
 
 class PassageViews:
     """The trial's routes and, for each passage, the one-passage scenario robots reason in."""
 
-    def __init__(self, scenario: Scenario, planner_for: Callable[[World], Planner],
-                 plan_cache: Callable[[Planner], object]):
+    def __init__(self, scenario: Scenario, planner_for: Callable[[World], Planner]):
         self.scenario = scenario
         world = scenario.world
         self.routes = trial_routes(scenario)
@@ -190,9 +192,9 @@ class PassageViews:
             self.scenarios.append(one)
             self.sides.append(passage_sides(scenario, self.routes, k))
         planners = [planner_for(one.world) for one in self.scenarios]
-        self.plans = [plan_cache(planner) for planner in planners]
+        self.plans = [PlanCache(planner) for planner in planners]
         """One planner and plan cache per passage (its queries are in that passage's view)."""
-        self.free_plans = [plan_cache(planner) for planner in planners]
+        self.free_plans = [PlanCache(planner) for planner in planners]
         """Plan caches for robots driving alone to their destinations (no passage left)."""
         self.exits = [tuple(-s for s in route.entry_sides) for route in self.routes]
         self._first = np.zeros(n, dtype=int)
@@ -200,7 +202,7 @@ class PassageViews:
     def clear(self) -> None:
         """Forget the round's plans (every decision time)."""
         for cache in (*self.plans, *self.free_plans):
-            cache.clear()  # type: ignore[attr-defined]
+            cache.clear()
 
     def start(self) -> np.ndarray:
         """How many passages of its route each robot has left behind at the start: none."""
@@ -285,7 +287,8 @@ class PassageAgent:
         """The passage whose game this robot plays, -1 for none."""
         return self.views.current(self.index, self.stage)
 
-    def decide(self, view):  # noqa: ANN001, ANN201 - RobotView -> Decision
+    def decide(self, view: RobotView) -> Decision:
+        """The decision of the passage whose game the robot plays (or of driving alone)."""
         self.stage = self.views.advance(self.stage, view.positions, view.known)
         k = self.passage
         if k < 0:
@@ -307,17 +310,15 @@ class PassageAgent:
         return decider.decide(replace(view, entered=tuple(j for j in entered if ours[j])))
 
 
-def drive_alone(views: PassageViews, i: int, view):  # noqa: ANN001, ANN201 - RobotView -> Decision
+def drive_alone(views: PassageViews, i: int, view: RobotView) -> Decision:
     """Robot ``i``'s decision with no passage left on its route: a plan of itself alone to its
     destination (the others are the MPC's moving obstacles, as for any robot outside a game)."""
-    from nodnav.sim.agent import Decision
-
     k = views.last_passage(i)
     s = views.free[k]
     request = PlanRequest(world=s.world, positions=view.positions[[i]].copy(), velocities=view.velocities[[i]].copy(),
                           destinations=s.destinations[[i]], radii=s.radii[[i]], max_speeds=s.max_speeds[[i]],
                           order=(0,), entered=(), t0=view.t)
-    plan = views.free_plans[k].plan(request)  # type: ignore[attr-defined]
+    plan = views.free_plans[k].plan(request)
     return Decision(strategy=-1, robots=(i,), plan=plan, opinions=np.zeros(0), probabilities=np.zeros(0), players=())
 
 

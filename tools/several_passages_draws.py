@@ -47,7 +47,8 @@ def draw(d: int) -> dict:
         pts = {}
         for key, room in (("origin", rooms[a]), ("destination", rooms[b])):
             for _ in range(100):
-                p = np.array([rng.uniform(room[0] + 0.5, room[1] - 0.5), rng.uniform(-height / 2 + 0.5, height / 2 - 0.5)])
+                p = np.array([rng.uniform(room[0] + 0.5, room[1] - 0.5),
+                              rng.uniform(-height / 2 + 0.5, height / 2 - 0.5)])
                 if all(np.linalg.norm(p - q) >= 0.6 for q in ends[key]):
                     pts[key] = p
                     break

@@ -124,12 +124,14 @@ class PlannedMethod:
 
     def passage_agents(self, make: Callable[[Scenario, int, int], Any]) -> list[PassageAgent]:
         """With several passages, every robot's :class:`PassageAgent`, whose decider for passage
-        ``k`` is ``make(scenario_k, k, i)`` (``scenario_k`` the passage's one-passage view)."""
+        ``k`` is ``make(scenario_k, k, i)`` (``scenario_k`` the passage's one-passage view, or
+        that view with robot ``i`` going to its own destination once it has left ``k``, its last,
+        behind)."""
         assert self.passages is not None
         views = self.passages
 
-        def maker(i: int) -> Callable[[int], Any]:
-            return lambda k: make(views.scenarios[k], k, i)
+        def maker(i: int) -> Callable[[Scenario, int], Any]:
+            return lambda one, k: make(one, k, i)
 
         return [PassageAgent(views, i, maker(i)) for i in range(self.scenario.n_robots)]
 

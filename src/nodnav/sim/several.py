@@ -198,6 +198,7 @@ class PassageViews:
         """Plan caches for robots driving alone to their destinations (no passage left)."""
         self.exits = [tuple(-s for s in route.entry_sides) for route in self.routes]
         self._first = np.zeros(n, dtype=int)
+        self._finished: dict[tuple[int, int], Scenario] = {}
 
     def clear(self) -> None:
         """Forget the round's plans (every decision time)."""
@@ -246,13 +247,37 @@ class PassageViews:
         are in the room between the two passages, or in that passage coming towards it: it
         meets them before its next passage, and planning with them is what lets two robots
         swap through a small room between two passages)."""
+        done = self.finished(stage)
+        last = np.array([route.passages[-1] if route.passages else -1 for route in self.routes])
         k = self.current(i, stage)
-        out = self.players_of(k, stage)
-        q = self.previous(i, stage)
-        if q >= 0:
-            out |= self.players_of(q, stage) & (self.sides[q] == -self.sides[q][i])
+        if k < 0:  # arrived beyond its last passage: those coming through it, those arrived there
+            k = self.last_passage(i)
+            out = self.players_of(k, stage) | (done & (last == k))
+        else:
+            out = self.players_of(k, stage) | (done & (last == k))
+            q = self.previous(i, stage)
+            if q >= 0:
+                out |= self.players_of(q, stage) & (self.sides[q] == -self.sides[q][i])
+                out |= done & (last == q)
         out[i] = False
         return out
+
+    def finished(self, stage: np.ndarray) -> np.ndarray:
+        """Which robots have left every passage of their route behind ``(N_r,)`` (robots whose
+        route crosses none excepted)."""
+        return np.array([0 < len(route.passages) <= stage[j] for j, route in enumerate(self.routes)], dtype=bool)
+
+    def finished_scenario(self, i: int, k: int) -> Scenario:
+        """Passage ``k``'s one-passage scenario with robot ``i`` going to its own destination: its
+        view once it has left its last passage ``k`` behind."""
+        key = (i, k)
+        one = self._finished.get(key)
+        if one is None:
+            base = self.scenarios[k]
+            robots = list(base.robots)
+            robots[i] = replace(robots[i], destination=self.scenario.robots[i].destination)
+            one = self._finished[key] = replace(base, robots=tuple(robots))
+        return one
 
     def last_passage(self, j: int) -> int:
         """The last passage on robot ``j``'s route (0 without any): its view once it has none left."""
@@ -273,7 +298,7 @@ class PassageAgent:
     passage is its own. Its decider sees the view restricted to that passage (its entries) and
     is told the robots it may play with (``eligible``)."""
 
-    def __init__(self, views: PassageViews, index: int, make: Callable[[int], Decider]):
+    def __init__(self, views: PassageViews, index: int, make: Callable[[Scenario, int], Decider]):
         self.views = views
         self.index = index
         self.make = make
@@ -290,16 +315,20 @@ class PassageAgent:
     def decide(self, view: RobotView) -> Decision:
         """The decision of the passage whose game the robot plays (or of driving alone)."""
         self.stage = self.views.advance(self.stage, view.positions, view.known)
-        k = self.passage
-        if k < 0:
-            self.playing = -1
+        k, route = self.passage, self.views.routes[self.index]
+        if k < 0 and not route.passages:
             return drive_alone(self.views, self.index, view)
-        decider = self.deciders.get(k)
-        if decider is None or k != self.playing:  # a game joined (again): it starts afresh
-            decider = self.deciders[k] = self.make(k)
-            if self.views.routes[self.index].passages[0] != k and hasattr(decider, "start_positions"):
+        if k < 0:  # beyond its last passage: it plays on with the robots it meets there, to its destination
+            k = route.passages[-1]
+            key, one = len(self.views.scenarios) + k, self.views.finished_scenario(self.index, k)
+        else:
+            key, one = k, self.views.scenarios[k]
+        decider = self.deciders.get(key)
+        if decider is None or key != self.playing:  # a game joined (again): it starts afresh
+            decider = self.deciders[key] = self.make(one, k)
+            if route.passages[0] != key and hasattr(decider, "start_positions"):
                 decider.start_positions = view.positions.copy()
-        self.playing = k
+        self.playing = key
         decider.eligible = self.views.eligible(self.index, self.stage)
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;

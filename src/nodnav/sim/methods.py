@@ -122,7 +122,7 @@ class PlannedMethod:
         """With several passages, the routes and each passage's one-passage view
         (:mod:`nodnav.sim.several`); None with one."""
 
-    def passage_agents(self, make: Callable[[Scenario, int, int], Any]) -> list[PassageAgent]:
+    def passage_agents(self, make: Callable[[Scenario, int, int], Any], arrived: bool = True) -> list[PassageAgent]:
         """With several passages, every robot's :class:`PassageAgent`, whose decider for passage
         ``k`` is ``make(scenario_k, k, i)`` (``scenario_k`` the passage's one-passage view, or
         that view with robot ``i`` going to its own destination once it has left ``k``, its last,
@@ -133,7 +133,7 @@ class PlannedMethod:
         def maker(i: int) -> Callable[[Scenario, int], Any]:
             return lambda one, k: make(one, k, i)
 
-        return [PassageAgent(views, i, maker(i)) for i in range(self.scenario.n_robots)]
+        return [PassageAgent(views, i, maker(i), arrived) for i in range(self.scenario.n_robots)]
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """Run every robot's decision rule; subclasses implement :meth:`decide_robot`."""

@@ -241,13 +241,14 @@ class PassageViews:
         """The passage robot ``j`` left last (``world.passages`` index), -1 for none."""
         return self.routes[j].passages[stage[j] - 1] if stage[j] > 0 else -1
 
-    def eligible(self, i: int, stage: np.ndarray) -> np.ndarray:
+    def eligible(self, i: int, stage: np.ndarray, arrived: bool = True) -> np.ndarray:
         """The robots robot ``i`` may play with ``(N_r,)``: those whose next passage is its own,
         and those heading for the passage it has just left from the side it came out on (they
         are in the room between the two passages, or in that passage coming towards it: it
         meets them before its next passage, and planning with them is what lets two robots
-        swap through a small room between two passages)."""
-        done = self.finished(stage)
+        swap through a small room between two passages). With ``arrived``, also the robots that
+        have left every passage behind, the last being its next or previous one."""
+        done = self.finished(stage) & arrived
         last = np.array([route.passages[-1] if route.passages else -1 for route in self.routes])
         k = self.current(i, stage)
         if k < 0:  # arrived beyond its last passage: those coming through it, those arrived there
@@ -298,8 +299,12 @@ class PassageAgent:
     passage is its own. Its decider sees the view restricted to that passage (its entries) and
     is told the robots it may play with (``eligible``)."""
 
-    def __init__(self, views: PassageViews, index: int, make: Callable[[Scenario, int], Decider]):
+    def __init__(self, views: PassageViews, index: int, make: Callable[[Scenario, int], Decider],
+                 arrived: bool = True):
         self.views = views
+        self.arrived = arrived
+        """Whether the robot plays on beyond its last passage and plays with the robots arrived
+        there (else it drives alone there and holds them as obstacles: closest-first)."""
         self.index = index
         self.make = make
         self.stage = views.start()
@@ -316,7 +321,8 @@ class PassageAgent:
         """The decision of the passage whose game the robot plays (or of driving alone)."""
         self.stage = self.views.advance(self.stage, view.positions, view.known)
         k, route = self.passage, self.views.routes[self.index]
-        if k < 0 and not route.passages:
+        if k < 0 and (not route.passages or not self.arrived):
+            self.playing = -1
             return drive_alone(self.views, self.index, view)
         if k < 0:  # beyond its last passage: it plays on with the robots it meets there, to its destination
             k = route.passages[-1]
@@ -329,7 +335,7 @@ class PassageAgent:
             if route.passages[0] != key and hasattr(decider, "start_positions"):
                 decider.start_positions = view.positions.copy()
         self.playing = key
-        decider.eligible = self.views.eligible(self.index, self.stage)
+        decider.eligible = self.views.eligible(self.index, self.stage, self.arrived)
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;
         # between the two, the game's order (not who came through first) says who gives way.

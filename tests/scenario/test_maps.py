@@ -244,14 +244,14 @@ def two_doors_map(folder: Path) -> Path:
     return write_map(folder, np.where(wall, 0, 254).astype(np.uint8), name="two")
 
 
-def test_routes_through_two_found_passages_are_named_in_one_line(tmp_path):
+def test_routes_through_two_found_passages_keep_both(tmp_path):
     raw = scenario(str(two_doors_map(tmp_path)), [{"origin": [-0.3, 1.3], "destination": [4.3, 1.7]},
                                                    {"origin": [4.3, 1.1], "destination": [-0.3, 1.1]}])
-    with pytest.raises(ScenarioError) as exc:
-        scenario_from_dict(raw)
-    message = str(exc.value)
-    assert message.startswith("world.passages: several passages are not supported yet") and "\n" not in message
-    assert "cross 2 found on the map (1: from" in message and "; 2: from" in message
+    passages = scenario_from_dict(raw).world.passages
+    # the corridors through the walls of cells 15-24 and 35-44 (origin x = -1: x 0.5..1.5 and 2.5..3.5)
+    assert len(passages) == 2
+    centres = sorted(0.5 * (g.start[0] + g.end[0]) for g in passages)
+    assert centres == pytest.approx([1.0, 3.0], abs=RES)
 
 
 def test_robots_using_one_of_two_passages_get_it(tmp_path):

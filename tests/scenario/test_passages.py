@@ -91,8 +91,6 @@ def test_a_builtin_keeps_its_shorthand_text():
     ({"obstacles": [[[0, 0], [1, 1]]]}, "world.obstacles[0]: a polygon needs at least 3 points"),
     ({"obstacles": [[[3, 3], [4, 4], [4, 3], [3, 4]]]}, "world.obstacles[0]: the polygon crosses itself"),
     ({"obstacles": [[[3, 3], [4, 4], [5, 5]]]}, "world.obstacles[0]: the polygon has zero area"),
-    ({"passages": [{"from": [0, -3], "to": [0, 3], "width": 0.7}, {"from": [1, -3], "to": [1, 3], "width": 0.7}]},
-     "world.passages: several passages are not supported yet"),
     ({"passages": [{"from": [0, -3], "to": [0, 3], "width": 0.7}, {"from": [0.2, -3], "to": [0.2, 3], "width": 0.7}]},
      "world.passages[1]: overlaps world.passages[0]"),
     ({"passages": [{"from": [0, -3], "to": [0, -3], "width": 0.7}]}, "its two mouths are the same point"),

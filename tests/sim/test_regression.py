@@ -37,6 +37,7 @@ CASES = [
     ("teams-head-on-inside.yaml", (0, 1, 2)),
     ("bay-head-on-inside.yaml", (0, 1, 2)),
     ("back-out-into-a-low-room.yaml", (171,)),
+    ("swap-through-a-small-middle-room.yaml", (1, 2, 3, 8)),
 ]
 
 

@@ -251,6 +251,16 @@ def _check_geometry(world: World, robots: tuple[RobotSpec, ...], sources: list[d
                         f"robot {k + 1} (radius {r.radius:g} m) does not fit through the corridor: its walls leave "
                         f"{gap:.3f} m on either side of the line joining the entrances; make the radius smaller "
                         f"than {gap:.3f} m or the corridor wider")
+    for m, g in enumerate(world.passages[1:], start=1):  # the second and later of several passages
+        a, b = np.asarray(g.start, dtype=float), np.asarray(g.end, dtype=float)
+        samples = max(2, int(np.linalg.norm(b - a) / 0.01) + 1)
+        gap = float(world.clearance(a + np.linspace(0.0, 1.0, samples)[:, None] * (b - a)).min())
+        for k, r in enumerate(robots):
+            if r.radius >= gap:
+                raise fail(sources[k]["radius"] or corridor_key.replace("[0]", f"[{m}]"),
+                           f"robot {k + 1} (radius {r.radius:g} m) does not fit through passage {m + 1}: its walls "
+                           f"leave {gap:.3f} m on either side of its centreline; make the radius smaller than "
+                           f"{gap:.3f} m or the passage wider")
     for key in ("origin", "destination"):
         pts = np.array([getattr(r, key) for r in robots])
         radii = np.array([r.radius for r in robots])

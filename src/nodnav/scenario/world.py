@@ -186,7 +186,9 @@ class World:
     """First and second entrance points used by eqs. (6) and (10) (m); paper: (-3, 0) and (3, 0).
     Derived from the passage's mouths when not given."""
     passages: tuple[Passage, ...] = ()
-    """The single-file passages (one for now; several are item 4 of issue 20)."""
+    """The single-file passages. With several, each robot plays the passing-order game of the next
+    one on its route (docs/several-passages.md); the one-passage code sees one at a time through
+    :meth:`with_passage`."""
     polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
     """Wall polygons, each its vertices ``((x, y), ...)`` in order (m), convex or not."""
     map_file: str = ""
@@ -205,8 +207,6 @@ class World:
         elif not passages:
             raise ValueError("a world needs a passage: give passages or corridor")
         object.__setattr__(self, "passages", passages)
-        if len(passages) != 1:
-            raise ValueError("several passages are not supported yet")
         if not self.entrances:
             p = passages[0]
             object.__setattr__(self, "entrances", (tuple(p.start), tuple(p.end)))
@@ -222,8 +222,16 @@ class World:
 
     @property
     def passage(self) -> Passage:
-        """The passage the passing order is about."""
+        """The passage the passing order is about (the first of several)."""
         return self.passages[0]
+
+    def with_passage(self, k: int) -> "World":
+        """The same walls with passage ``k`` alone: the one-passage view a robot reasons in while
+        it plays that passage's game (docs/several-passages.md)."""
+        if len(self.passages) == 1 and k == 0:
+            return self
+        return World(bounds=self.bounds, obstacles=self.obstacles, passages=(self.passages[k],),
+                     polygons=self.polygons, map_file=self.map_file, map_walls=self.map_walls)
 
     @cached_property
     def obstacle_array(self) -> np.ndarray:

@@ -78,8 +78,6 @@ def _passages(raw: Any, bounds: tuple[float, float, float, float]) -> tuple[Pass
                 raise fail(f"{where}.{key}", f"{list(p)} is outside world.bounds {list(bounds)}")
         out.append(Passage(start=a, end=b, width=width))
     _check_overlaps(out)
-    if len(out) > 1:
-        raise fail("world.passages", f"several passages are not supported yet (got {len(out)}); give one")
     return tuple(out)
 
 
@@ -171,7 +169,12 @@ def check_single_file(world: World, radii: np.ndarray, key: str) -> None:
     need abreast, ``2 (r_a + r_b)``."""
     if world.corridor is not None or len(radii) < 2:
         return
-    g = world.passage
+    for k, g in enumerate(world.passages):
+        where = key if len(world.passages) == 1 or not key.startswith("world.passages") else f"world.passages[{k}]"
+        _check_one_single_file(world, g, radii, where)
+
+
+def _check_one_single_file(world: World, g: Passage, radii: np.ndarray, key: str) -> None:
     a, b = np.asarray(g.start, dtype=float), np.asarray(g.end, dtype=float)
     samples = max(2, int(g.length / 0.01) + 1)
     gap = 2.0 * float(world.clearance(a + np.linspace(0.0, 1.0, samples)[:, None] * (b - a)).min())
@@ -215,14 +218,14 @@ def read_map_world(data: dict, robots: Sequence[Any]) -> World:
     if "passages" in data:
         passages = _passages(data["passages"], bounds)
     else:
-        passages = (_found_passage(m, robots),)
+        passages = _found_passages(m, robots)
     return World(bounds=bounds, obstacles=m.walls + tuple(extra), passages=passages, polygons=polygons,
                  map_file=m.path, map_walls=len(m.walls))
 
 
-def _found_passage(m: Any, robots: Sequence[Any]) -> Passage:
-    """The one passage the robots' routes cross, found on the map; one line when there is none
-    or more than one."""
+def _found_passages(m: Any, robots: Sequence[Any]) -> tuple[Passage, ...]:
+    """The passages the robots' routes cross, found on the map (in the order of their numbers in
+    ``nodnav passages``); one line when there is none or two of them overlap."""
     from nodnav.scenario.passage_finding import clearance_grid, find_passages, route_passages, shortest_route
 
     if len(robots) < 2:
@@ -239,13 +242,9 @@ def _found_passage(m: Any, robots: Sequence[Any]) -> Passage:
             key = "origin" if "origin" in route.problem else "destination"
             raise fail(f"robots[{k}].{key}", f"robot {k + 1} (radius {float(r.radius):g} m): {route.problem}")
         used += [i for i in route_passages(found, route, m.resolution) if i not in used]
-    names = "; ".join(f"{i + 1}: {found[i].describe()}" for i in sorted(used))
     if not used:
         raise fail("world.map", f"the robots' routes cross none of the map's {len(found)} single-file passages for "
                    f"radii {radii[0]:g} to {radii[-1]:g} m ('nodnav passages' lists them); move the robots or give "
                    f"world.passages")
     _check_overlaps([found[i].passage for i in sorted(used)], [i + 1 for i in sorted(used)])
-    if len(used) > 1:
-        raise fail("world.passages", f"several passages are not supported yet: the robots' routes cross {len(used)} "
-                   f"found on the map ({names}); give one as world.passages")
-    return found[used[0]].passage
+    return tuple(found[i].passage for i in sorted(used))

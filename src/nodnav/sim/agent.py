@@ -46,6 +46,9 @@ class RobotView:
     sigma: np.ndarray | None = None
     """Standard deviation of the estimate of each robot's position along either axis ``(N_r,)``
     (m), from the observer's filters; None when observations are exact or not filtered."""
+    passage_entered: tuple[tuple[int, ...], ...] = ()
+    """With several passages, the robots the observer has seen enter each passage, in order
+    (``entered`` is the first passage's); empty with one passage."""
 
     @property
     def seen(self) -> np.ndarray:
@@ -187,10 +190,17 @@ def clearing_plan(scenario: Scenario, view: RobotView, planning: tuple[int, ...]
     return clear_the_way(request, planning.index(robot), failed.reason, scenario.planner, graphs)
 
 
-def players_in_sight(L: np.ndarray, view: RobotView, i: int, k: int) -> tuple[int, ...]:
+def players_in_sight(L: np.ndarray, view: RobotView, i: int, k: int,
+                     eligible: np.ndarray | None = None) -> tuple[int, ...]:
     """Robot ``i``'s ``k`` game players by eq. (7) from the likelihoods ``L`` ``(N, N)``, among
     the robots it sees now: one it does not see has no observed window for eq. (4), so it is
-    no candidate (fewer than ``k`` players when fewer are in sight)."""
+    no candidate (fewer than ``k`` players when fewer are in sight). With several passages only
+    the ``eligible`` robots ``(N,)`` (those whose next passage is ``i``'s) are candidates."""
+    if eligible is not None:
+        ok = eligible & view.seen
+        k = min(k, int(ok.sum()))
+        L = np.where(ok[None, :], L, -np.inf)
+        return tuple(sorted(select_game_players(L, i, k)))
     if view.age is not None:
         seen = view.seen
         k = min(k, int(seen.sum()) - 1)
@@ -225,6 +235,12 @@ class NODAgent:
         self.social = social
         self.bias = self.params.bias_indices()
         self.sides = approach_sides(scenario)
+        self.eligible: np.ndarray | None = None
+        """With several passages, the robots that may be game players (whose next passage is this
+        robot's, :class:`~nodnav.sim.several.PassageAgent`); None: every robot."""
+        self.start_positions = scenario.origins
+        """Where the robots are when this robot starts playing (eqs. (10)-(11)'s initial opinions):
+        their origins, or where it sees them when it reaches a later passage of several."""
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -256,7 +272,7 @@ class NODAgent:
         """z_i(0) over the orders of ``game``: zero, eqs. (10)-(11) among the game's robots, or the
         given opinions over every order of all robots carried to the game."""
         if self.params.init == "distance":
-            d = self.scenario.world.corridor_distance(self.scenario.origins[list(game)], self.sides[list(game)])
+            d = self.scenario.world.corridor_distance(self.start_positions[list(game)], self.sides[list(game)])
             return distance_initial_opinions(d, passing_orders(len(game)), self.params.K2)
         if self.params.init == "given":
             everyone = tuple(range(self.scenario.n_robots))
@@ -298,7 +314,7 @@ class NODAgent:
         L = conflict_likelihood(view.positions, d_corr, self.params.delta)
         if self.params.conflict == "undecided" and view.entered:
             L = undecided_first(L, view.entered)
-        return players_in_sight(L, view, self.index, self.n_players)
+        return players_in_sight(L, view, self.index, self.n_players, self.eligible)
 
     def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:
         """The joint plan of the robots ``planning`` (increasing index) for every order of ``game``.

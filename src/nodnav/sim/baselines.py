@@ -61,8 +61,9 @@ from nodnav.sim.agent import (
     local_order,
     players_in_sight,
 )
-from nodnav.sim.methods import PlannedMethod
+from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
+from nodnav.sim.several import PassageAgent
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
 #: beyond any neighbour distance, so that it constrains nothing.
@@ -179,7 +180,9 @@ class NoCoordinationMethod(PlannedMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
-        self.agents = [NODAgent(scenario, i, rngs[i], self.plans, n_players=0) for i in range(scenario.n_robots)]
+        self.agents: list = [NODAgent(scenario, i, rngs[i], self.plans, n_players=0) for i in range(scenario.n_robots)]
+        if self.passages is not None:
+            self.agents = self.passage_agents(passage_nod_agent(self.passages, rngs, n_players=0))
 
     def decide_robot(self, i: int, view: RobotView) -> Decision:
         return self.agents[i].decide(view)
@@ -203,6 +206,14 @@ def enumerable(scenario: Scenario, method: str) -> None:
     if math.factorial(scenario.n_robots) > MAX_STRATEGIES:
         raise NodnavError(f"method '{method}' weighs all {scenario.n_robots}! passing orders; it supports at most "
                           f"{MAX_GAME} robots ({MAX_STRATEGIES} orders), this scenario has {scenario.n_robots}")
+
+
+def one_passage(scenario: Scenario, method: str) -> None:
+    """Refuse, in one line, a method that weighs whole passing orders of one passage in a world
+    of several (docs/several-passages.md)."""
+    if len(scenario.world.passages) > 1:
+        raise NodnavError(f"method '{method}' follows one passing order of one passage; this world has "
+                          f"{len(scenario.world.passages)} passages (use nod, no-coordination, closest-first or orca)")
 
 
 class FixedOrderMethod(PlannedMethod):
@@ -272,6 +283,7 @@ class IndependentMethod(FixedOrderMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         enumerable(scenario, self.name)
+        one_passage(scenario, self.name)
         super().__init__(scenario, rngs, planner)
 
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
@@ -299,6 +311,28 @@ class ClosestFirstMethod(FixedOrderMethod):
 
     name = "closest-first"
 
+    def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
+        super().__init__(scenario, rngs, planner)
+        self.agents: list[PassageAgent] | None = None
+        if self.passages is not None:  # the convention at each passage of several (docs/several-passages.md)
+            from nodnav.sim.passage_baselines import ClosestFirstPassage  # it builds on this module
+
+            passages = self.passages
+
+            def make(one: Scenario, k: int, i: int) -> ClosestFirstPassage:
+                return ClosestFirstPassage(one, i, passages.plans[k], passages.sides[k])
+
+            self.agents = self.passage_agents(make, arrived=False)  # as measured best (docs/several-passages.md)
+
+    def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
+        if self.agents is None:
+            return super().decide(views)
+        self.plans.clear()
+        if self.passages is not None:
+            self.passages.clear()
+        self.decisions = {i: self.agents[i].decide(view) for i, view in views.items()}
+        return self.decisions
+
     def choose(self, views: dict[int, RobotView]) -> dict[int, int]:
         world = self.scenario.world
         tie = self.scenario.baselines.closest_first_tie
@@ -322,6 +356,7 @@ class OracleMethod(FixedOrderMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         enumerable(scenario, self.name)
+        one_passage(scenario, self.name)
         super().__init__(scenario, rngs, planner)
         self.orders = passing_orders(scenario.n_robots)
         self.makespans = np.full(len(self.orders), np.nan)

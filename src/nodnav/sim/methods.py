@@ -9,7 +9,7 @@ and MPC wherever they can, so that only the decision rule differs.
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
@@ -19,8 +19,10 @@ from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
 from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins
+from nodnav.sim.several import PassageAgent, PassageViews, several
 
 
 @compiled
@@ -112,10 +114,33 @@ class PlannedMethod:
             margin=scenario.planner.margin, tolerance=ex.tolerance)
         self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
         self.reactions = ReactionMargins(scenario)
+        self.passages = None
+        if several(scenario):
+            def planner_for(world: World) -> Any:
+                return planner if planner is not None else make_planner(scenario.planner, world)
+
+            self.passages = PassageViews(scenario, planner_for)
+        """With several passages, the routes and each passage's one-passage view
+        (:mod:`nodnav.sim.several`); None with one."""
+
+    def passage_agents(self, make: Callable[[Scenario, int, int], Any], arrived: bool = True) -> list[PassageAgent]:
+        """With several passages, every robot's :class:`PassageAgent`, whose decider for passage
+        ``k`` is ``make(scenario_k, k, i)`` (``scenario_k`` the passage's one-passage view, or
+        that view with robot ``i`` going to its own destination once it has left ``k``, its last,
+        behind)."""
+        assert self.passages is not None
+        views = self.passages
+
+        def maker(i: int) -> Callable[[Scenario, int], Any]:
+            return lambda one, k: make(one, k, i)
+
+        return [PassageAgent(views, i, maker(i), arrived) for i in range(self.scenario.n_robots)]
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """Run every robot's decision rule; subclasses implement :meth:`decide_robot`."""
         self.plans.clear()
+        if self.passages is not None:
+            self.passages.clear()
         self.decisions = {i: self.decide_robot(i, view) for i, view in views.items()}
         return self.decisions
 
@@ -226,10 +251,26 @@ class NODMethod(PlannedMethod):
 
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         super().__init__(scenario, rngs, planner)
-        self.agents = [NODAgent(scenario, i, rngs[i], self.plans) for i in range(scenario.n_robots)]
+        self.agents: list[Any] = [NODAgent(scenario, i, rngs[i], self.plans) for i in range(scenario.n_robots)]
+        if self.passages is not None:  # one NOD agent per passage on each robot's route
+            self.agents = self.passage_agents(passage_nod_agent(self.passages, rngs))
 
     def decide_robot(self, i: int, view: RobotView) -> Decision:
         return self.agents[i].decide(view)
+
+
+def passage_nod_agent(passages: PassageViews, rngs: list[np.random.Generator],
+                      **options: Any) -> Callable[[Scenario, int, int], NODAgent]:
+    """A maker of robot ``i``'s NOD agent for passage ``k`` of several: the paper's agent on the
+    passage's one-passage scenario, with the passage's approach sides and plan cache, drawing
+    from the robot's own generator."""
+
+    def make(scenario: Scenario, k: int, i: int) -> NODAgent:
+        agent = NODAgent(scenario, i, rngs[i], passages.plans[k], **options)
+        agent.sides = passages.sides[k]
+        return agent
+
+    return make
 
 
 def make_method(name: str, scenario: Scenario, rngs: list[np.random.Generator], planner=None) -> Method:

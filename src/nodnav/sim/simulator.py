@@ -30,6 +30,7 @@ from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
 from nodnav.sim.progress import PlanProgress
 from nodnav.sim.sensing import Sight, Tracker, within_sight
+from nodnav.sim.several import passage_sides, several, trial_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -207,11 +208,18 @@ class Simulation:
         m = self.steps_per_decision + 1
         self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed]
         self._window_offsets = self.dt * np.arange(m)[::-1]
-        self.entered_seen: list[list[int]] = [[] for _ in range(n)]
-        self.entered_true: list[int] = []
+        self.routes = trial_routes(scenario) if several(scenario) else None
+        """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
+        passages = scenario.world.passages
+        self._passage_sides = ([self.sides] if self.routes is None else
+                               [passage_sides(scenario, self.routes, k) for k in range(len(passages))])
+        self.entered_by: list[tuple[list[int], list[list[int]]]] = [([], [[] for _ in range(n)]) for _ in passages]
+        """Per passage, the true entry log and each robot's own (the first passage's are
+        :attr:`entered_true` and :attr:`entered_seen`)."""
+        self.entered_true, self.entered_seen = self.entered_by[0]
         self._update_entries()
         self.arrival = np.full(n, np.nan)
-        self.best_to_go = distance_to_go(scenario.world, self.positions, scenario.destinations, self.sides)
+        self.best_to_go = self._to_go()
         self.last_progress = 0.0
         self.plan_progress = PlanProgress(n, scenario.sim.progress_epsilon) if scenario.sim.progress == "plan" else None
         self.outcome = ""
@@ -259,20 +267,28 @@ class Simulation:
         corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
-        passage = self.scenario.world.passage
         seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
-        s = passage.along(seen)
-        left_ahead = np.where(self.sides == RIGHT, s - passage.s_start, passage.s_end - s)
-        sides = passage.side_of_along(s)
-        if self.sight is not None:  # a robot's record changes only with what it sees now
-            sides = sides.copy()
-            sides[1:][~self.sight.visible] = UNSEEN
-        for log_, side, ahead in zip([self.entered_true] + self.entered_seen, sides.tolist(), left_ahead):
-            new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
-            log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
-            for k in range(n):
-                if side[k] == self.sides[k] and k in log_ and self.sides[k] != INSIDE:
-                    log_.remove(k)
+        for passage, approach, (true_log, seen_logs) in zip(self.scenario.world.passages, self._passage_sides,
+                                                            self.entered_by):
+            s = passage.along(seen)
+            left_ahead = np.where(approach == RIGHT, s - passage.s_start, passage.s_end - s)
+            sides = passage.side_of_along(s)
+            if self.sight is not None:  # a robot's record changes only with what it sees now
+                sides = sides.copy()
+                sides[1:][~self.sight.visible] = UNSEEN
+            for log_, side, ahead in zip([true_log] + seen_logs, sides.tolist(), left_ahead):
+                new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
+                log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
+                for k in range(n):
+                    if side[k] == approach[k] and k in log_ and approach[k] != INSIDE:
+                        log_.remove(k)
+
+    def _to_go(self) -> np.ndarray:
+        """Distance each robot still has to go (m): through the passage's entrances with one
+        passage, along its route with several."""
+        if self.routes is None:
+            return distance_to_go(self.scenario.world, self.positions, self.scenario.destinations, self.sides)
+        return np.array([route.to_go(p) for route, p in zip(self.routes, self.positions)])
 
     def views(self) -> dict[int, RobotView]:
         """Every robot's view of the last opinion period."""
@@ -284,8 +300,9 @@ class Simulation:
             if self.trackers is not None:
                 spread = self.trackers[i].position_sigma.copy()
                 spread[i] = 0.0
+            several_ = tuple(tuple(seen[i]) for _, seen in self.entered_by) if self.routes is not None else ()
             out[i] = RobotView(t=self.t, window_times=times, window_states=self._windows[i],
-                               entered=tuple(self.entered_seen[i]), age=age, sigma=spread)
+                               entered=tuple(self.entered_seen[i]), age=age, sigma=spread, passage_entered=several_)
         return out
 
     # -- the loop ------------------------------------------------------------------------------
@@ -386,7 +403,7 @@ class Simulation:
             self.collision_kind = kind
             self._finish("collision")
             return
-        to_go = distance_to_go(world, self.positions, s.destinations, self.sides)
+        to_go = self._to_go()
         arrived = np.linalg.norm(self.positions - s.destinations, axis=1) <= s.sim.goal_tolerance
         self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
         if arrived.all():

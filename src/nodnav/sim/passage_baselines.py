@@ -1,0 +1,50 @@
+"""Baselines at one passage of several (docs/several-passages.md): the deciders that
+:class:`~nodnav.sim.several.PassageAgent` runs per passage for the methods of
+:mod:`nodnav.sim.baselines` that have a per-passage form."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodnav.decision.players import conflict_likelihood
+from nodnav.decision.strategies import strategy_index
+from nodnav.planning.base import relabel
+from nodnav.scenario.schema import Scenario
+from nodnav.sim.agent import Decision, PlanCache, RobotView, clearing_plan, players_in_sight
+from nodnav.sim.baselines import NO_OPINION, closest_first_order, plan_for_order
+
+
+class ClosestFirstPassage:
+    """Robot ``index``'s closest-first convention at one passage of several, on the passage's
+    one-passage ``scenario``: at its first decision there it ranks the robots whose next passage
+    it is (``eligible``, set by :class:`~nodnav.sim.several.PassageAgent`) and itself by their
+    distance to the entrance they approach (eq. (10)), nearest first, the others after them by
+    number; it keeps that order while it plays there, with the game players of eqs. (6)-(7)
+    among the eligible robots, exactly as :class:`FixedOrderMethod` does with one passage."""
+
+    def __init__(self, scenario: Scenario, index: int, plans: PlanCache, sides: np.ndarray):
+        self.scenario = scenario
+        self.index = index
+        self.plans = plans
+        self.sides = sides
+        self.eligible: np.ndarray | None = None
+        self.order: tuple[int, ...] | None = None
+        self._graphs: dict = {}
+
+    def decide(self, view: RobotView) -> Decision:
+        s, i = self.scenario, self.index
+        d_corr = s.world.corridor_distance(view.positions, self.sides)
+        L = conflict_likelihood(view.positions, d_corr, s.opinion.delta)
+        players = players_in_sight(L, view, i, s.n_players, self.eligible)
+        if self.order is None:
+            ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
+            ranked[i] = True
+            self.order = closest_first_order(np.where(ranked, d_corr, np.inf), s.baselines.closest_first_tie)
+        robots = (i, *players)
+        plan = plan_for_order(s, self.plans, view, robots, self.order)
+        if not plan.success:  # nothing to follow: get out of everybody's way
+            canonical = tuple(sorted(robots))
+            plan = relabel(clearing_plan(s, view, canonical, i, plan, self._graphs),
+                           [canonical.index(k) for k in robots])
+        return Decision(strategy=strategy_index(self.order), robots=robots, plan=plan, opinions=NO_OPINION,
+                        probabilities=NO_OPINION, players=players, game=tuple(range(s.n_robots)), order=self.order)

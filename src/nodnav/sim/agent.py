@@ -126,7 +126,7 @@ class PlanCache:
         """The planner's answer to ``request``, computed at most once per round."""
         key = (request.order, request.entered, request.t0, request.positions.tobytes(),
                request.velocities.tobytes(), request.destinations.tobytes(), request.radii.tobytes(),
-               request.max_speeds.tobytes())
+               request.max_speeds.tobytes(), None if request.max_accels is None else request.max_accels.tobytes())
         result = self._plans.get(key)
         if result is None:
             self.misses += 1
@@ -167,9 +167,11 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
     rows = list(robots)
     positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
     entered = tuple(local_of[k] for k in view.entered if k in local_of)
+    accels = np.array([scenario.robots[k].max_accel for k in rows], dtype=float)
     return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
                         destinations=scenario.destinations[rows], radii=scenario.radii[rows],
-                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t)
+                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t,
+                        max_accels=accels)
             for order in orders]
 
 

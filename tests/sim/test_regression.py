@@ -37,6 +37,9 @@ CASES = [
     ("teams-head-on-inside.yaml", (0, 1, 2)),
     ("bay-head-on-inside.yaml", (0, 1, 2)),
     ("back-out-into-a-low-room.yaml", (171,)),
+    ("overshoot-slow-robot-behind-a-fast-one.yaml", (5,)),
+    ("overshoot-three-robots-short-corridor.yaml", (178,)),
+    ("overshoot-slow-robot-head-on.yaml", (74,)),
 ]
 
 

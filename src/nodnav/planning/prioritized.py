@@ -33,6 +33,11 @@ How a query is answered
    destination is reachable and stays free for good. Among the equally fast timings it waits
    early (holds back, then drives through), which makes its intention legible to the others'
    eq. (4), or, with ``waiting: late``, drives up and waits late (:func:`earliest_arrival_bits`).
+   With ``timing: feasible`` (the default) and the robots' acceleration limits in the request,
+   those cells are then retimed within the robot's acceleration limit from its present speed,
+   never ahead of them, and the retimed motion is checked against the same free cells
+   (:func:`~nodnav.planning.retiming.retimed`); it is what the robots after it are planned
+   around, what the controller tracks and what eq. (4) compares with (docs/safety.md).
 5. Getting out of the way. Before a robot is planned, every robot after it that stands in its
    way (its path had to ignore them) or in the door zone it will come out of (below) first
    moves to a nearby spot clear of the ways of every robot still to plan, waits there, and
@@ -249,7 +254,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         """What every order planned from this state shares (memoised; checked when first seen,
         ``order`` is only quoted in the error). With ``vel`` and ``accels`` the paths are timed
         within the acceleration limits, from the present velocities."""
-        key = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
+        key: tuple = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
         if accels is not None and vel is not None:
             key += (vel.tobytes(), accels.tobytes())
         state = self._states.get(key)

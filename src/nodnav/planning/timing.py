@@ -4,7 +4,8 @@ motion, by an exact search over bitsets (compiled with numba).
 The robot starts in cell 0 and, per time step, waits, advances one cell or two (full speed, where
 the chord between the cells keeps clear of the walls); ``free[t]`` (from
 :mod:`nodnav.planning.occupancy`) says which cells it may occupy at step ``t``. Among the equally
-fast timings it waits early (legible) or late.
+fast timings it waits early (legible) or late. The planner then retimes the result within the
+robot's acceleration limit (:mod:`nodnav.planning.retiming`).
 """
 
 from __future__ import annotations

@@ -149,3 +149,29 @@ def test_retimed_plans_keep_the_limits_and_their_reservation(case):
             row = free[min(t, len(free) - 1)]
             c = int(np.searchsorted(cell_arc, s + 1e-9, side="right") - 1)
             assert t == 0 or (row[c] and (s <= cell_arc[c] + 1e-9 or row[c + 1]))
+
+
+@pytest.mark.parametrize("name", ["2r-case1", "3r-case4", "4r-case2"])
+def test_plans_timed_within_slow_accelerations_stay_valid(name):
+    # Checked independently of the planner, at a step five times finer than the plan's: no
+    # robot leaves free space, no pair comes closer than its radii, no speed above the limit.
+    import itertools
+
+    from nodnav.scenario.loading import load_scenario
+
+    scenario = load_scenario(name)
+    planner = PrioritizedPlanner(scenario.world, FastPlannerParams(dt=DT))
+    n = scenario.n_robots
+    for order in list(itertools.permutations(range(n)))[::5]:
+        request = PlanRequest(scenario.world, scenario.origins, np.zeros_like(scenario.origins),
+                              scenario.destinations, scenario.radii, scenario.max_speeds, order,
+                              max_accels=np.full(n, 0.15))
+        tr = planner.plan(request).trajectory
+        t = np.linspace(tr.times[0], tr.times[-1], 5 * (len(tr.times) - 1) + 1)
+        p = tr.positions_at(t)
+        assert np.all(scenario.world.is_free(p, scenario.radii))
+        for a, b in itertools.combinations(range(n), 2):
+            assert np.linalg.norm(p[:, a] - p[:, b], axis=1).min() >= scenario.radii[a] + scenario.radii[b] - 1e-9
+        speed = np.linalg.norm(np.diff(tr.positions, axis=0), axis=2) / DT
+        assert np.all(speed <= scenario.max_speeds + 1e-9)
+        assert np.allclose(tr.positions[-1], scenario.destinations, atol=1e-6)

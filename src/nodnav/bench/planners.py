@@ -102,7 +102,8 @@ def _percentile(values: list[float], q: float) -> float:
 
 def _requests(scenario) -> list[PlanRequest]:
     return [PlanRequest(scenario.world, scenario.origins, np.zeros_like(scenario.origins), scenario.destinations,
-                        scenario.radii, scenario.max_speeds, tuple(int(k) for k in order))
+                        scenario.radii, scenario.max_speeds, tuple(int(k) for k in order),
+                        max_accels=np.array([r.max_accel for r in scenario.robots], dtype=float))
             for order in passing_orders(scenario.n_robots)]
 
 

@@ -65,7 +65,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     planner = make_planner(scenario.planner, scenario.world)
     request = PlanRequest(world=scenario.world, positions=scenario.origins,
                           velocities=np.zeros_like(scenario.origins), destinations=scenario.destinations,
-                          radii=scenario.radii, max_speeds=scenario.max_speeds, order=order)
+                          radii=scenario.radii, max_speeds=scenario.max_speeds, order=order,
+                          max_accels=np.array([r.max_accel for r in scenario.robots], dtype=float))
     result = planner.plan(request)
     fine_times = np.arange(result.trajectory.times[0], result.trajectory.times[-1] + 1e-9, 0.02)
     summary = {

@@ -136,6 +136,8 @@ class PlanRequest:
     """Robots that have already entered the corridor, in the order they entered."""
     t0: float = 0.0
     """Time of the request (s); the trajectory starts here."""
+    max_accels: np.ndarray | None = None
+    """Acceleration limits ``(n,)`` (m/s^2); None: unlimited, the paths are timed by speed alone."""
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ import numpy as np
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
 from nodnav.planning.occupancy import Motion, corridor_passage
+from nodnav.planning.retiming import points_at
 from nodnav.planning.visibility import GeometricPath
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
@@ -122,6 +123,19 @@ class State:
     """Each robot's shortest path among the walls alone, from its position to its destination."""
     problem: str
     """Why no order can be planned (a destination outside free space, overlapping ones), or empty."""
+    velocities: np.ndarray | None = None
+    """Velocities now ``(n, 2)`` (m/s) when paths are timed within the acceleration limits, else None."""
+    accels: np.ndarray | None = None
+    """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
+
+
+def timed_motion(track: Track, timing: "Timing") -> Motion:
+    """The motion along ``track`` that ``timing`` gives: at its cells, or at its retimed arc lengths."""
+    path = track.route.path.points
+    if timing.arc is None:
+        steps = timing.cells
+        return Motion(path, track.cells[steps], track.arc[steps], track.segments)
+    return Motion(path, points_at(track.cells, track.arc, timing.arc), timing.arc, track.segments)
 
 
 def reject_request(order: tuple, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray):
@@ -210,5 +224,5 @@ class FastPlannerHooks:
         def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
                   head: Motion | None = None) -> Attempt: ...
         def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
-                   order: tuple) -> State: ...
+                   order: tuple, vel: np.ndarray | None = None, accels: np.ndarray | None = None) -> State: ...
 

@@ -28,7 +28,7 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.geometry import TOL
-from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State
+from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State, timed_motion
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.timing import dash_clashes
 from nodnav.planning.visibility import disc_violations, polyline_point_distance
@@ -214,5 +214,4 @@ class MakingWay(FastPlannerHooks):
                 continue  # it would enter the corridor out of turn
             timing = self._timing(state, mover, track, fixed)
             if timing.success:
-                steps = timing.cells
-                yield Motion(way.points, track.cells[steps], track.arc[steps], track.segments)
+                yield timed_motion(track, timing)

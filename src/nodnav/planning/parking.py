@@ -15,8 +15,8 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.geometry import TOL
-from nodnav.planning.fast_state import FastPlannerHooks, RobotPlan, State
-from nodnav.planning.occupancy import Motion, join_motions
+from nodnav.planning.fast_state import FastPlannerHooks, RobotPlan, State, timed_motion
+from nodnav.planning.occupancy import join_motions
 from nodnav.planning.visibility import polyline_point_distance
 from nodnav.planning.waiting_spots import in_door_zone, ring_spots
 from nodnav.scenario.world import World
@@ -76,7 +76,8 @@ class DeferredParking(FastPlannerHooks):
                     break
             else:
                 return None
-        return self._state(world, state.positions, goals, state.radii, state.max_speeds, planned)
+        return self._state(world, state.positions, goals, state.radii, state.max_speeds, planned, state.velocities,
+                           state.accels)
 
     def _park(self, world: World, state: State, k: int, plans: dict) -> RobotPlan | None:
         """Robot ``k``'s plan to its holding spot, then on to its destination once every other
@@ -91,6 +92,5 @@ class DeferredParking(FastPlannerHooks):
         timing = self._timing(state, k, track, [(j, plans[j].motion) for j in others], (), head.last_step)
         if not timing.success:
             return None
-        steps = timing.cells
-        tail = Motion(track.route.path.points, track.cells[steps], track.arc[steps], track.segments)
+        tail = timed_motion(track, timing)
         return replace(plans[k], motion=join_motions(head, tail))

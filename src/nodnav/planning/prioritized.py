@@ -33,6 +33,11 @@ How a query is answered
    destination is reachable and stays free for good. Among the equally fast timings it waits
    early (holds back, then drives through), which makes its intention legible to the others'
    eq. (4), or, with ``waiting: late``, drives up and waits late (:func:`earliest_arrival_bits`).
+   With ``timing: feasible`` (the default) and the robots' acceleration limits in the request,
+   those cells are then retimed within the robot's acceleration limit from its present speed,
+   never ahead of them, and the retimed motion is checked against the same free cells
+   (:func:`~nodnav.planning.retiming.retimed`); it is what the robots after it are planned
+   around, what the controller tracks and what eq. (4) compares with (docs/safety.md).
 5. Getting out of the way. Before a robot is planned, every robot after it that stands in its
    way (its path had to ignore them) or in the door zone it will come out of (below) first
    moves to a nearby spot clear of the ways of every robot still to plan, waits there, and
@@ -92,6 +97,7 @@ from nodnav.planning.fast_state import (
     Track,
     reject_request,
     state_problem,
+    timed_motion,
 )
 from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
@@ -107,6 +113,7 @@ from nodnav.planning.occupancy import (
     separation_requirements,
 )
 from nodnav.planning.parking import DeferredParking
+from nodnav.planning.retiming import retimed
 from nodnav.planning.timing import Timing, earliest_arrival_bits
 from nodnav.planning.visibility import VisibilityGraph, disc_violations
 from nodnav.planning.waiting_spots import in_door_zone
@@ -145,7 +152,11 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         order = tuple(int(k) for k in request.order)
         if sorted(order) != list(range(len(pos))):
             reject_request(order, pos, dest, radii, vmax)
-        state = self._state(world, pos, dest, radii, vmax, order)
+        vel = accels = None
+        if self.params.timing == "feasible" and request.max_accels is not None:
+            vel = np.asarray(request.velocities, dtype=float).reshape(-1, 2)
+            accels = np.asarray(request.max_accels, dtype=float).reshape(-1)
+        state = self._state(world, pos, dest, radii, vmax, order, vel, accels)
         entered = tuple(int(k) for k in request.entered)
         entered += tuple(k for k in order if state.inside[k] and k not in entered)
         planned = feasible_order(order, entered, state.directions if self.params.inside == "back-out" else None)
@@ -239,10 +250,13 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                       tuple(k for k in planned if k in deferred))
 
     def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
-               order: tuple) -> State:
+               order: tuple, vel: np.ndarray | None = None, accels: np.ndarray | None = None) -> State:
         """What every order planned from this state shares (memoised; checked when first seen,
-        ``order`` is only quoted in the error)."""
-        key = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
+        ``order`` is only quoted in the error). With ``vel`` and ``accels`` the paths are timed
+        within the acceleration limits, from the present velocities."""
+        key: tuple = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
+        if accels is not None and vel is not None:
+            key += (vel.tobytes(), accels.tobytes())
         state = self._states.get(key)
         if state is None:
             n = len(pos)
@@ -263,7 +277,8 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             state = State(key, pos, dest, radii, vmax,
                            separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin),
                            dirs, world.in_corridor(pos), door, in_door,
-                           tuple(natural), state_problem(dest, clear, radii))
+                           tuple(natural), state_problem(dest, clear, radii),
+                           None if vel is None else vel.copy(), None if accels is None else accels.copy())
             remember(self._states, key, state)
         return state
 
@@ -374,7 +389,15 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         close_gates(closed, n, t0, gates)
         free = ~closed
         free[:, -1] &= mask_words(n, 0)[-1]
-        return earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
+        timing = earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
+        if timing.success and state.accels is not None and state.velocities is not None:
+            # Moving now only if it starts where it stands now (not after getting out of the way).
+            v0 = 0.0
+            if t0 == 0 and len(track.segments[1]) and np.allclose(cells[0], state.positions[k]):
+                v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
+            timing = retimed(timing, track.arc, free, v0, float(state.max_speeds[k]), float(state.accels[k]),
+                             float(self.params.dt))
+        return timing
 
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
@@ -400,8 +423,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         timing = self._timing(state, k, track, layout.fixed(k), gates, t0)
         if not timing.success:
             return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
-        steps = timing.cells
-        motion = Motion(track.route.path.points, track.cells[steps], track.arc[steps], track.segments)
+        motion = timed_motion(track, timing)
         if head is not None:
             motion = join_motions(head, motion)
         return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None))

@@ -52,6 +52,7 @@ from scipy.spatial import cKDTree
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
 from nodnav.planning.joint_validity import CompiledRules, pair_indices, separation_thresholds
+from nodnav.planning.retiming import feasible_profile
 from nodnav.planning.roadmap import (
     BuildReport,
     Roadmap,
@@ -78,14 +79,20 @@ def path_cost(configs: np.ndarray, radii: np.ndarray, w1: float, varsigma: float
     return length + w1 * float(np.sum(proximity_penalty(x, radii, varsigma)))
 
 
-def timed_trajectory(path: np.ndarray, max_speeds: np.ndarray, dt: float, t0: float = 0.0) -> JointTrajectory:
+def timed_trajectory(path: np.ndarray, max_speeds: np.ndarray, dt: float, t0: float = 0.0,
+                     max_accels: np.ndarray | None = None) -> JointTrajectory:
     """The joint path ``(N, n, 2)`` linearly interpolated in time and sampled every ``dt`` from ``t0``.
 
     Segment ``j`` lasts ``dt * ceil(max_i ||dp_ij|| / vmax_i / dt)`` (appendix: the fastest robot
     of the segment at most at its speed limit, the others proportionally slower; whole steps so
-    that path vertices fall on samples). Zero-length segments are skipped.
+    that path vertices fall on samples). Zero-length segments are skipped. With ``max_accels``
+    every segment is instead driven from rest to rest within every robot's speed and
+    acceleration limits (:func:`accelerated_trajectory`).
     """
     p = np.asarray(path, dtype=float)
+    if max_accels is not None:
+        return accelerated_trajectory(p, np.asarray(max_speeds, dtype=float), np.asarray(max_accels, dtype=float),
+                                      dt, t0)
     need = np.max(np.linalg.norm(np.diff(p, axis=0), axis=-1) / np.asarray(max_speeds, dtype=float), axis=1) / dt
     steps = np.ceil(need - 1e-9).astype(int)
     moving = steps > 0
@@ -94,6 +101,36 @@ def timed_trajectory(path: np.ndarray, max_speeds: np.ndarray, dt: float, t0: fl
     frac = (np.arange(len(seg)) - np.repeat(np.cumsum(steps) - steps, steps)) / np.repeat(steps, steps)
     pos = starts[seg] + frac[:, None, None] * (ends[seg] - starts[seg])
     pos = np.concatenate([pos, p[-1:]], axis=0)
+    return JointTrajectory.from_positions(t0 + dt * np.arange(len(pos)), pos)
+
+
+def accelerated_trajectory(path: np.ndarray, max_speeds: np.ndarray, max_accels: np.ndarray, dt: float,
+                           t0: float = 0.0) -> JointTrajectory:
+    """The joint path ``(N, n, 2)`` with every segment driven from rest to rest, all robots along
+    it together, the fastest discrete trapezoid within every robot's speed and acceleration limit
+    (:func:`~nodnav.planning.retiming.feasible_profile` on the segment's progress).
+
+    On segment ``j`` robot ``i`` covers ``l_ij``; progress is measured in seconds at the
+    segment's full speed, ``D_j = max_i l_ij / vmax_i``, so a progress rate of 1 puts the limiting
+    robot at its speed limit, and the rate may change by ``A_j = min_i a_i D_j / l_ij`` per
+    second. Every robot moves along its straight segment, so the joint path, checked valid
+    whatever its timing, is kept exactly; resting at each vertex keeps every robot within its
+    acceleration limit where the path turns.
+    """
+    p = np.asarray(path, dtype=float)
+    lengths = np.linalg.norm(np.diff(p, axis=0), axis=-1)  # (N - 1, n)
+    out = [p[:1]]
+    for j in range(len(lengths)):
+        moving = lengths[j] > 0
+        if not moving.any():
+            continue
+        span = float(np.max(lengths[j] / max_speeds))
+        rate = float(np.min(max_accels[moving] * span / lengths[j][moving]))
+        progress, _ = feasible_profile(np.array([0.0, span]), span, 0.0, 1.0, rate, dt)
+        frac = np.clip(progress[1:] / span, 0.0, 1.0)
+        frac[-1] = 1.0
+        out.append(p[j][None] + frac[:, None, None] * (p[j + 1] - p[j])[None])
+    pos = np.concatenate(out, axis=0)
     return JointTrajectory.from_positions(t0 + dt * np.arange(len(pos)), pos)
 
 
@@ -265,8 +302,9 @@ class PRMStarPlanner:
         configs = found.configs
         joint = np.empty((len(configs), len(rank), 2))
         joint[:, rank] = configs.reshape(len(configs), -1, 2)
+        accels = request.max_accels if self.params.timing == "feasible" else None
         trajectory = timed_trajectory(joint, np.asarray(request.max_speeds, dtype=float), self.params.dt,
-                                      request.t0)
+                                      request.t0, accels)
         cost = path_cost(configs, radii, self.params.w1, self.params.varsigma)
         reason = ""
         if order_planned != order:

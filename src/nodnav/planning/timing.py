@@ -4,7 +4,8 @@ motion, by an exact search over bitsets (compiled with numba).
 The robot starts in cell 0 and, per time step, waits, advances one cell or two (full speed, where
 the chord between the cells keeps clear of the walls); ``free[t]`` (from
 :mod:`nodnav.planning.occupancy`) says which cells it may occupy at step ``t``. Among the equally
-fast timings it waits early (legible) or late.
+fast timings it waits early (legible) or late. The planner then retimes the result within the
+robot's acceleration limit (:mod:`nodnav.planning.retiming`).
 """
 
 from __future__ import annotations
@@ -31,11 +32,14 @@ class Timing:
     """Cell index at steps ``0..arrival`` (int); just ``[0]`` on failure."""
     trapped_at: int = -1
     """On failure: the step at which no cell was left (the robot is cornered), else -1."""
+    arc: np.ndarray | None = None
+    """Arc length along the path at steps ``0..arrival`` (m) when the cells were retimed within
+    the acceleration limit (:mod:`nodnav.planning.retiming`); None: the cells' own arc lengths."""
 
     @property
     def arrival(self) -> int:
         """Step at which the robot reaches its last cell."""
-        return len(self.cells) - 1
+        return (len(self.cells) if self.arc is None else len(self.arc)) - 1
 
 
 def earliest_arrival(free: np.ndarray, ok2: np.ndarray, wait_early: bool = True) -> Timing:

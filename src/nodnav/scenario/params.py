@@ -118,6 +118,9 @@ class PlannerParams:
     """Robots inside the passage heading opposite ways: either may go first and the other backs
     out (``back-out``, issue 19, the fast planner), or they keep the order they entered in
     (``literal``, as before; the PRM planner always does); see docs/meet-inside.md."""
+    timing: Literal["feasible", "speed-only"] = "feasible"
+    """Paths timed within each robot's speed and acceleration limits (``feasible``, issue 18), or
+    by speed alone (``speed-only``, as before: 0, 1 or 2 cells a step, PRM* at full speed); docs/safety.md."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")

@@ -106,11 +106,12 @@ class Decision:
         return self.plan.trajectory.subset([0])
 
 
-def state_key(request: PlanRequest) -> tuple[bytes, ...]:
+def state_key(request: PlanRequest) -> tuple[bytes | None, ...]:
     """The part of a plan cache's key that requests sharing their state arrays share
     (:func:`joint_requests`): the bytes of those arrays."""
     return (request.positions.tobytes(), request.velocities.tobytes(), request.destinations.tobytes(),
-            request.radii.tobytes(), request.max_speeds.tobytes())
+            request.radii.tobytes(), request.max_speeds.tobytes(),
+            None if request.max_accels is None else request.max_accels.tobytes())
 
 
 class PlanCache:
@@ -176,9 +177,11 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
     rows = list(robots)
     positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
     entered = tuple(local_of[k] for k in view.entered if k in local_of)
+    accels = np.array([scenario.robots[k].max_accel for k in rows], dtype=float)
     return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
                         destinations=scenario.destinations[rows], radii=scenario.radii[rows],
-                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t)
+                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t,
+                        max_accels=accels)
             for order in orders]
 
 

@@ -374,7 +374,8 @@ class OracleMethod(FixedOrderMethod):
         for j, order in enumerate(self.orders):
             request = PlanRequest(world=s.world, positions=positions, velocities=velocities,
                                   destinations=s.destinations, radii=s.radii, max_speeds=s.max_speeds,
-                                  order=tuple(int(k) for k in order), entered=entered, t0=t0)
+                                  order=tuple(int(k) for k in order), entered=entered, t0=t0,
+                                  max_accels=np.array([r.max_accel for r in s.robots], dtype=float))
             plan = self.plans.plan(request)
             self.makespans[j] = planned_makespan(plan, s.destinations, s.sim.goal_tolerance)
             costs[j] = plan.cost

@@ -352,7 +352,8 @@ def drive_alone(views: PassageViews, i: int, view: RobotView) -> Decision:
     s = views.free[k]
     request = PlanRequest(world=s.world, positions=view.positions[[i]].copy(), velocities=view.velocities[[i]].copy(),
                           destinations=s.destinations[[i]], radii=s.radii[[i]], max_speeds=s.max_speeds[[i]],
-                          order=(0,), entered=(), t0=view.t)
+                          order=(0,), entered=(), t0=view.t,
+                          max_accels=np.array([s.robots[i].max_accel], dtype=float))
     plan = views.free_plans[k].plan(request)
     return Decision(strategy=-1, robots=(i,), plan=plan, opinions=np.zeros(0), probabilities=np.zeros(0), players=())
 

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import logging
 import os
 import sys
 import time
@@ -49,6 +50,8 @@ import numpy as np
 from nodnav.control.qp import SolverEffort, solve_qp
 from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import run_trial
+
+logger = logging.getLogger(__name__)
 
 #: What ``bench solvers`` runs without options: about a minute on one core.
 DEFAULT_SCENARIOS = ("3r-case1", "4r-case1")
@@ -162,6 +165,7 @@ def record_trials(scenarios: tuple[str, ...], seeds: tuple[int, ...], method: st
             for seed in seeds:
                 current[0] = f"{name}/{seed}"
                 outcomes.append(f"{name}/{seed}: {run_trial(scenario, method, seed).outcome}")
+                logger.info("%s: %d QPs recorded so far", outcomes[-1], len(qps))
     return qps, outcomes
 
 
@@ -264,6 +268,9 @@ class SolverTally:
     """Problems (with a reference verdict) on which it stopped for another reason."""
     seconds: list[float] = field(default_factory=list)
     """Time per solve over every recorded QP (s)."""
+    failures: dict[str, int] = field(default_factory=dict)
+    """The solver's own status on the problems it :data:`FAILED`, and whether the reference
+    found them feasible or infeasible -> how many."""
 
     def to_dict(self) -> dict:
         """JSON-ready counts and time per solve in milliseconds."""
@@ -271,7 +278,8 @@ class SolverTally:
         return {"solver": self.solver, "optimal": self.optimal, "off_optimum": self.off_optimum,
                 "infeasible_found": self.infeasible_found, "wrong_verdict": self.wrong_verdict,
                 "iteration_limit": self.iteration_limit, "failed": self.failed,
-                "median_ms": 1e3 * float(np.median(t)), "p95_ms": 1e3 * float(np.percentile(t, 95))}
+                "median_ms": 1e3 * float(np.median(t)), "p95_ms": 1e3 * float(np.percentile(t, 95)),
+                "failures": dict(self.failures)}
 
 
 @dataclass(frozen=True)
@@ -318,6 +326,10 @@ class SolverComparison:
             lines.append(f"{t.solver:<12} {f'{t.optimal}/{self.feasible}':>12} {t.off_optimum:>11} "
                          f"{f'{t.infeasible_found}/{self.infeasible}':>12} {t.wrong_verdict:>6} "
                          f"{t.iteration_limit:>10} {t.failed:>6} {d['median_ms']:>9.3f} {d['p95_ms']:>7.3f}")
+        lines.append("failed, by the solver's status (and the reference's verdict): " + "; ".join(
+            f"{t.solver}: " + ", ".join(f"{why} {n}" for why, n in sorted(t.failures.items()))
+            for t in self.tallies if t.failures) if any(t.failures for t in self.tallies) else "no failures")
+        lines.append("times: processor time per solve over every QP (OSQP and Clarabel: set-up and solve)")
         return "\n".join(lines)
 
 
@@ -346,7 +358,9 @@ def judge(qps: list[RecordedQP], solvers: tuple[str, ...] = SOLVERS) -> tuple[li
     """
     tallies = [SolverTally(s) for s in solvers]
     counts = {"feasible": 0, "infeasible": 0, "undecided": 0}
-    for qp in qps:
+    for done, qp in enumerate(qps):
+        if done % 250 == 0:
+            logger.info("solving QP %d of %d", done + 1, len(qps))
         with _quiet_stdout():
             answers = [ADAPTERS[s](qp) for s in solvers]
         ref = answers[-1]
@@ -360,6 +374,8 @@ def judge(qps: list[RecordedQP], solvers: tuple[str, ...] = SOLVERS) -> tuple[li
                 tally.iteration_limit += 1
             elif answer.verdict == FAILED:
                 tally.failed += 1
+                why = f"{answer.detail} ({key})"
+                tally.failures[why] = tally.failures.get(why, 0) + 1
             elif key == "infeasible":
                 tally.infeasible_found += answer.verdict == INFEASIBLE
                 tally.wrong_verdict += answer.verdict != INFEASIBLE

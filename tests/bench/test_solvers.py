@@ -1,6 +1,7 @@
 """``bench solvers``: each solver's adapter on hand-solved QPs, the recording of a trial's QPs, the command's checks."""
 
 import importlib.util
+import json
 
 import numpy as np
 import pytest
@@ -140,7 +141,7 @@ def test_a_short_comparison_reports_every_solver():
     result = compare_solvers(("2r-case2",), (1,), time_limit=1.0)
     assert result.qps == result.feasible + result.infeasible + result.undecided > 0
     assert [t.solver for t in result.tallies] == list(bs.SOLVERS)
-    d = result.to_dict()
+    d = json.loads(json.dumps(result.to_dict()))
     assert d["solvers"][0]["median_ms"] > 0
     text = result.format()
     assert all(s in text for s in bs.SOLVERS)

@@ -1,4 +1,4 @@
-"""The ``bench`` command: speed of the planners, the MPC, whole trials, or scaling in N_r (one core).
+"""The ``bench`` command: speed of the planners, the MPC, whole trials, scaling in N_r (one core), or the QP solvers.
 
 Each target is one function that measures and prints; :data:`BENCHMARKS` maps the target's name
 to it, and the command line's choices come from that mapping and ``scaling``
@@ -44,7 +44,7 @@ def _bench_mpc(args: argparse.Namespace) -> None:
 def _bench_sim(args: argparse.Namespace) -> None:
     from nodnav.bench.closed_loop import benchmark_closed_loop
 
-    results = [benchmark_closed_loop(args.scenario, planner, seeds=tuple(range(1, (args.trials or 3) + 1)),
+    results = [benchmark_closed_loop(args.scenario[0], planner, seeds=tuple(range(1, (args.trials or 3) + 1)),
                                      breakdown=not args.no_breakdown, players=args.sim_players or "all")
                for planner in (args.planner or ("fast",))]
     if args.json:
@@ -54,11 +54,19 @@ def _bench_sim(args: argparse.Namespace) -> None:
             print(r.format())
 
 
+def _bench_solvers(args: argparse.Namespace) -> None:
+    from nodnav.bench.solvers import compare_solvers
+
+    result = compare_solvers(tuple(args.scenario), seeds=tuple(range(1, args.seeds + 1)))
+    print(json.dumps(result.to_dict()) if args.json else result.format())
+
+
 #: What ``nodnav bench TARGET`` measures: the target's name -> the function that measures it and prints.
 BENCHMARKS = {
     "planners": _bench_planners,
     "mpc": _bench_mpc,
     "sim": _bench_sim,
+    "solvers": _bench_solvers,
 }
 
 
@@ -81,8 +89,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     for p in args.planner or ():
         if p not in PLANNERS:
             raise NodnavError(f"--planner: unknown planner {shown(p)}{nearest_hint(p, PLANNERS, 'planners')}")
+    if args.seeds is not None and args.target != "solvers":
+        raise NodnavError("--seeds: only 'nodnav bench solvers' takes it")
     if args.target == "sim":
-        load_scenario(args.scenario)
+        if len(args.scenario or ()) > 1:
+            raise NodnavError(f"--scenario: 'bench sim' takes one scenario, got {len(args.scenario)}")
+        args.scenario = args.scenario or ["4r-case2"]
+    if args.target == "solvers":
+        from nodnav.bench.solvers import DEFAULT_SCENARIOS, DEFAULT_SEEDS, missing_solvers
+
+        args.scenario = list(dict.fromkeys(args.scenario or DEFAULT_SCENARIOS))
+        args.seeds = args.seeds or DEFAULT_SEEDS
+        if missing := missing_solvers():
+            raise NodnavError(f"'bench solvers' needs {' and '.join(missing)}: install the solvers extra, "
+                              "pip install 'nodnav[solvers]'")
+    for name in args.scenario or () if args.target in ("sim", "solvers") else ():
+        load_scenario(name)
     if not args.execute:
         return 0
     if not args.json:
@@ -94,12 +116,16 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def add_parsers(sub) -> None:
     """The subcommand of this module."""
-    p = sub.add_parser("bench", help="measure speed: planners, the MPC, whole trials, or scaling in N_r (one core)")
+    p = sub.add_parser("bench", help="measure speed: planners, the MPC, whole trials, scaling in N_r (one core), or "
+                       "the QP solvers on the MPC's QPs")
     p.add_argument("target", choices=(*BENCHMARKS, "scaling"), help="what to measure")
     add_scaling_options(p)
     p.add_argument("--planner", action="append", help="planner(s) to measure (repeatable; default fast and prm, "
                    "fast for sim)")
-    p.add_argument("--scenario", default="4r-case2", help="scenario of the 'sim' benchmark (default 4r-case2)")
+    p.add_argument("--scenario", action="append", help="scenario of the 'sim' benchmark (default 4r-case2); "
+                   "'solvers': scenarios whose MPC QPs are recorded (repeatable; default "
+                   "3r-case1 and 4r-case1)")
+    p.add_argument("--seeds", type=whole(1, 20), help="'solvers': trials per scenario, seeds 1..N (default 1)")
     p.add_argument("--trials", type=whole(1, 100), help="trials (seeds 1..N) of the 'sim' benchmark "
                    "(default 3) and per cell of 'scaling' (default 1)")
     p.add_argument("--no-breakdown", action="store_true", help="'sim': skip the second, measured run of each "

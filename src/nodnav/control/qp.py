@@ -2,13 +2,15 @@
 
 The MPC's QPs have about 18 variables and a few hundred inequality rows, many of them
 degenerate (more rows active than variables). DAQP (Arnstroem et al., MIT licence,
-:func:`solve_qp`) solves them exactly and detects infeasibility. On 6,126 QPs recorded from
-closed-loop trials it found every optimum and every infeasible problem that a reference
-Goldfarb-Idnani solver found, at a median of 0.10 ms and a 95th percentile of 0.38 ms; quadprog
-did as well but is GPL-licensed and slower at the 95th percentile, and OSQP (a first-order
-method) stopped at its iteration limit on a fifth of the feasible problems even at its best
-settings (README, "The MPC's QP solver"). A row may be violated by up to DAQP's primal
-tolerance, so callers tighten every row by it.
+:func:`solve_qp`) solves them exactly and detects infeasibility. The evidence for it over OSQP
+is a command, ``nodnav bench solvers`` (:mod:`nodnav.bench.solvers`; figures and the commit in
+docs/method.md, "The MPC's QP solver"): it records every QP of a few closed-loop trials and
+solves each again with DAQP, OSQP (default and tight settings) and Clarabel at tight
+tolerances as the reference. DAQP found every optimum the reference found and all but one of
+its infeasible problems (that one it reported as cycling; the controller treats every failure
+alike and lets the certificate below decide), at a fraction of a millisecond; OSQP stopped at
+its iteration limit on about a third of the problems even at its tight settings. A row may be
+violated by up to DAQP's primal tolerance, so callers tighten every row by it.
 
 DAQP's QP solve returns no Farkas certificate of infeasibility, which the evasive fallback
 (:mod:`nodnav.control.evasive`) uses to choose which robots' rows to soften: a small linear

@@ -140,8 +140,34 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 
     if not 1 <= args.count <= 100_000:
         raise NodnavError(f"--count: expected a whole number in 1..100000, got {args.count}")
-    written = write_draws(load_family(args.family), _first_seed(args.seed), args.count, args.out)
+    family = load_family(args.family)
+    if args.map is not None or args.resolution is not None:
+        return _generate_map(args, family)
+    if args.out is None:
+        raise NodnavError("--out: give the directory for the scenario files (or --map FILE.yaml for a floor plan)")
+    written = write_draws(family, _first_seed(args.seed), args.count, args.out)
     print(f"wrote {len(written)} scenario files to {args.out} ({written[0].name} .. {written[-1].name})")
+    return 0
+
+
+def _generate_map(args: argparse.Namespace, family) -> int:
+    """``--map``: one floor plan of a building family as a map_server map, and a scenario using it."""
+    from nodnav.scenario.building_family import BuildingFamily
+    from nodnav.scenario.building_map import RESOLUTION, write_building
+    from nodnav.scenario.draws import draw_building
+
+    if not isinstance(family, BuildingFamily):
+        raise NodnavError(f"--map: family {family.name!r} draws a corridor, not a floor plan; use a building "
+                          "family (e.g. building)")
+    if args.map is None:
+        raise NodnavError("--resolution: applies to a floor plan written with --map FILE.yaml; give --map")
+    if args.count != 1:
+        raise NodnavError(f"--count: --map writes one floor plan; give --count 1 (got {args.count})")
+    seed = _first_seed(args.seed)
+    resolution = RESOLUTION if args.resolution is None else args.resolution
+    map_path, scenario_path = write_building(draw_building(family, seed), args.map, args.out, resolution)
+    print(f"wrote the floor plan {map_path} (+ {map_path.with_suffix('.pgm').name}, {resolution:g} m cells) "
+          f"and the scenario {scenario_path}")
     return 0
 
 
@@ -165,5 +191,9 @@ def add_parsers(sub) -> None:
     p.add_argument("family", help="built-in family name or family YAML path")
     p.add_argument("--seed", type=int, default=1, help="first draw (default 1)")
     p.add_argument("--count", type=int, default=1, help="number of draws: seeds N..N+K-1 (default 1)")
-    p.add_argument("--out", required=True, help="directory for the scenario files (FAMILY-SEED.yaml)")
+    p.add_argument("--out", help="directory for the scenario files (FAMILY-SEED.yaml); with --map, default "
+                   "the map's folder")
+    p.add_argument("--map", help="building families: write the floor plan as a ROS map_server map FILE.yaml "
+                   "(+ FILE.pgm) and a scenario using it")
+    p.add_argument("--resolution", type=float, help="with --map: metres per cell (default 0.02)")
     p.set_defaults(func=_cmd_generate)

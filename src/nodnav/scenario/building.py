@@ -284,8 +284,12 @@ class BuildingAttempt:
             queues.append(sum(travel_time(length + 4 * r_max, r.speed, half_a) for _, _, _, length in ways))
         own = max(travel_time(ell, r.speed, 0.5 * r.accel) for ell, r in zip(routes, robots))
         crossing = [abs(r.rooms[1] - r.rooms[0]) for r in robots]
+        settings = dict(f.settings)
+        players = settings.get("game_players")
+        if isinstance(players, int) and not isinstance(players, bool) and players > len(robots) - 1:
+            settings["game_players"] = len(robots) - 1  # two robots: one game player each
         return {
-            **f.settings,
+            **settings,
             "name": f"{f.name}:{seed}",
             "description": f"draw {seed} of family {f.name} ({f.source}): {len(robots)} robots, "
                            f"{len(self.passages)} passages ({len(self.rooms)} rooms, {len(self.pieces)} furniture), "

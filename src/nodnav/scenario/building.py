@@ -148,10 +148,12 @@ class BuildingAttempt:
                 return shapely.Polygon([centre + sa * across * a + sb * along * b
                                         for sa, sb in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
 
-            band = strip(c, 0.5 * length, big).intersection(box)
+            band = strip(c, 0.5 * length, big)
             slot = strip(q, 0.5 * length + 1.0, 0.5 * width)
-            bands.append(band)
-            pieces = band.difference(slot)
+            bands.append(band.intersection(box))
+            # The wall reaches 5 cm past the building's box (clipped to the bounds when turned), so
+            # that rounding never leaves a sliver between it and the outer wall.
+            pieces = band.intersection(box.buffer(0.05, join_style="mitre")).difference(slot)
             parts = list(pieces.geoms) if hasattr(pieces, "geoms") else [pieces]
             if len(parts) != 2:
                 raise _Reject("a wall not split in two by its door")
@@ -268,7 +270,10 @@ class BuildingAttempt:
         outside = shapely.box(*bounds).difference(shapely.Polygon(corners))
         corner_walls = [[_pt(p) for p in np.asarray(g.exterior.coords)[:-1]]
                         for g in getattr(outside, "geoms", [outside]) if not g.is_empty and g.area > 1e-4]
-        polygons = corner_walls + [[_pt(p) for p in turn(w)] for w in self.walls + self.pieces]
+        inside = shapely.box(*bounds)
+        clipped = [np.asarray(shapely.Polygon(turn(w)).intersection(inside).exterior.coords)[:-1] for w in self.walls]
+        polygons = corner_walls + [[_pt(p) for p in w] for w in clipped] + [[_pt(p) for p in turn(w)]
+                                                                              for w in self.pieces]
         passages = [{"from": _pt(turn(a)), "to": _pt(turn(b)), "width": w} for a, b, w, _ in self.passages]
         r_max = max(r.radius for r in robots)
         routes, queues = [], []

@@ -1,22 +1,23 @@
-"""Write a scenario per public map in ../shared/maps: four robots (else three), two a side, crossing one door.
+"""Write a scenario per public map in ../shared/maps: four robots (else three) queueing at both mouths of one door.
 
 The two-robot head-on scenarios of examples/maps (make_map_scenarios.py) are the easy case; these
-put a queue of two at each mouth of one found passage. For each map (and robot radius r), the
+put a queue of two at each mouth of one found passage. For each map and robot radius r, the
 found passages at least 0.4 m long and straight are tried (those joining two regions first, then
-in the order found). In the passage's frame (s along the axis from its first mouth, t across
-it), with L = r + 0.15 m and queue places b1 = 1 + 2r, b2 = b1 + 2r + 0.4 m beyond a mouth:
+in the order found). In the passage's frame (s along the axis, t across it), with a lateral
+offset L (r + 0.15 m, else r + 0.08 m) and queue places b1 (1 + 2r, 1.5 + 2r, 0.8 + 2r or
+2.2 + 2r m) and b2 = b1 + 2r + 0.2 m beyond a mouth, the first that fits:
 
-(L = r + 0.15 m and b1 = 1.5 + 2r, or L = r + 0.08 m and b1 = 0.8 + 2r, where the first does not fit):
+* robots 1 and 2 start b1 and b2 before the first mouth at t = +L and end as far beyond the
+  second, at t = +L;
+* robots 3 and 4 start b1 and b2 beyond the second mouth at t = -L and end as far before the
+  first, at t = -L.
 
-* robots 1 and 2 start before the first mouth at (-b1, +L) and (-b2, +L) and end beyond the
-  second at (b1, +L) and (b2, +L);
-* robots 3 and 4 start beyond the second mouth at (b1, -L) and (b2, -L) and end before the
-  first at (-b1, -L) and (-b2, -L) (mouths counted from their own end).
-
-Where no passage gives four, robot 4 is left out and three are tried. A candidate is kept when every end has at least r + 0.1 m of clearance on the map and, on the
-scenario's window (a box 3 m round the robots' ends, the scenario's bounds), the four robots'
-shortest routes cross that passage and no other, and the scenario loads. Radii: 0.2 m on the Willow Garage maps; in the house 0.3 m (as in examples/maps), else 0.25 or 0.2 m; in the
-depot 0.4 m (as in examples/maps), else 0.35 or 0.3 m: the first that gives a scenario.
+Where no passage gives four, robot 4 is left out and three are tried. A candidate is kept when
+every end has at least r + 0.1 m of clearance on the map and, on the scenario's window (a box
+3 m round the robots' ends, the scenario's bounds), every robot's shortest route crosses that
+passage and no other, and the scenario loads. Radii: 0.2 m on the Willow Garage maps; in the
+house 0.3 m (as in examples/maps), else 0.25 or 0.2 m; in the depot 0.4 m (as in
+examples/maps), else 0.35 or 0.3 m: the first radius that gives a scenario.
 
     .venv/bin/python examples/building/make_map_crowds.py [SHARED_MAPS_DIR]
 """
@@ -87,8 +88,9 @@ def main(shared: Path) -> None:
             continue
         robots, mid, bounds = found
         rel = Path("..", "..", "..", "shared", "maps", folder, name)
-        lines = [f"name: {folder}-queues", f"description: {len(robots)} robots of radius {radius:g} m queueing at both "
-                 f"mouths cross the door at {mid} of the public map {folder} head-on (passage found on the map)", "world:",
+        what = (f"{len(robots)} robots of radius {radius:g} m queueing at both mouths cross the door at {mid} "
+                f"of the public map {folder} head-on (passage found on the map)")
+        lines = [f"name: {folder}-queues", f"description: {what}", "world:",
                  f"  map: {rel.as_posix()}", f"  bounds: {bounds}  # the map cropped round the door",
                  f"robot_defaults: {{radius: {radius:g}}}", "robots:"]
         lines += [f"  - {{origin: {o}, destination: {d}}}" for o, d in robots]

@@ -39,7 +39,7 @@ import numpy as np
 
 from nodnav.scenario.building_family import BuildingFamily
 from nodnav.scenario.layout import SLACK, _Draws, _mm, _Reject, travel_time
-from nodnav.scenario.validity import CLEARANCE, FIT_MARGIN, ABREAST_MARGIN, mouth_zone_radius
+from nodnav.scenario.validity import ABREAST_MARGIN, CLEARANCE, FIT_MARGIN, mouth_zone_radius
 from nodnav.scenario.world import Passage, World
 
 #: Wall (m) kept beside a passage's slot on either side, and round the building's box.

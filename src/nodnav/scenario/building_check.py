@@ -54,7 +54,7 @@ class Plan:
         world = mapping["world"]
         self.bounds = tuple(float(v) for v in world["bounds"])
         boxes = tuple(tuple(float(v) for v in o) for o in world.get("obstacles", []) if not isinstance(o[0], list))
-        polys = tuple(tuple(tuple(float(v) for v in p) for p in o) for o in world.get("obstacles", [])
+        polys = tuple(tuple((float(p[0]), float(p[1])) for p in o) for o in world.get("obstacles", [])
                       if isinstance(o[0], list))
         self.passages = [Passage(tuple(p["from"]), tuple(p["to"]), float(p["width"])) for p in world["passages"]]
         self.world = World(bounds=self.bounds, obstacles=boxes, passages=(self.passages[0],),  # type: ignore[arg-type]

@@ -98,7 +98,6 @@ def _first_seed(value: int | None) -> int:
 
 
 def _show_family(args: argparse.Namespace) -> int:
-    from nodnav.scenario.draws import draw
     from nodnav.scenario.families import load_family
     from nodnav.scenario.fields import ScenarioError
     from nodnav.scenario.schema import override_scenario
@@ -111,18 +110,37 @@ def _show_family(args: argparse.Namespace) -> int:
     if not 1 <= count <= 60:
         raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")
     overrides, labels = overrides_of(args)
-    scenarios = []
+    scenarios, more = [], []
     for s in range(seed, seed + count):
         try:
-            scenarios.append(override_scenario(draw(family, s), overrides, labels))
+            scenario, extra = _drawable(family, s)
+            scenarios.append(override_scenario(scenario, overrides, labels))
+            more.append(extra)
         except ScenarioError as exc:
             raise ScenarioError(f"{exc} (in {family.name}:{s})", key=exc.key) from None
     if not args.execute:
         return 0
     title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
              "(crosses)")
-    print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
+    print(f"wrote {save_family_gallery(title, scenarios, args.out, more_passages=more)}")
     return 0
+
+
+def _drawable(family, seed: int):
+    """Draw ``seed`` of ``family`` for a picture, and the passages beyond the first of a floor plan
+    with several (the scenario keeps one while a world holds one; they are shaded alike)."""
+    from nodnav.scenario.building_family import BuildingFamily
+    from nodnav.scenario.draws import draw, draw_building
+    from nodnav.scenario.schema import scenario_from_dict
+    from nodnav.scenario.world import Passage
+
+    if not isinstance(family, BuildingFamily):
+        return draw(family, seed), []
+    mapping = draw_building(family, seed)
+    passages = mapping["world"]["passages"]
+    one = {**mapping, "world": {**mapping["world"], "passages": passages[:1]}}
+    extra = [Passage(tuple(p["from"]), tuple(p["to"]), p["width"]) for p in passages[1:]]
+    return scenario_from_dict(one, mapping["name"]), extra
 
 
 def _cmd_families(args: argparse.Namespace) -> int:

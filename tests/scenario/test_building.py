@@ -233,3 +233,10 @@ def test_the_queue_scenarios_on_the_public_maps_load():
 
         s = scenario_from_dict(raw, path.stem)
         assert s.n_robots >= 3 and len(s.world.passages) == 1
+
+
+def test_show_draws_a_plan_with_several_passages(tmp_path):
+    assert len(draw_building(load_family("building"), 2)["world"]["passages"]) == 2
+    out = tmp_path / "g.png"
+    assert main(["show", "building", "--seed", "2", "--count", "1", "--out", str(out)]) == 0
+    assert out.stat().st_size > 10_000

@@ -223,6 +223,12 @@ def test_bad_building_family_is_one_line(building, message):
     assert message in str(info.value) and "\n" not in str(info.value)
 
 
+def test_bad_building_settings_are_one_line():
+    with pytest.raises(FamilyError) as info:
+        family_from_dict({"family": "b", "building": {}, "scenario": {"game_players": 9}}, "b.yaml")
+    assert str(info.value).startswith("b.yaml: scenario.game_players") and "\n" not in str(info.value)
+
+
 def test_the_queue_scenarios_on_the_public_maps_load():
     if not SHARED.is_dir():
         pytest.skip(f"the public maps are not at {SHARED}")

@@ -152,7 +152,22 @@ def building_family_from_dict(data: dict, source: str, name: str, description: s
     settings = _mapping(data.get("scenario"), w + "scenario")
     _check_keys(settings, SETTING_KEYS, w + "scenario")
     family = BuildingFamily(name=name, source=source, description=description, settings=dict(settings), **kw)
+    _check_settings(family, w)
     if family.crossings[0] > family.doors[1]:
         raise FamilyError(f"{w}building.crossings: routes cross at least {family.crossings[0]} passages but plans "
                           f"have at most {family.doors[1]} doors; lower crossings or raise doors")
     return family
+
+
+def _check_settings(f: BuildingFamily, w: str) -> None:
+    """The settings must load: tried on a plain scenario with the most robots the family draws."""
+    from nodnav.scenario.fields import ScenarioError
+    from nodnav.scenario.schema import scenario_from_dict
+
+    robots = [{"origin": [-6.0, 2.0 - 0.5 * k], "destination": [6.0, 2.0 - 0.5 * k]} for k in range(f.count[1])]
+    try:
+        scenario_from_dict({**f.settings, "name": "check", "robots": robots}, "check")
+    except ScenarioError as exc:
+        raise FamilyError(f"{w}scenario.{exc}") from None
+    except (ValueError, OverflowError, RecursionError, TypeError) as exc:  # what the scenario loader let through
+        raise FamilyError(f"{w}scenario: settings the scenario loader cannot use ({type(exc).__name__})") from None

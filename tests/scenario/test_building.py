@@ -130,6 +130,20 @@ def test_draws_pass_the_witness_and_are_deterministic(plans):
         assert draw_building(family, s) == m
 
 
+def test_draws_are_the_same_in_another_interpreter():
+    import json
+    import subprocess
+    import sys
+
+    code = ("import json; from nodnav.scenario.draws import draw_building; "
+            "from nodnav.scenario.families import load_family; "
+            "print(json.dumps([draw_building(load_family('building'), s) for s in (2, 8)]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={"PYTHONHASHSEED": "54321", "PATH": ""}).stdout
+    here = [draw_building(load_family("building"), s) for s in (2, 8)]
+    assert json.loads(out) == json.loads(json.dumps(here))
+
+
 def test_several_passages_wait_for_the_simulator_and_one_door_draws_load():
     family = load_family("building")
     several = next(s for s in SEEDS if len(draw_building(family, s)["world"]["passages"]) > 1)

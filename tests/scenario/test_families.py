@@ -185,7 +185,7 @@ def test_generate_writes_files_that_load_back_equal(tmp_path, capsys):
 def test_families_command_lists_the_builtins(capsys):
     assert main(["families"]) == 0
     out = capsys.readouterr().out
-    assert builtin_families() == ["crowded", "meet-inside", "mixed", "paper-like"]
+    assert builtin_families() == ["building", "building-one-door", "crowded", "meet-inside", "mixed", "paper-like"]
     assert all(name in out for name in builtin_families())
 
 

@@ -98,7 +98,6 @@ def _first_seed(value: int | None) -> int:
 
 
 def _show_family(args: argparse.Namespace) -> int:
-    from nodnav.scenario.draws import draw
     from nodnav.scenario.families import load_family
     from nodnav.scenario.fields import ScenarioError
     from nodnav.scenario.schema import override_scenario
@@ -111,18 +110,37 @@ def _show_family(args: argparse.Namespace) -> int:
     if not 1 <= count <= 60:
         raise NodnavError(f"--count: expected a whole number in 1..60 for a gallery, got {count}")
     overrides, labels = overrides_of(args)
-    scenarios = []
+    scenarios, more = [], []
     for s in range(seed, seed + count):
         try:
-            scenarios.append(override_scenario(draw(family, s), overrides, labels))
+            scenario, extra = _drawable(family, s)
+            scenarios.append(override_scenario(scenario, overrides, labels))
+            more.append(extra)
         except ScenarioError as exc:
             raise ScenarioError(f"{exc} (in {family.name}:{s})", key=exc.key) from None
     if not args.execute:
         return 0
     title = (f"family {family.name}, draws {seed}..{seed + count - 1}: origins (discs, numbered) and destinations "
              "(crosses)")
-    print(f"wrote {save_family_gallery(title, scenarios, args.out)}")
+    print(f"wrote {save_family_gallery(title, scenarios, args.out, more_passages=more)}")
     return 0
+
+
+def _drawable(family, seed: int):
+    """Draw ``seed`` of ``family`` for a picture, and the passages beyond the first of a floor plan
+    with several (the scenario keeps one while a world holds one; they are shaded alike)."""
+    from nodnav.scenario.building_family import BuildingFamily
+    from nodnav.scenario.draws import draw, draw_building
+    from nodnav.scenario.schema import scenario_from_dict
+    from nodnav.scenario.world import Passage
+
+    if not isinstance(family, BuildingFamily):
+        return draw(family, seed), []
+    mapping = draw_building(family, seed)
+    passages = mapping["world"]["passages"]
+    one = {**mapping, "world": {**mapping["world"], "passages": passages[:1]}}
+    extra = [Passage(tuple(p["from"]), tuple(p["to"]), p["width"]) for p in passages[1:]]
+    return scenario_from_dict(one, mapping["name"]), extra
 
 
 def _cmd_families(args: argparse.Namespace) -> int:
@@ -140,8 +158,34 @@ def _cmd_generate(args: argparse.Namespace) -> int:
 
     if not 1 <= args.count <= 100_000:
         raise NodnavError(f"--count: expected a whole number in 1..100000, got {args.count}")
-    written = write_draws(load_family(args.family), _first_seed(args.seed), args.count, args.out)
+    family = load_family(args.family)
+    if args.map is not None or args.resolution is not None:
+        return _generate_map(args, family)
+    if args.out is None:
+        raise NodnavError("--out: give the directory for the scenario files (or --map FILE.yaml for a floor plan)")
+    written = write_draws(family, _first_seed(args.seed), args.count, args.out)
     print(f"wrote {len(written)} scenario files to {args.out} ({written[0].name} .. {written[-1].name})")
+    return 0
+
+
+def _generate_map(args: argparse.Namespace, family) -> int:
+    """``--map``: one floor plan of a building family as a map_server map, and a scenario using it."""
+    from nodnav.scenario.building_family import BuildingFamily
+    from nodnav.scenario.building_map import RESOLUTION, write_building
+    from nodnav.scenario.draws import draw_building
+
+    if not isinstance(family, BuildingFamily):
+        raise NodnavError(f"--map: family {family.name!r} draws a corridor, not a floor plan; use a building "
+                          "family (e.g. building)")
+    if args.map is None:
+        raise NodnavError("--resolution: applies to a floor plan written with --map FILE.yaml; give --map")
+    if args.count != 1:
+        raise NodnavError(f"--count: --map writes one floor plan; give --count 1 (got {args.count})")
+    seed = _first_seed(args.seed)
+    resolution = RESOLUTION if args.resolution is None else args.resolution
+    map_path, scenario_path = write_building(draw_building(family, seed), args.map, args.out, resolution)
+    print(f"wrote the floor plan {map_path} (+ {map_path.with_suffix('.pgm').name}, {resolution:g} m cells) "
+          f"and the scenario {scenario_path}")
     return 0
 
 
@@ -165,5 +209,9 @@ def add_parsers(sub) -> None:
     p.add_argument("family", help="built-in family name or family YAML path")
     p.add_argument("--seed", type=int, default=1, help="first draw (default 1)")
     p.add_argument("--count", type=int, default=1, help="number of draws: seeds N..N+K-1 (default 1)")
-    p.add_argument("--out", required=True, help="directory for the scenario files (FAMILY-SEED.yaml)")
+    p.add_argument("--out", help="directory for the scenario files (FAMILY-SEED.yaml); with --map, default "
+                   "the map's folder")
+    p.add_argument("--map", help="building families: write the floor plan as a ROS map_server map FILE.yaml "
+                   "(+ FILE.pgm) and a scenario using it")
+    p.add_argument("--resolution", type=float, help="with --map: metres per cell (default 0.02)")
     p.set_defaults(func=_cmd_generate)

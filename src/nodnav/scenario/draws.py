@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from nodnav.scenario.building_family import BuildingFamily
 from nodnav.scenario.families import Family, FamilyError, load_family, parse_draw_spec
 from nodnav.scenario.layout import _Attempt, _Draws, _Reject
 from nodnav.scenario.meeting import attempt_for
@@ -56,10 +57,46 @@ def _attempt(family: Family, d: _Draws) -> _Attempt:
     return attempt_for(family, d)
 
 
-def draw(family: Family, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
-    """Scenario ``seed`` of ``family``: deterministic, valid and solvable (or a :class:`FamilyError`)."""
+def _check_seed(seed) -> None:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise FamilyError(f"seed: expected a whole number in 0 .. 2^63 - 1, got {seed!r}")
+
+
+def draw_building(family: BuildingFamily, seed: int, attempts: int = MAX_ATTEMPTS) -> dict:
+    """The scenario mapping of draw ``seed`` of a floor-plan family, valid and solvable
+    (:func:`~nodnav.scenario.building_check.check_building`), with every passage in
+    ``world.passages`` (or a :class:`FamilyError`)."""
+    from nodnav.scenario.building import BuildingAttempt
+    from nodnav.scenario.building_check import check_building
+
+    _check_seed(seed)
+    d = _Draws(draw_generator(int(seed)))
+    reasons: dict[str, int] = {}
+    for _ in range(attempts):
+        try:
+            mapping = BuildingAttempt(family, d).draw(int(seed))
+        except _Reject as exc:
+            reasons[str(exc)] = reasons.get(str(exc), 0) + 1
+            continue
+        verdict = check_building(mapping)
+        if verdict.ok:
+            return mapping
+        kind = re.sub(r"[0-9][0-9.]*", "N", verdict.reason)
+        reasons[kind] = reasons.get(kind, 0) + 1
+    common = max(reasons, key=lambda reason: reasons[reason]) if reasons else "-"
+    raise FamilyError(f"{family.name}:{seed}: no valid floor plan in {attempts} attempts (most often: {common}); "
+                      "widen the family's rooms or ranges")
+
+
+def draw(family: Family | BuildingFamily, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
+    """Scenario ``seed`` of ``family``: deterministic, valid and solvable (or a :class:`FamilyError`).
+
+    A floor plan with several passages is drawn and checked, then refused by the scenario loader
+    (one line) while the simulator takes one passage per world."""
+    if isinstance(family, BuildingFamily):
+        mapping = draw_building(family, seed, attempts)
+        return scenario_from_dict(mapping, mapping["name"])
+    _check_seed(seed)
     d = _Draws(draw_generator(int(seed)))
     reasons: dict[str, int] = {}
     for _ in range(attempts):

@@ -171,7 +171,7 @@ _SECTIONS = {
     "starts": ("formation", "gap", "spacing"),
     "destinations": ("mouth", "axis"),
 }
-_TOP = ("family", "description", *_SECTIONS, "traffic", "scenario")
+_TOP = ("family", "description", *_SECTIONS, "traffic", "scenario", "building")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
 
 
@@ -254,6 +254,10 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     description = data.get("description", "")
     if not isinstance(description, str):
         raise FamilyError(f"{source}: description: expected one line of text")
+    if "building" in data:  # a family of floor plans (issue 20)
+        from nodnav.scenario.building_family import building_family_from_dict
+
+        return building_family_from_dict(data, source, name, description)  # type: ignore[return-value]
     sec = {}
     for section, keys in _SECTIONS.items():
         sec[section] = _mapping(data.get(section), f"{source}: {section}")

@@ -89,10 +89,7 @@ def draw_building(family: BuildingFamily, seed: int, attempts: int = MAX_ATTEMPT
 
 
 def draw(family: Family | BuildingFamily, seed: int, attempts: int = MAX_ATTEMPTS) -> Scenario:
-    """Scenario ``seed`` of ``family``: deterministic, valid and solvable (or a :class:`FamilyError`).
-
-    A floor plan with several passages is drawn and checked, then refused by the scenario loader
-    (one line) while the simulator takes one passage per world."""
+    """Scenario ``seed`` of ``family``: deterministic, valid and solvable (or a :class:`FamilyError`)."""
     if isinstance(family, BuildingFamily):
         mapping = draw_building(family, seed, attempts)
         return scenario_from_dict(mapping, mapping["name"])

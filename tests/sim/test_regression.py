@@ -6,6 +6,7 @@ trials must succeed.
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from nodnav.scenario.loading import load_scenario
@@ -37,6 +38,12 @@ CASES = [
     ("teams-head-on-inside.yaml", (0, 1, 2)),
     ("bay-head-on-inside.yaml", (0, 1, 2)),
     ("back-out-into-a-low-room.yaml", (171,)),
+    ("person-thrown-across-a-narrow-mouth.yaml", (262,)),
+    ("person-turning-slowly-into-a-mouth.yaml", (480,)),
+    ("person-at-its-destination-by-the-mouth.yaml", (5,)),
+    ("person-facing-a-robot-coming-out.yaml", (300,)),
+    ("person-beside-a-waiting-robot.yaml", (32,)),
+    ("person-swaying-at-a-vertex.yaml", (132,)),
 ]
 
 
@@ -46,4 +53,8 @@ def test_trials_that_failed_now_succeed(name, seeds):
     for seed in seeds:
         result = run_trial(scenario, seed=seed)
         assert result.outcome == "success", f"{name} seed {seed}: {result.outcome} at {result.sim_time:.1f} s"
-        assert result.min_separation >= max(scenario.radii) * 2
+        # No two bodies ever overlapped (radii may differ: pair by pair, at every recorded step).
+        positions = np.array(result.history.positions)
+        a, b = np.triu_indices(scenario.n_robots, k=1)
+        gaps = np.linalg.norm(positions[:, a] - positions[:, b], axis=2) - scenario.radii[a] - scenario.radii[b]
+        assert gaps.min() >= -scenario.sim.collision_tolerance

@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,7 +100,13 @@ class SocialForceParams:
     min_speed: float = 0.5
     """Lowest preferred speed drawn (m/s); chosen: slower draws (2.2 sd below the mean) are clipped."""
     route_margin: float = 0.05
-    """Clearance kept from the walls by the route, beyond the radius (m); as ``baselines.orca_route_margin``."""
+    """Least clearance kept from the walls by the route, beyond the radius (m); as ``baselines.orca_route_margin``."""
+    comfort_margin: float = 0.3
+    """Clearance from the walls, beyond the radius, a person's route keeps where the passage leaves
+    room for it (m): it passes a corner no nearer than this, and through a narrower passage along
+    its middle (:meth:`PersonMethod.route`); chosen: HFV's wall repulsion is 70 N (under half the
+    driving force of a person at 1 m/s) there. ``route_margin`` (or less) gives the literal
+    shortest route that hugs the corners."""
     range: float = 2.0
     """Distance beyond which walls and others exert no force (m): the exponential is below 1e-7 A there."""
     yield_distance: float = 1.5
@@ -110,6 +117,22 @@ class SocialForceParams:
     wall_lateral: bool = True
     """Whether the wall's social (exponential) term only steers (its part against the person's
     heading dropped, :func:`lateral`); chosen, see the module docstring; ``False`` is HFV's literal term."""
+    slow_for_turns: bool = True
+    """Whether a person slows before the bends of its route so that its velocity, which follows
+    the heading only with the relaxation time tau, does not carry it into the walls
+    (:func:`turn_speed`); chosen; ``False`` walks every bend at its preferred speed."""
+    turn_lookahead: float = 2.0
+    """How far along its route a person looks for bends to slow for (m); chosen: beyond the
+    distance in which the fastest drawn person (2 m/s) stops at 1 m/s^2."""
+    waypoint_reach: float = 0.25
+    """A person heads for the vertex after the next once within this of the next (m) (a waypoint
+    switching radius); chosen: otherwise, a few centimetres off its route just before a vertex,
+    its heading swings by tens of degrees from one step to the next, and in a narrow mouth (a
+    vertex at each end) it swayed from wall to wall on the spot (``person-swaying-at-a-vertex``)."""
+    make_way_gap: float = 1.0
+    """A person starts to make way for someone it is in the way of (:meth:`PersonMethod.in_the_way_of`)
+    when their bodies come nearer than this (m); chosen: the robots wait for the one they let go
+    first up to about a radius (0.2-0.5 m) plus their planner's clearances away (0 disables making way)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -242,6 +265,91 @@ def arrival_speed(speed: float, remaining: float, max_accel: float, dt: float) -
     return min(speed, math.sqrt(2.0 * max_accel * max(remaining, 0.0)), max(remaining, 0.0) / dt)
 
 
+def turn_speed(route: np.ndarray, position: np.ndarray, rooms: np.ndarray, max_accel: float, tau: float,
+               lookahead: float, velocity: np.ndarray | None = None) -> float:
+    """The highest speed (m/s) at which a person at ``position`` may walk on along ``route``
+    ``(V, 2)`` (``route[0]`` where it is) and still take each bend within ``lookahead`` without
+    being carried into a wall.
+
+    A person's velocity follows its heading with the relaxation time ``tau``: after turning by an
+    angle ``theta`` at speed ``v`` it keeps moving towards the outside of the bend for about
+    ``v sin(theta) tau`` (the lateral velocity ``v sin(theta)`` decays with time constant
+    ``tau``, and no faster than ``max_accel`` allows, so it needs ``max(u tau, u^2 / (2
+    max_accel))`` of room for a lateral speed ``u``; ``theta`` counted at most a quarter turn).
+    So at vertex ``k`` (``k >= 1``), with ``rooms[k]`` the free room ``c`` on the outside of its
+    bend (m), the speed there may be at most ``min(c / tau, sqrt(2 max_accel c)) / sin(theta_k)``. Its velocity follows a lower preferred speed with the same
+    lag, so it brakes only after covering about ``speed_now tau``: braking at ``max_accel`` over
+    the rest of the route length ``d_k`` to the vertex, the preferred speed now may be at most
+    ``sqrt(v_k^2 + 2 max_accel max(d_k - speed_now tau, 0))``. The direction into a
+    vertex is the route's own, so a bend made of several vertices (a rounded corner) counts each
+    of its turns against the heading the person has now: the angle between the first segment and
+    the segment leaving vertex ``k``, or between the person's ``velocity`` and that segment if
+    larger (the velocity lags the heading). Infinite when nothing within ``lookahead`` bends.
+    """
+    pts = np.asarray(route, dtype=float).reshape(-1, 2)
+    seg = np.diff(np.vstack([np.asarray(position, dtype=float)[None], pts[1:]]), axis=0)
+    lengths = np.linalg.norm(seg, axis=1)
+    keep = lengths > 1e-9
+    seg, lengths, room = seg[keep], lengths[keep], np.asarray(rooms, dtype=float)[1:][keep]
+    if len(seg) < 2:
+        return math.inf
+    first = seg[0] / lengths[0]
+    v = np.zeros(2) if velocity is None else np.asarray(velocity, dtype=float)
+    speed_now = float(np.hypot(*v))
+    moving = v / speed_now if speed_now > 1e-9 else first
+    best, travelled = math.inf, 0.0
+    for k in range(1, len(seg)):
+        travelled += float(lengths[k - 1])
+        if travelled > lookahead:
+            break
+        out = seg[k] / lengths[k]
+        cos = float(np.clip(min(first @ out, moving @ out), -1.0, 1.0))
+        sin = 1.0 if cos <= 0.0 else math.sqrt(max(1.0 - cos * cos, 0.0))
+        if sin < 1e-6:
+            continue
+        space = max(float(room[k - 1]), 0.0)
+        at_vertex = min(space / tau, math.sqrt(2.0 * max_accel * space)) / sin
+        run = max(travelled - speed_now * tau, 0.0)
+        best = min(best, math.sqrt(at_vertex * at_vertex + 2.0 * max_accel * run))
+    return best
+
+
+def away_from(position: np.ndarray, others: np.ndarray, velocities: np.ndarray, axis: np.ndarray | None = None,
+              across: float = 0.0, moving: float = 0.05, room: Callable[[np.ndarray], float] | None = None
+              ) -> np.ndarray:
+    """The unit direction in which a person at ``position`` makes way for ``others`` ``(m, 2)``
+    moving at ``velocities`` ``(m, 2)``: a sidestep out of the line each one would pass along,
+    for one that moves faster than ``moving`` (m/s) its line of motion (to the side of it the
+    person is on), for one that stands the line from it through the person (it waits to pass
+    where the person stands; to the side where ``room(point)`` (the free room at a point half a
+    metre off, m) is larger, the left when equal or not given); the unit vectors summed. Plus,
+    outside a passage whose unit ``axis`` is given, the unit vector across it on the person's
+    side (``across``: its signed offset from the centreline, none when exactly on it), so that it
+    leaves the line through the mouth. Zero when these cancel."""
+    p = np.asarray(position, dtype=float)
+    total = np.zeros(2)
+    for q, v in zip(np.asarray(others, dtype=float).reshape(-1, 2), np.asarray(velocities, dtype=float).reshape(-1, 2)):
+        d = p - q
+        speed, dist = float(np.hypot(*v)), float(np.hypot(*d))
+        if speed > moving:
+            u = v / speed
+            side = d - (d @ u) * u
+            step = side / float(np.hypot(*side)) if float(np.hypot(*side)) > 1e-6 else np.array([-u[1], u[0]])
+        elif dist > 1e-9:
+            left = np.array([-d[1], d[0]]) / dist
+            step = left
+            if room is not None and room(p - 0.5 * left) > room(p + 0.5 * left):
+                step = -left
+        else:
+            continue
+        total = total + step
+    if axis is not None and abs(across) > 1e-6:  # exactly on the line: the sidesteps choose
+        u = np.asarray(axis, dtype=float)
+        total = total + (1.0 if across > 0.0 else -1.0) * np.array([-u[1], u[0]])
+    norm = float(np.hypot(*total))
+    return total / norm if norm > 1e-9 else np.zeros(2)
+
+
 # ---------------------------------------------------------------------------------------------
 # The methods
 
@@ -266,10 +374,18 @@ class PersonMethod:
         self.sample_times = horizon * np.arange(1, samples + 1) / samples
         self.graphs = {r: VisibilityGraph(scenario.world, r, self.params.route_margin)
                        for r in set(scenario.radii.tolist())}
+        self.wide_graphs = {r: VisibilityGraph(scenario.world, r, self.comfortable_margin(r))
+                            for r in set(scenario.radii.tolist()) if self.comfortable_margin(r) > self.params.route_margin}
         self.sides = approach_sides(scenario)
         self.speeds: dict[int, float] = {}
         """Each person's preferred speed (m/s), drawn at its first decision."""
         self.decisions: dict[int, Decision] = {}
+        self.arrived: set[int] = set()
+        """People that have reached their destination (within the goal tolerance) at least once."""
+        self.making_way: dict[int, set[int]] = {}
+        """Whom each person makes way for (:meth:`in_the_way_of`)."""
+        self.coming_out: dict[int, set[int]] = {}
+        """Of those, the ones coming out of the corridor towards it."""
 
     def speed(self, i: int) -> float:
         """Person ``i``'s preferred speed, drawn once from its own generator."""
@@ -277,11 +393,39 @@ class PersonMethod:
             self.speeds[i] = preferred_speed(self.rngs[i], float(self.scenario.max_speeds[i]), self.params)
         return self.speeds[i]
 
+    def ahead(self, route: np.ndarray, position: np.ndarray) -> np.ndarray:
+        """``route`` from ``position`` without the vertices before the destination that lie within
+        ``waypoint_reach`` of it (the person heads past them)."""
+        pts = np.asarray(route, dtype=float)
+        k = 1
+        while k < len(pts) - 1 and float(np.hypot(*(pts[k] - position))) <= self.params.waypoint_reach:
+            k += 1
+        return np.vstack([pts[:1], pts[k:]])
+
+    def comfortable_margin(self, radius: float) -> float:
+        """The clearance beyond ``radius`` a person's route keeps from the walls (m):
+        ``comfort_margin``, less where the passage is narrower (then 1 cm short of its middle),
+        never less than ``route_margin``.
+
+        A corner passed at the literal route's ``route_margin`` (5 cm) pushes the person with
+        HFV's wall repulsion of about 1000 N, ten times its driving force: coming into a narrow
+        mouth at an angle it was thrown across it into the opposite corner, stopping dead
+        (``person-thrown-across-a-narrow-mouth``). Through the middle of the mouth the two
+        corners' pushes balance."""
+        half = 0.5 * self.scenario.world.passage.width - radius - 0.01
+        return max(self.params.route_margin, min(self.params.comfort_margin, half))
+
     def route(self, i: int, position: np.ndarray) -> np.ndarray:
-        """Person ``i``'s shortest route ``(V, 2)`` among the walls; the straight line if none."""
+        """Person ``i``'s shortest route ``(V, 2)`` among the walls keeping :meth:`comfortable_margin`
+        from them, else keeping ``route_margin``; the straight line if neither exists."""
         goal = self.scenario.destinations[i]
-        path = self.graphs[float(self.scenario.radii[i])].shortest_path(position, goal)
-        return path.points if path.success else np.array([position, goal], dtype=float)
+        r = float(self.scenario.radii[i])
+        for graph in (self.wide_graphs.get(r), self.graphs[r]):
+            if graph is not None:
+                path = graph.shortest_path(position, goal)
+                if path.success:
+                    return path.points
+        return np.array([position, goal], dtype=float)
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """No decision: each person's 'plan' is its route walked at its preferred speed (recorded)."""
@@ -300,6 +444,98 @@ class PersonMethod:
     def waits(self, i: int, view: RobotView) -> bool:
         """Whether person ``i`` stops before its mouth now (only ``person-yielding`` does)."""
         return False
+
+    def in_the_way_of(self, i: int, view: RobotView) -> list[int]:
+        """Whom person ``i`` makes way for now (:meth:`make_way`).
+
+        It starts to make way for anyone whose body comes nearer than ``make_way_gap`` and who
+        must get past it: once it has arrived, anyone not at their own destination (a person
+        standing at its destination in a mouth would otherwise close the passage for good);
+        before the corridor, on the side it approaches from, anyone inside the corridor who came
+        from the other side (who can come out only where it stands). It goes on making way for
+        them until they have got past: the one it arrived before until that one is at its
+        destination or twice ``make_way_gap`` away, the one coming out until it has left the
+        corridor. A person does not otherwise yield."""
+        s, gap_limit = self.scenario, self.params.make_way_gap
+        if gap_limit <= 0.0:
+            return []
+        p = view.positions
+        gaps = np.linalg.norm(p - p[i], axis=1) - s.radii - s.radii[i]
+        under_way = np.linalg.norm(p - s.destinations, axis=1) > s.sim.goal_tolerance
+        inside = s.world.in_corridor(p)
+        side = int(self.sides[i])
+        before = side != 0 and i not in self.arrived and int(s.world.side_of(p[i][None])[0]) == side
+        held = self.making_way.setdefault(i, set())
+        for k in range(s.n_robots):
+            if k == i:
+                continue
+            coming_out = before and bool(inside[k]) and int(self.sides[k]) == -side
+            if k in held:  # still to get past?
+                keep = coming_out if k in self.coming_out.get(i, set()) else (
+                    bool(under_way[k]) and gaps[k] < 2.0 * gap_limit)
+                if not keep:
+                    held.discard(k)
+                    self.coming_out.get(i, set()).discard(k)
+            elif gaps[k] < gap_limit and ((i in self.arrived and under_way[k]) or coming_out):
+                held.add(k)
+                if coming_out:
+                    self.coming_out.setdefault(i, set()).add(k)
+        return sorted(held)
+
+    def make_way(self, i: int, view: RobotView, others: list[int]) -> tuple[np.ndarray, float]:
+        """Heading and preferred speed of person ``i`` making way for ``others``.
+
+        For someone coming out of the corridor: off the line through the mouth, sideways (and away
+        from them, :func:`away_from`), then standing still beside it until they are out. For
+        someone who must pass it at its destination: out of their way (:func:`away_from`) while
+        nearer than ``make_way_gap``, standing still beyond it."""
+        s, p = self.scenario, view.positions[i]
+        passage = s.world.passage
+        across = float(passage.across(p[None])[0]) - passage.t_centre
+        out = [k for k in others if k in self.coming_out.get(i, set())]
+        if out:
+            on_line = abs(across) < 0.5 * passage.width + float(s.radii[i]) + float(s.radii[out].max())
+            if not on_line:
+                return np.zeros(2), 0.0
+            e = away_from(p, view.positions[out], view.velocities[out], np.array(passage.axis), across,
+                          room=self.room)
+            return e, self.speed(i)
+        gaps = np.linalg.norm(view.positions[others] - p, axis=1) - s.radii[others] - s.radii[i]
+        near = [k for k, g in zip(others, gaps) if g < self.params.make_way_gap]
+        if not near:
+            return np.zeros(2), 0.0
+        return away_from(p, view.positions[near], view.velocities[near], room=self.room), self.speed(i)
+
+    def room(self, point: np.ndarray) -> float:
+        """The free room at ``point``: its distance to the nearest wall (m)."""
+        return float(self.scenario.world.clearance(np.asarray(point, dtype=float)[None])[0])
+
+    def bend_rooms(self, i: int, route: np.ndarray, position: np.ndarray) -> np.ndarray:
+        """The free room ``(V,)`` (m) on the outside of the bend at each vertex of ``route``
+        within ``turn_lookahead`` (``inf`` beyond it and at the ends): how far person ``i``'s
+        centre can move from the vertex, away from the inside of the bend, before its body
+        touches a wall (probed every 2 cm up to 2 m)."""
+        pts = np.vstack([np.asarray(position, dtype=float)[None], np.asarray(route, dtype=float)[1:]])
+        rooms = np.full(len(pts), np.inf)
+        r, world = float(self.scenario.radii[i]), self.scenario.world
+        probe = np.arange(1, 101) * 0.02
+        travelled = 0.0
+        for k in range(1, len(pts) - 1):
+            travelled += float(np.hypot(*(pts[k] - pts[k - 1])))
+            if travelled > self.params.turn_lookahead:
+                break
+            before, after = pts[1] - pts[0], pts[k + 1] - pts[k]  # the heading now, the way on
+            nb, na = float(np.hypot(*before)), float(np.hypot(*after))
+            if nb < 1e-9 or na < 1e-9:
+                continue
+            b, a = before / nb, after / na
+            outward = b - (b @ a) * a  # where the old heading carries the body after the turn
+            no = float(np.hypot(*outward))
+            if no < 1e-9:
+                continue
+            clear = world.clearance(pts[k][None] + probe[:, None] * (outward / no)[None]) >= r
+            rooms[k] = float(probe[np.argmin(clear)] - 0.02) if not clear.all() else float(probe[-1])
+        return rooms
 
     def force(self, i: int, p: np.ndarray, v: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
               vj: np.ndarray, rj: np.ndarray) -> np.ndarray:
@@ -331,13 +567,22 @@ class PersonMethod:
         for i, view in views.items():
             start = time.perf_counter()
             p0, v0 = view.positions[i], view.velocities[i]
-            route = self.route(i, p0)
-            remaining = float(np.linalg.norm(np.diff(np.vstack([p0, route]), axis=0), axis=1).sum())
-            heading = next_waypoint(route, p0) - p0
-            norm = float(np.hypot(*heading))
-            e = heading / norm if norm > 0 else np.zeros(2)
-            speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining,
-                                                                  float(s.robots[i].max_accel), self.dt)
+            if float(np.hypot(*(p0 - s.destinations[i]))) <= s.sim.goal_tolerance:
+                self.arrived.add(i)
+            blockers = self.in_the_way_of(i, view)
+            if blockers:
+                e, speed = self.make_way(i, view, blockers)
+            else:
+                route = self.ahead(self.route(i, p0), p0)
+                remaining = float(np.linalg.norm(np.diff(np.vstack([p0, route]), axis=0), axis=1).sum())
+                heading = next_waypoint(route, p0) - p0
+                norm = float(np.hypot(*heading))
+                e = heading / norm if norm > 0 else np.zeros(2)
+                accel = float(s.robots[i].max_accel)
+                speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining, accel, self.dt)
+                if prm.slow_for_turns and speed > 0.0:
+                    speed = min(speed, turn_speed(route, p0, self.bend_rooms(i, route, p0), accel, prm.tau,
+                                                  prm.turn_lookahead, v0))
             others = [k for k in range(s.n_robots) if k != i
                       and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
             pj, vj, rj = view.positions[others], view.velocities[others], radii[others]

@@ -7,7 +7,8 @@ import numpy as np
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.sim.agent import RobotView
-from nodnav.sim.person import PersonMethod, away_from, turn_speed
+from nodnav.sim.person import PersonMethod
+from nodnav.sim.person_steering import away_from, turn_speed
 
 INF = math.inf
 

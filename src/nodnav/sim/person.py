@@ -49,6 +49,15 @@ comfortable speed is above what its body allows walks at its limit).
 Physics: a person never passes through a wall. Its step is clipped as a body pushed against a
 wall moves: if the straight step would bring it nearer a wall than its radius, it keeps only the
 component of the step along the wall (the walls are axis-aligned), or stays.
+
+Steering (chosen where HFV leave room; docs/mixed-teams.md says why, each with its regression
+scenario): the route keeps ``comfort_margin`` from the walls where the passage allows, else runs
+along its middle (:meth:`PersonMethod.comfortable_margin`); a person slows before the bends of its
+route so that its lagging velocity does not carry it into a wall
+(:func:`~nodnav.sim.person_steering.turn_speed`), and heads past a vertex once within
+``waypoint_reach`` of it. It does not yield at a mouth, but makes way where it must to let someone
+by (:meth:`PersonMethod.in_the_way_of`): at its destination for anyone still under way, and before
+the corridor for anyone coming out of it towards it.
 """
 
 from __future__ import annotations
@@ -461,11 +470,11 @@ class PersonMethod:
                 heading = next_waypoint(route, p0) - p0
                 norm = float(np.hypot(*heading))
                 e = heading / norm if norm > 0 else np.zeros(2)
-                accel = float(s.robots[i].max_accel)
-                speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining, accel, self.dt)
+                limit = float(s.robots[i].max_accel)
+                speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining, limit, self.dt)
                 if prm.slow_for_turns and speed > 0.0:
                     rooms = bend_rooms(s.world, float(radii[i]), route, p0, prm.turn_lookahead)
-                    speed = min(speed, turn_speed(route, p0, rooms, accel, prm.tau, prm.turn_lookahead, v0))
+                    speed = min(speed, turn_speed(route, p0, rooms, limit, prm.tau, prm.turn_lookahead, v0))
             others = [k for k in range(s.n_robots) if k != i
                       and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
             pj, vj, rj = view.positions[others], view.velocities[others], radii[others]

@@ -106,15 +106,16 @@ def test_an_arrived_person_makes_way_until_the_robot_has_passed():
     scenario, person = person_in("2r-case1", 0)
     goal = scenario.destinations[0]
     person.arrived.add(0)
-    robot = goal + [0.2 + 0.2 + 0.5, 0.0]  # 0.5 m between the bodies, still under way
+    assert person.params.make_way_gap == 0.5
+    robot = goal + [0.2 + 0.2 + 0.3, 0.0]  # 0.3 m between the bodies, still under way
     assert person.in_the_way_of(0, view_at([goal, robot])) == [1]
     heading, speed = person.make_way(0, view_at([goal, robot]), [1])
     assert speed > 0.0 and abs(heading[0]) < 1e-9 and math.isclose(abs(heading[1]), 1.0)
-    # Held while within twice the gap (1.5 m apart), released beyond it (2.5 m) ...
-    assert person.in_the_way_of(0, view_at([goal, goal + [1.9, 0.0]])) == [1]
-    heading, speed = person.make_way(0, view_at([goal, goal + [1.9, 0.0]]), [1])
+    # Held while within twice the gap (0.9 m apart), released beyond it (1.1 m) ...
+    assert person.in_the_way_of(0, view_at([goal, goal + [1.3, 0.0]])) == [1]
+    heading, speed = person.make_way(0, view_at([goal, goal + [1.3, 0.0]]), [1])
     assert speed == 0.0  # farther than make_way_gap: it stands aside
-    assert person.in_the_way_of(0, view_at([goal, goal + [2.9, 0.0]])) == []
+    assert person.in_the_way_of(0, view_at([goal, goal + [1.5, 0.0]])) == []
     # ... or once the robot is at its own destination.
     assert person.in_the_way_of(0, view_at([goal, robot])) == [1]
     assert person.in_the_way_of(0, view_at([goal, scenario.destinations[1]])) == []

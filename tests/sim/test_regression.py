@@ -44,6 +44,7 @@ CASES = [
     ("person-facing-a-robot-coming-out.yaml", (300,)),
     ("person-beside-a-waiting-robot.yaml", (32,)),
     ("person-swaying-at-a-vertex.yaml", (132,)),
+    ("person-standing-aside-for-a-waiting-robot.yaml", (35,)),
 ]
 
 

@@ -42,6 +42,13 @@ CASES = [
     ("overshoot-slow-robot-behind-a-fast-one.yaml", (5,)),
     ("overshoot-three-robots-short-corridor.yaml", (178,)),
     ("overshoot-slow-robot-head-on.yaml", (74,)),
+    ("person-thrown-across-a-narrow-mouth.yaml", (262,)),
+    ("person-turning-slowly-into-a-mouth.yaml", (480,)),
+    ("person-at-its-destination-by-the-mouth.yaml", (5,)),
+    ("person-facing-a-robot-coming-out.yaml", (300,)),
+    ("person-beside-a-waiting-robot.yaml", (32,)),
+    ("person-swaying-at-a-vertex.yaml", (132,)),
+    ("person-standing-aside-for-a-waiting-robot.yaml", (35,)),
 ]
 
 
@@ -51,5 +58,8 @@ def test_trials_that_failed_now_succeed(name, seeds):
     for seed in seeds:
         result = run_trial(scenario, seed=seed)
         assert result.outcome == "success", f"{name} seed {seed}: {result.outcome} at {result.sim_time:.1f} s"
-        # No contact: with radii of different sizes, at least the two smallest apart.
-        assert result.min_separation >= np.sort(scenario.radii)[:2].sum()
+        # No two bodies ever overlapped (radii may differ: pair by pair, at every recorded step).
+        positions = np.array(result.history.positions)
+        a, b = np.triu_indices(scenario.n_robots, k=1)
+        gaps = np.linalg.norm(positions[:, a] - positions[:, b], axis=2) - scenario.radii[a] - scenario.radii[b]
+        assert gaps.min() >= -scenario.sim.collision_tolerance

@@ -49,6 +49,15 @@ comfortable speed is above what its body allows walks at its limit).
 Physics: a person never passes through a wall. Its step is clipped as a body pushed against a
 wall moves: if the straight step would bring it nearer a wall than its radius, it keeps only the
 component of the step along the wall (the walls are axis-aligned), or stays.
+
+Steering (chosen where HFV leave room; docs/mixed-teams.md says why, each with its regression
+scenario): the route keeps ``comfort_margin`` from the walls where the passage allows, else runs
+along its middle (:meth:`PersonMethod.comfortable_margin`); a person slows before the bends of its
+route so that its lagging velocity does not carry it into a wall
+(:func:`~nodnav.sim.person_steering.turn_speed`), and heads past a vertex once within
+``waypoint_reach`` of it. It does not yield at a mouth, but makes way where it must to let someone
+by (:meth:`PersonMethod.in_the_way_of`): at its destination for anyone still under way, and before
+the corridor for anyone coming out of it towards it.
 """
 
 from __future__ import annotations
@@ -68,6 +77,7 @@ from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, RobotView, approach_sides
 from nodnav.sim.baselines import NO_OPINION, next_waypoint, route_trajectory
+from nodnav.sim.person_steering import arrival_speed, away_from, bend_rooms, turn_speed
 
 
 @dataclass(frozen=True)
@@ -99,7 +109,13 @@ class SocialForceParams:
     min_speed: float = 0.5
     """Lowest preferred speed drawn (m/s); chosen: slower draws (2.2 sd below the mean) are clipped."""
     route_margin: float = 0.05
-    """Clearance kept from the walls by the route, beyond the radius (m); as ``baselines.orca_route_margin``."""
+    """Least clearance kept from the walls by the route, beyond the radius (m); as ``baselines.orca_route_margin``."""
+    comfort_margin: float = 0.3
+    """Clearance from the walls, beyond the radius, a person's route keeps where the passage leaves
+    room for it (m): it passes a corner no nearer than this, and through a narrower passage along
+    its middle (:meth:`PersonMethod.route`); chosen: HFV's wall repulsion is 70 N (under half the
+    driving force of a person at 1 m/s) there. ``route_margin`` (or less) gives the literal
+    shortest route that hugs the corners."""
     range: float = 2.0
     """Distance beyond which walls and others exert no force (m): the exponential is below 1e-7 A there."""
     yield_distance: float = 1.5
@@ -110,6 +126,24 @@ class SocialForceParams:
     wall_lateral: bool = True
     """Whether the wall's social (exponential) term only steers (its part against the person's
     heading dropped, :func:`lateral`); chosen, see the module docstring; ``False`` is HFV's literal term."""
+    slow_for_turns: bool = True
+    """Whether a person slows before the bends of its route so that its velocity, which follows
+    the heading only with the relaxation time tau, does not carry it into the walls
+    (:func:`turn_speed`); chosen; ``False`` walks every bend at its preferred speed."""
+    turn_lookahead: float = 2.0
+    """How far along its route a person looks for bends to slow for (m); chosen: beyond the
+    distance in which the fastest drawn person (2 m/s) stops at 1 m/s^2."""
+    waypoint_reach: float = 0.25
+    """A person heads for the vertex after the next once within this of the next (m) (a waypoint
+    switching radius); chosen: otherwise, a few centimetres off its route just before a vertex,
+    its heading swings by tens of degrees from one step to the next, and in a narrow mouth (a
+    vertex at each end) it swayed from wall to wall on the spot (``person-swaying-at-a-vertex``)."""
+    make_way_gap: float = 0.5
+    """A person starts to make way for someone it is in the way of (:meth:`PersonMethod.in_the_way_of`)
+    when their bodies come nearer than this (m), and goes on standing aside while they are under way
+    within twice this; chosen: with 1 m a person stood aside for ever while the robot waited for it
+    to go to its destination first (``person-standing-aside-for-a-waiting-robot``), in 5 of the first
+    100 draws of ``mixed`` against 1 the other way (0 disables making way)."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -236,12 +270,6 @@ def preferred_speed(rng: np.random.Generator, max_speed: float, p: SocialForcePa
     return float(np.clip(rng.normal(p.speed_mean, p.speed_sd), low, max_speed))
 
 
-def arrival_speed(speed: float, remaining: float, max_accel: float, dt: float) -> float:
-    """The preferred speed near the goal: no faster than allows stopping at it with ``max_accel``,
-    nor than covers the ``remaining`` route in one step ``dt``."""
-    return min(speed, math.sqrt(2.0 * max_accel * max(remaining, 0.0)), max(remaining, 0.0) / dt)
-
-
 # ---------------------------------------------------------------------------------------------
 # The methods
 
@@ -266,10 +294,19 @@ class PersonMethod:
         self.sample_times = horizon * np.arange(1, samples + 1) / samples
         self.graphs = {r: VisibilityGraph(scenario.world, r, self.params.route_margin)
                        for r in set(scenario.radii.tolist())}
+        self.wide_graphs = {r: VisibilityGraph(scenario.world, r, self.comfortable_margin(r))
+                            for r in set(scenario.radii.tolist())
+                            if self.comfortable_margin(r) > self.params.route_margin}
         self.sides = approach_sides(scenario)
         self.speeds: dict[int, float] = {}
         """Each person's preferred speed (m/s), drawn at its first decision."""
         self.decisions: dict[int, Decision] = {}
+        self.arrived: set[int] = set()
+        """People that have reached their destination (within the goal tolerance) at least once."""
+        self.making_way: dict[int, set[int]] = {}
+        """Whom each person makes way for (:meth:`in_the_way_of`)."""
+        self.coming_out: dict[int, set[int]] = {}
+        """Of those, the ones coming out of the corridor towards it."""
 
     def speed(self, i: int) -> float:
         """Person ``i``'s preferred speed, drawn once from its own generator."""
@@ -277,11 +314,39 @@ class PersonMethod:
             self.speeds[i] = preferred_speed(self.rngs[i], float(self.scenario.max_speeds[i]), self.params)
         return self.speeds[i]
 
+    def ahead(self, route: np.ndarray, position: np.ndarray) -> np.ndarray:
+        """``route`` from ``position`` without the vertices before the destination that lie within
+        ``waypoint_reach`` of it (the person heads past them)."""
+        pts = np.asarray(route, dtype=float)
+        k = 1
+        while k < len(pts) - 1 and float(np.hypot(*(pts[k] - position))) <= self.params.waypoint_reach:
+            k += 1
+        return np.vstack([pts[:1], pts[k:]])
+
+    def comfortable_margin(self, radius: float) -> float:
+        """The clearance beyond ``radius`` a person's route keeps from the walls (m):
+        ``comfort_margin``, less where the passage is narrower (then 1 cm short of its middle),
+        never less than ``route_margin``.
+
+        A corner passed at the literal route's ``route_margin`` (5 cm) pushes the person with
+        HFV's wall repulsion of about 1000 N, ten times its driving force: coming into a narrow
+        mouth at an angle it was thrown across it into the opposite corner, stopping dead
+        (``person-thrown-across-a-narrow-mouth``). Through the middle of the mouth the two
+        corners' pushes balance."""
+        half = 0.5 * self.scenario.world.passage.width - radius - 0.01
+        return max(self.params.route_margin, min(self.params.comfort_margin, half))
+
     def route(self, i: int, position: np.ndarray) -> np.ndarray:
-        """Person ``i``'s shortest route ``(V, 2)`` among the walls; the straight line if none."""
+        """Person ``i``'s shortest route ``(V, 2)`` among the walls keeping :meth:`comfortable_margin`
+        from them, else keeping ``route_margin``; the straight line if neither exists."""
         goal = self.scenario.destinations[i]
-        path = self.graphs[float(self.scenario.radii[i])].shortest_path(position, goal)
-        return path.points if path.success else np.array([position, goal], dtype=float)
+        r = float(self.scenario.radii[i])
+        for graph in (self.wide_graphs.get(r), self.graphs[r]):
+            if graph is not None:
+                path = graph.shortest_path(position, goal)
+                if path.success:
+                    return path.points
+        return np.array([position, goal], dtype=float)
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         """No decision: each person's 'plan' is its route walked at its preferred speed (recorded)."""
@@ -300,6 +365,71 @@ class PersonMethod:
     def waits(self, i: int, view: RobotView) -> bool:
         """Whether person ``i`` stops before its mouth now (only ``person-yielding`` does)."""
         return False
+
+    def in_the_way_of(self, i: int, view: RobotView) -> list[int]:
+        """Whom person ``i`` makes way for now (:meth:`make_way`).
+
+        It starts to make way for anyone whose body comes nearer than ``make_way_gap`` and who
+        must get past it: once it has arrived, anyone not at their own destination (a person
+        standing at its destination in a mouth would otherwise close the passage for good);
+        before the corridor, on the side it approaches from, anyone inside the corridor who came
+        from the other side (who can come out only where it stands). It goes on making way for
+        them until they have got past: the one it arrived before until that one is at its
+        destination or twice ``make_way_gap`` away, the one coming out until it has left the
+        corridor. A person does not otherwise yield."""
+        s, gap_limit = self.scenario, self.params.make_way_gap
+        if gap_limit <= 0.0:
+            return []
+        p = view.positions
+        gaps = np.linalg.norm(p - p[i], axis=1) - s.radii - s.radii[i]
+        under_way = np.linalg.norm(p - s.destinations, axis=1) > s.sim.goal_tolerance
+        inside = s.world.in_corridor(p)
+        side = int(self.sides[i])
+        before = side != 0 and i not in self.arrived and int(s.world.side_of(p[i][None])[0]) == side
+        held = self.making_way.setdefault(i, set())
+        for k in range(s.n_robots):
+            if k == i:
+                continue
+            coming_out = before and bool(inside[k]) and int(self.sides[k]) == -side
+            if k in held:  # still to get past?
+                keep = coming_out if k in self.coming_out.get(i, set()) else (
+                    bool(under_way[k]) and gaps[k] < 2.0 * gap_limit)
+                if not keep:
+                    held.discard(k)
+                    self.coming_out.get(i, set()).discard(k)
+            elif gaps[k] < gap_limit and ((i in self.arrived and under_way[k]) or coming_out):
+                held.add(k)
+                if coming_out:
+                    self.coming_out.setdefault(i, set()).add(k)
+        return sorted(held)
+
+    def make_way(self, i: int, view: RobotView, others: list[int]) -> tuple[np.ndarray, float]:
+        """Heading and preferred speed of person ``i`` making way for ``others``.
+
+        For someone coming out of the corridor: off the line through the mouth, sideways (and away
+        from them, :func:`away_from`), then standing still beside it until they are out. For
+        someone who must pass it at its destination: out of their way (:func:`away_from`) while
+        nearer than ``make_way_gap``, standing still beyond it."""
+        s, p = self.scenario, view.positions[i]
+        passage = s.world.passage
+        across = float(passage.across(p[None])[0]) - passage.t_centre
+        out = [k for k in others if k in self.coming_out.get(i, set())]
+        if out:
+            on_line = abs(across) < 0.5 * passage.width + float(s.radii[i]) + float(s.radii[out].max())
+            if not on_line:
+                return np.zeros(2), 0.0
+            e = away_from(p, view.positions[out], view.velocities[out], np.array(passage.axis), across,
+                          room=self.room)
+            return e, self.speed(i)
+        gaps = np.linalg.norm(view.positions[others] - p, axis=1) - s.radii[others] - s.radii[i]
+        near = [k for k, g in zip(others, gaps) if g < self.params.make_way_gap]
+        if not near:
+            return np.zeros(2), 0.0
+        return away_from(p, view.positions[near], view.velocities[near], room=self.room), self.speed(i)
+
+    def room(self, point: np.ndarray) -> float:
+        """The free room at ``point``: its distance to the nearest wall (m)."""
+        return float(self.scenario.world.clearance(np.asarray(point, dtype=float)[None])[0])
 
     def force(self, i: int, p: np.ndarray, v: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
               vj: np.ndarray, rj: np.ndarray) -> np.ndarray:
@@ -331,13 +461,22 @@ class PersonMethod:
         for i, view in views.items():
             start = time.perf_counter()
             p0, v0 = view.positions[i], view.velocities[i]
-            route = self.route(i, p0)
-            remaining = float(np.linalg.norm(np.diff(np.vstack([p0, route]), axis=0), axis=1).sum())
-            heading = next_waypoint(route, p0) - p0
-            norm = float(np.hypot(*heading))
-            e = heading / norm if norm > 0 else np.zeros(2)
-            speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining,
-                                                                  float(s.robots[i].max_accel), self.dt)
+            if float(np.hypot(*(p0 - s.destinations[i]))) <= s.sim.goal_tolerance:
+                self.arrived.add(i)
+            blockers = self.in_the_way_of(i, view)
+            if blockers:
+                e, speed = self.make_way(i, view, blockers)
+            else:
+                route = self.ahead(self.route(i, p0), p0)
+                remaining = float(np.linalg.norm(np.diff(np.vstack([p0, route]), axis=0), axis=1).sum())
+                heading = next_waypoint(route, p0) - p0
+                norm = float(np.hypot(*heading))
+                e = heading / norm if norm > 0 else np.zeros(2)
+                limit = float(s.robots[i].max_accel)
+                speed = 0.0 if self.waits(i, view) else arrival_speed(self.speed(i), remaining, limit, self.dt)
+                if prm.slow_for_turns and speed > 0.0:
+                    rooms = bend_rooms(s.world, float(radii[i]), route, p0, prm.turn_lookahead)
+                    speed = min(speed, turn_speed(route, p0, rooms, limit, prm.tau, prm.turn_lookahead, v0))
             others = [k for k in range(s.n_robots) if k != i
                       and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
             pj, vj, rj = view.positions[others], view.velocities[others], radii[others]

@@ -37,6 +37,7 @@ CASES = [
     ("teams-head-on-inside.yaml", (0, 1, 2)),
     ("bay-head-on-inside.yaml", (0, 1, 2)),
     ("back-out-into-a-low-room.yaml", (171,)),
+    ("head-on-in-limited-sight.yaml", (6, 12)),
 ]
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+from nodnav.decision.estimation import estimate_social_term, estimated_opinions, reachable_predictions
 from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
@@ -219,6 +219,7 @@ class NODAgent:
         self.social = social
         self.bias = self.params.bias_indices()
         self.sides = approach_sides(scenario)
+        self.accel = np.array([r.max_accel for r in scenario.robots])
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -276,6 +277,8 @@ class NODAgent:
             planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
+            if self.params.estimation == "reachable":
+                planned = reachable_predictions(observed, planned, self.accel[list(players)], dt)
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order

@@ -38,6 +38,7 @@ CASES = [
     ("bay-head-on-inside.yaml", (0, 1, 2)),
     ("back-out-into-a-low-room.yaml", (171,)),
     ("head-on-in-limited-sight.yaml", (6, 12)),
+    ("sight-remembered-robot-collision.yaml", (1,)),
 ]
 
 

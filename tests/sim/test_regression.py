@@ -39,6 +39,7 @@ CASES = [
     ("back-out-into-a-low-room.yaml", (171,)),
     ("head-on-in-limited-sight.yaml", (6, 12)),
     ("sight-remembered-robot-collision.yaml", (1,)),
+    ("abreast-after-backing-out.yaml", (66,)),
 ]
 
 

@@ -40,6 +40,7 @@ CASES = [
     ("head-on-in-limited-sight.yaml", (6, 12)),
     ("sight-remembered-robot-collision.yaml", (1,)),
     ("abreast-after-backing-out.yaml", (66,)),
+    ("standoff-with-an-arrived-robot.yaml", (1, 17)),
 ]
 
 

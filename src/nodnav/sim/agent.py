@@ -343,8 +343,13 @@ class NODAgent:
             planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+            now = view.positions[list(players)]
+            arrived = (np.linalg.norm(now - self.scenario.destinations[list(players)], axis=1)
+                       <= self.scenario.sim.goal_tolerance)
             found = standoff_partner(progress[self.index], progress[list(players)],
-                                     planned[planning.index(self.index)], players_planned)
+                                     planned[planning.index(self.index)], players_planned,
+                                     players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                     players_arrived=arrived)
             partner = players[found] if found >= 0 else -1
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1

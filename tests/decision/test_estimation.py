@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+from nodnav.decision.estimation import estimate_social_term, estimated_opinions, reachable_predictions
 
 
 def straight_line(start, velocity, times):
@@ -115,3 +115,44 @@ def test_strategies_without_a_plan_get_no_support_and_the_rest_are_centred_among
     assert r[0, 1] == 0.0
     # No strategy with a plan: no evidence, R(0) = 1/2 everywhere.
     np.testing.assert_allclose(estimate_social_term(z_prime, np.zeros(3, dtype=bool)), 0.5)
+
+
+def test_reachable_prediction_of_a_feasible_plan_is_the_plan(window):
+    # A plan the robot can follow from where it is (same start, same constant velocity) is unchanged.
+    times, dt = window
+    observed = straight_line([-4, 0], [1, 0.5], times)[None]
+    planned = observed[None].copy()
+    assert np.allclose(reachable_predictions(observed, planned, np.array([2.0]), dt), planned)
+
+
+def test_reachable_reversal_brakes_first(window):
+    # Observed at -1 m/s, the plan backs out at +1 m/s from the start; with a = 2 m/s^2 the robot
+    # stops after 0.5 s, having moved -1 * 0.5 + 2 * 0.5^2 / 2 = -0.25 m, and is back where it
+    # started at +1 m/s after 1 s (uniform acceleration: x(t) = -t + t^2).
+    times, dt = window
+    observed = straight_line([0, 0], [-1, 0], times)[None]
+    planned = straight_line([0, 0], [1, 0], times)[None, None]
+    out = reachable_predictions(observed, planned, np.array([2.0]), dt)[0, 0]
+    assert np.allclose(out[:, 0], -times + times ** 2)
+    assert np.allclose(out[:, 2], np.clip(-1 + 2 * times, -1, 1))
+    # Eq. (4) now matches a robot that brakes to back out with the plan that backs out, not with
+    # the one that keeps going (which the raw plans got wrong).
+    keep_going = straight_line([0, 0], [-1, 0], times)[None, None]
+    both = np.concatenate([planned, keep_going])
+    braking = np.stack([-times + times ** 2, np.zeros_like(times), -1 + 2 * times, np.zeros_like(times)], axis=1)[None]
+    raw = estimated_opinions(braking, both, dt)
+    reach = estimated_opinions(braking, reachable_predictions(braking, both, np.array([2.0]), dt), dt)
+    assert raw[0, 1] > raw[0, 0]  # the raw plans read the braking robot as keeping going
+    assert reach[0, 0] > reach[0, 1]  # the reachable ones as backing out
+
+
+def test_reachable_speed_change_is_limited_by_each_robots_accel(window):
+    # Two robots at rest told to go at 1 m/s: with a = 0.5 and 4 m/s^2 their speeds after 0.2 s
+    # are 0.1 and 0.8 m/s (a t), capped at 1 m/s.
+    times, dt = window
+    observed = np.stack([straight_line([0, 0], [0, 0], times), straight_line([5, 0], [0, 0], times)])
+    planned = np.stack([straight_line([0, 0], [1, 0], times), straight_line([5, 0], [0, 1], times)])[None]
+    out = reachable_predictions(observed, planned, np.array([0.5, 4.0]), dt)[0]
+    assert np.allclose(out[0, :, 2], np.minimum(0.5 * times, 1.0))
+    assert np.allclose(out[1, :, 3], np.minimum(4.0 * times, 1.0))
+    assert np.allclose(out[0, 2, 0], 0.5 * 0.5 * 0.2 ** 2)

@@ -28,3 +28,18 @@ def test_precedence_mask_picks_the_orders_where_one_robot_passes_before_another(
     orders = passing_orders(3)  # lexicographic: (0,1,2) (0,2,1) (1,0,2) (1,2,0) (2,0,1) (2,1,0)
     np.testing.assert_array_equal(precedence_mask(orders, 2, 0), [False, False, False, True, True, True])
     np.testing.assert_array_equal(precedence_mask(orders, 0, 2), ~precedence_mask(orders, 2, 0))
+
+
+def test_the_partner_is_the_nearest_stalled_player_and_never_one_that_has_arrived():
+    # The robot wanted to go (0.8 m) and did not; both players stood, and the plan had neither
+    # move (one waits for the robot, one stands at its destination): both tie on the robot's own
+    # planned progress. Player 0 is at its destination 2.3 m away, player 1 beside the robot.
+    args = (0.0, np.array([0.0, 0.0]), 0.8, np.array([0.0, 0.0]))
+    assert standoff_partner(*args) == 0  # without distances the tie goes to the first
+    assert standoff_partner(*args, players_distance=np.array([2.3, 0.5])) == 1
+    assert standoff_partner(*args, players_arrived=np.array([True, False])) == 1
+    assert standoff_partner(*args, players_distance=np.array([0.4, 0.5]), players_arrived=np.array([True, False])) == 1
+    assert standoff_partner(0.0, np.array([0.0]), 0.8, np.array([0.0]), players_arrived=np.array([True])) == -1
+    # More planned progress still comes first, however far.
+    assert standoff_partner(0.0, np.array([0.0, 0.0]), 0.3, np.array([0.9, 0.0]),
+                            players_distance=np.array([3.0, 0.5])) == 0

@@ -44,7 +44,8 @@ def observed_view(scenario, t, moving):
 
 
 def test_opinion_update_matches_eqs_4_and_8_by_hand():
-    scenario = load_scenario("2r-case1")
+    # Eq. (4) as the paper writes it: against the planned states as they are.
+    scenario = load_scenario("2r-case1", {"opinion.estimation": "paper"})
     o = scenario.opinion
     assert (o.u, o.d, o.K1, o.T, o.init) == (100.0, 1.0, 5.0, 1.0, "zero")  # the values used below
     agent = NODAgent(scenario, 0, np.random.default_rng(1), PlanCache(ScriptedPlanner()))

@@ -49,6 +49,10 @@ CASES = [
     ("person-beside-a-waiting-robot.yaml", (32,)),
     ("person-swaying-at-a-vertex.yaml", (132,)),
     ("person-standing-aside-for-a-waiting-robot.yaml", (35,)),
+    ("head-on-in-limited-sight.yaml", (6, 12)),
+    ("sight-remembered-robot-collision.yaml", (1,)),
+    ("abreast-after-backing-out.yaml", (66,)),
+    ("standoff-with-an-arrived-robot.yaml", (1, 17)),
 ]
 
 

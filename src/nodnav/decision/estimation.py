@@ -44,6 +44,48 @@ def estimated_opinions(observed: np.ndarray, planned: np.ndarray, dt: float, K1:
     return -K1 * np.trapezoid(squared, dx=dt, axis=-1).T
 
 
+def reachable_predictions(observed: np.ndarray, planned: np.ndarray, accel: np.ndarray, dt: float) -> np.ndarray:
+    """The planned motion as each observed robot can carry it out, for eq. (4) (not in the paper).
+
+    A plan is made from the robots' observed positions, but the planner may have a robot move at
+    once in a direction it is not moving in (back out while it still drives forward). A robot
+    that starts carrying out such a plan first brakes, and over the window it then looks like the
+    plans in which it keeps going: eq. (4) reads a robot that yields as one that presses on, and
+    two robots that both yield each read the other as pressing on. So each prediction is
+    replaced by the motion of a robot that starts from its observed state at the start of the
+    window and follows the planned velocity, its velocity changing by at most ``accel * dt`` a
+    sample (positions by the trapezoidal rule). A plan the robot can follow from where it was
+    is unchanged.
+
+    Parameters
+    ----------
+    observed : ``(N_k, M, 4)`` observed states (px, py, vx, vy), as :func:`estimated_opinions`.
+    planned : ``(N_s, N_k, M, 4)`` planned states at the same instants.
+    accel : ``(N_k,)`` each observed robot's acceleration limit (m/s^2).
+    dt : sampling interval (s).
+
+    Returns
+    -------
+    ``(N_s, N_k, M, 4)`` the reachable predictions.
+    """
+    observed = np.asarray(observed, dtype=float)
+    planned = np.asarray(planned, dtype=float)
+    out = np.empty_like(planned)
+    p = np.broadcast_to(observed[:, 0, :2], planned.shape[:2] + (2,)).copy()
+    v = np.broadcast_to(observed[:, 0, 2:], planned.shape[:2] + (2,)).copy()
+    out[:, :, 0, :2], out[:, :, 0, 2:] = p, v
+    step = (np.asarray(accel, dtype=float) * dt)[None, :]
+    for m in range(1, planned.shape[2]):
+        dv = planned[:, :, m, 2:] - v
+        norm = np.linalg.norm(dv, axis=-1)
+        scale = np.where(norm > step, step / np.maximum(norm, 1e-12), 1.0)
+        v_next = v + dv * scale[..., None]
+        p = p + 0.5 * dt * (v + v_next)
+        v = v_next
+        out[:, :, m, :2], out[:, :, m, 2:] = p, v
+    return out
+
+
 def estimate_social_term(z_prime: np.ndarray, planned: np.ndarray | None = None) -> np.ndarray:
     """Estimated social scores ``r_kl = R(zbar'_kl)``, with ``zbar'`` from eq. (4b) and ``R`` from (9).
 

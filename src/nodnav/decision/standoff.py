@@ -24,7 +24,9 @@ STALL_DISTANCE = 0.1
 
 
 def standoff_partner(own_progress: float, players_progress: np.ndarray, own_planned: float,
-                     players_planned: np.ndarray, stall: float = STALL_DISTANCE) -> int:
+                     players_planned: np.ndarray, stall: float = STALL_DISTANCE,
+                     players_distance: np.ndarray | None = None,
+                     players_arrived: np.ndarray | None = None) -> int:
     """The game player (an index into the players' arrays) a robot is in a standoff with, or -1.
 
     Progress is how much closer to its destination (along its way through the corridor) a robot
@@ -33,14 +35,24 @@ def standoff_partner(own_progress: float, players_progress: np.ndarray, own_plan
     with a player: neither progressed (less than ``stall``: a robot that jostles in a jam gets
     nowhere), although the plan had one of the two progress (more than ``2 stall``): the robot
     wanted to go and did not, or expected the player to go and it did not. Among several, the
-    player the plan had progress most.
+    player the plan had progress most, and among those the nearest (``players_distance``, m: the
+    robot in the way, not one standing elsewhere). A player that has arrived
+    (``players_arrived``) wants to go nowhere and is in no standoff: with a robot that wanted to
+    go, every stalled player ties on the robot's own planned progress, and a robot standing at
+    its destination would otherwise be picked, the convention applied to it (which changes
+    nothing), and the real partner never given way to.
     """
     players_progress = np.asarray(players_progress, dtype=float)
     players_planned = np.asarray(players_planned, dtype=float)
     if own_progress >= stall or not len(players_progress):
         return -1
     expected = np.maximum(players_planned, own_planned)
-    candidates = np.flatnonzero((players_progress < stall) & (expected > 2.0 * stall))
+    stalled = (players_progress < stall) & (expected > 2.0 * stall)
+    if players_arrived is not None:
+        stalled &= ~np.asarray(players_arrived, dtype=bool)
+    candidates = np.flatnonzero(stalled)
     if not len(candidates):
         return -1
-    return int(candidates[np.argmax(expected[candidates])])
+    distance = np.zeros(len(players_progress)) if players_distance is None else np.asarray(players_distance, float)
+    best = candidates[np.lexsort((distance[candidates], -expected[candidates]))]
+    return int(best[0])

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodnav.decision.estimation import estimate_social_term, estimated_opinions
+from nodnav.decision.estimation import estimate_social_term, estimated_opinions, reachable_predictions
 from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
@@ -244,6 +244,7 @@ class NODAgent:
         self.start_positions = scenario.origins
         """Where the robots are when this robot starts playing (eqs. (10)-(11)'s initial opinions):
         their origins, or where it sees them when it reaches a later passage of several."""
+        self.accel = np.array([r.max_accel for r in scenario.robots])
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -301,6 +302,8 @@ class NODAgent:
             planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
+            if self.params.estimation == "reachable":
+                planned = reachable_predictions(observed, planned, self.accel[list(players)], dt)
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
@@ -367,8 +370,13 @@ class NODAgent:
             planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+            now = view.positions[list(players)]
+            arrived = (np.linalg.norm(now - self.scenario.destinations[list(players)], axis=1)
+                       <= self.scenario.sim.goal_tolerance)
             found = standoff_partner(progress[self.index], progress[list(players)],
-                                     planned[planning.index(self.index)], players_planned)
+                                     planned[planning.index(self.index)], players_planned,
+                                     players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                     players_arrived=arrived)
             partner = players[found] if found >= 0 else -1
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1

@@ -28,18 +28,26 @@ class ClosestFirstPassage:
         self.plans = plans
         self.sides = sides
         self.eligible: np.ndarray | None = None
+        self.next_distances: np.ndarray | None = None
+        """Each robot's distance to the entrance of its own next passage (set by
+        :class:`~nodnav.sim.several.PassageAgent`; None: this passage's eq. (10) distance)."""
         self.order: tuple[int, ...] | None = None
         self._graphs: dict = {}
+        self._ranked: np.ndarray | None = None
 
     def decide(self, view: RobotView) -> Decision:
         s, i = self.scenario, self.index
         d_corr = s.world.corridor_distance(view.positions, self.sides)
         L = conflict_likelihood(view.positions, d_corr, s.opinion.delta)
         players = players_in_sight(L, view, i, s.n_players, self.eligible)
-        if self.order is None:
-            ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
-            ranked[i] = True
-            self.order = closest_first_order(np.where(ranked, d_corr, np.inf), s.baselines.closest_first_tie)
+        ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
+        ranked[i] = True
+        # Ranked again when the robots it ranks change (a robot met between passages joins): all
+        # the robots of a meeting then rank from the same positions and agree.
+        if self.order is None or not np.array_equal(ranked, self._ranked):
+            self._ranked = ranked
+            d_rank = d_corr if self.next_distances is None else self.next_distances
+            self.order = closest_first_order(np.where(ranked, d_rank, np.inf), s.baselines.closest_first_tie)
         robots = (i, *players)
         plan = plan_for_order(s, self.plans, view, robots, self.order)
         if not plan.success:  # nothing to follow: get out of everybody's way

@@ -33,7 +33,10 @@ class ClosestFirstPassage:
         :class:`~nodnav.sim.several.PassageAgent`; None: this passage's eq. (10) distance)."""
         self.order: tuple[int, ...] | None = None
         self._graphs: dict = {}
-        self._ranked: np.ndarray | None = None
+        self.stages: np.ndarray | None = None
+        """How many passages of its route each robot has left behind, as this robot sees it (set
+        by :class:`~nodnav.sim.several.PassageAgent`; None with one passage)."""
+        self._ranked: tuple | None = None
 
     def decide(self, view: RobotView) -> Decision:
         s, i = self.scenario, self.index
@@ -42,10 +45,12 @@ class ClosestFirstPassage:
         players = players_in_sight(L, view, i, s.n_players, self.eligible)
         ranked = view.seen.copy() if self.eligible is None else view.seen & self.eligible
         ranked[i] = True
-        # Ranked again when the robots it ranks change (a robot met between passages joins): all
-        # the robots of a meeting then rank from the same positions and agree.
-        if self.order is None or not np.array_equal(ranked, self._ranked):
-            self._ranked = ranked
+        # Ranked again whenever any robot moves on to another passage (or the robots it ranks
+        # change): every robot then ranks at the same moment, from the same positions, by the
+        # same distances, so the orders of robots in different games agree where they overlap.
+        key = (tuple(ranked.tolist()), None if self.stages is None else tuple(int(k) for k in self.stages))
+        if self.order is None or key != self._ranked:
+            self._ranked = key
             d_rank = d_corr if self.next_distances is None else self.next_distances
             self.order = closest_first_order(np.where(ranked, d_rank, np.inf), s.baselines.closest_first_tie)
         robots = (i, *players)

@@ -283,10 +283,11 @@ class PassageViews:
     def next_distances(self, positions: np.ndarray, stage: np.ndarray) -> np.ndarray:
         """Each robot's distance d_{j,corridor} (eq. (10)) to the entrance of its **own** next
         passage, from the side its route approaches it ``(N_r,)`` (m; infinite with none left).
-        Robots met between two passages head for different passages: measured in one passage's
-        view, a robot that has come out of it is at distance 0 there, so each of two robots that
-        meet would rank the other first (closest-first, docs/several-passages.md); measured to
-        each robot's own next passage, every observer ranks them alike."""
+        Robots met between two passages head for different passages: in one passage's view, a
+        robot that has come out of it is measured to the mouth it came in by, now behind it, so
+        two robots that meet rank each other by distances to different mouths and disagree
+        (closest-first, docs/several-passages.md); measured to each robot's own next passage,
+        every observer ranks them alike."""
         out = np.full(len(self.routes), np.inf)
         for j in range(len(self.routes)):
             k = self.current(j, stage)
@@ -352,6 +353,7 @@ class PassageAgent:
         decider.eligible = self.views.eligible(self.index, self.stage, self.arrived)
         if hasattr(decider, "next_distances"):  # closest-first ranks by each robot's own next passage
             decider.next_distances = self.views.next_distances(view.positions, self.stage)
+            decider.stages = self.stage
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;
         # between the two, the game's order (not who came through first) says who gives way.

@@ -97,8 +97,10 @@ def test_a_robot_plays_only_with_the_robots_of_its_next_passage():
 
 
 @pytest.mark.parametrize("method", ["nod", "closest-first"])
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, 2, 3])
 def test_the_two_corridor_example_succeeds_without_collision(method, seed):
+    # closest-first deadlocked in the middle room on seeds 1-3 on 0005378 (the feasible timing):
+    # robots met between the corridors ranked each other first (docs/several-passages.md)
     s = load_scenario(str(EXAMPLE))
     result = run_trial(s, method=method, seed=seed)
     assert result.outcome == "success", result.outcome

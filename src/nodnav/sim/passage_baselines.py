@@ -16,11 +16,14 @@ from nodnav.sim.baselines import NO_OPINION, closest_first_order, plan_for_order
 
 class ClosestFirstPassage:
     """Robot ``index``'s closest-first convention at one passage of several, on the passage's
-    one-passage ``scenario``: at its first decision there it ranks the robots whose next passage
-    it is (``eligible``, set by :class:`~nodnav.sim.several.PassageAgent`) and itself by their
-    distance to the entrance they approach (eq. (10)), nearest first, the others after them by
-    number; it keeps that order while it plays there, with the game players of eqs. (6)-(7)
-    among the eligible robots, exactly as :class:`FixedOrderMethod` does with one passage."""
+    one-passage ``scenario``: at its first decision there it ranks the robots it may play with
+    (``eligible``, set by :class:`~nodnav.sim.several.PassageAgent`) and itself by their distance
+    (eq. (10)) to the entrance of **each one's own next passage** (robots met between passages
+    head for another passage than this one), nearest first, the others after them by number; it
+    ranks again whenever any robot moves on to another passage (``rank_from``), so that every
+    robot ranks at the same moments from the same positions and the orders agree; in between it
+    keeps its order, with the game players of eqs. (6)-(7) among the eligible robots, exactly as
+    :class:`FixedOrderMethod` does with one passage (docs/several-passages.md)."""
 
     def __init__(self, scenario: Scenario, index: int, plans: PlanCache, sides: np.ndarray):
         self.scenario = scenario
@@ -37,6 +40,13 @@ class ClosestFirstPassage:
         """How many passages of its route each robot has left behind, as this robot sees it (set
         by :class:`~nodnav.sim.several.PassageAgent`; None with one passage)."""
         self._ranked: tuple | None = None
+
+    def rank_from(self, next_distances: np.ndarray, stages: np.ndarray) -> None:
+        """Rank by ``next_distances`` (each robot's distance to the entrance of its own next
+        passage, :meth:`~nodnav.sim.several.PassageViews.next_distances`), again whenever
+        ``stages`` (the passages each robot has left behind, as this robot sees them) change."""
+        self.next_distances = next_distances
+        self.stages = stages
 
     def decide(self, view: RobotView) -> Decision:
         s, i = self.scenario, self.index

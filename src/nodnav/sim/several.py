@@ -351,9 +351,8 @@ class PassageAgent:
                 decider.start_positions = view.positions.copy()
         self.playing = key
         decider.eligible = self.views.eligible(self.index, self.stage, self.arrived)
-        if hasattr(decider, "next_distances"):  # closest-first ranks by each robot's own next passage
-            decider.next_distances = self.views.next_distances(view.positions, self.stage)
-            decider.stages = self.stage
+        if hasattr(decider, "rank_from"):  # closest-first ranks by each robot's own next passage
+            decider.rank_from(self.views.next_distances(view.positions, self.stage), self.stage)
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;
         # between the two, the game's order (not who came through first) says who gives way.

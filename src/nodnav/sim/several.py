@@ -280,6 +280,21 @@ class PassageViews:
             one = self._finished[key] = replace(base, robots=tuple(robots))
         return one
 
+    def next_distances(self, positions: np.ndarray, stage: np.ndarray) -> np.ndarray:
+        """Each robot's distance d_{j,corridor} (eq. (10)) to the entrance of its **own** next
+        passage, from the side its route approaches it ``(N_r,)`` (m; infinite with none left).
+        Robots met between two passages head for different passages: in one passage's view, a
+        robot that has come out of it is measured to the mouth it came in by, now behind it, so
+        two robots that meet rank each other by distances to different mouths and disagree
+        (closest-first, docs/several-passages.md); measured to each robot's own next passage,
+        every observer ranks them alike."""
+        out = np.full(len(self.routes), np.inf)
+        for j in range(len(self.routes)):
+            k = self.current(j, stage)
+            if k >= 0:
+                out[j] = float(self.scenarios[k].world.corridor_distance(positions[[j]], self.sides[k][[j]])[0])
+        return out
+
     def last_passage(self, j: int) -> int:
         """The last passage on robot ``j``'s route (0 without any): its view once it has none left."""
         return self.routes[j].passages[-1] if self.routes[j].passages else 0
@@ -336,6 +351,8 @@ class PassageAgent:
                 decider.start_positions = view.positions.copy()
         self.playing = key
         decider.eligible = self.views.eligible(self.index, self.stage, self.arrived)
+        if hasattr(decider, "rank_from"):  # closest-first ranks by each robot's own next passage
+            decider.rank_from(self.views.next_distances(view.positions, self.stage), self.stage)
         # The entries into this passage of the robots whose next passage it is: a robot met from
         # the passage this one has just left came out of this one and is no longer in its line;
         # between the two, the game's order (not who came through first) says who gives way.

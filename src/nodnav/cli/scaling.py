@@ -15,7 +15,7 @@ from nodnav.cli.terminal import real
 from nodnav.errors import NodnavError, shown
 from nodnav.paths import output_file
 
-#: What ``bench scaling`` runs without options: a minute or two on one core (README).
+#: What ``bench scaling`` runs without options: a minute or two on one core (docs: Performance).
 DEFAULT_ROBOTS = "2..8"
 DEFAULT_PLAYERS = "1,2,3,all"
 DEFAULT_TRIALS = 1

@@ -83,7 +83,7 @@ class RobotSpec:
     destination: tuple[float, float]
     """Destination D_i (m)."""
     radius: float = field(default=0.2, metadata=accepted(0.01, 5.0, why="below the corridor's clearance"))
-    """Body radius r_robot (m); paper: not given, 0.2 chosen (see README)."""
+    """Body radius r_robot (m); paper: not given, 0.2 chosen (docs: Scenarios, "Choices the paper leaves open")."""
     max_speed: float = field(default=1.0, metadata=accepted(0.05, 5.0))
     """Speed limit (m/s); paper: 1."""
     max_accel: float = field(default=2.0, metadata=accepted(

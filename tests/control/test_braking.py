@@ -204,7 +204,8 @@ def test_segment_clearance_examining_the_nearest_walls_is_the_loop_over_all(seed
     bounds = np.array([-5.0, -5.0, 5.0, 5.0])
     lo = rng.uniform(-5.0, 5.0, (200, 2))
     boxes = np.hstack([lo, lo + rng.uniform(0.02, 0.8, (200, 2))])
-    polys = [c + rng.uniform(-0.4, 0.4) + np.array([[0.0, 0.0], [0.5, 0.0], [0.3, 0.4]]) for c in rng.uniform(-4, 4, (5, 2))]
+    triangle = np.array([[0.0, 0.0], [0.5, 0.0], [0.3, 0.4]])
+    polys = [c + rng.uniform(-0.4, 0.4) + triangle for c in rng.uniform(-4, 4, (5, 2))]
     pieces = padded_pieces([q for p in polys for q in convex_pieces(p)])
     for _ in range(300):
         a = rng.uniform(-5.0, 5.0, 2)

@@ -37,7 +37,7 @@ def test_every_wall_within_reach_is_in_the_set_along_a_walk(scenario):
     sizes = []
     for _ in range(400):
         v = rng.normal(0.0, robot.max_speed, 2)
-        mpc._local_walls(p, v)
+        mpc._local_walls(world.wall_grid, p, v)
         reach = mpc.wall_reach(v)
         # The hand bound: radius + V T + V^2 / (2 d) + 0.1 with V >= the speed limit.
         assert reach >= robot.radius + robot.max_speed * mpc.horizon + robot.max_speed**2 / (2 * robot.max_accel) + 0.1

@@ -49,6 +49,7 @@ from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
+from nodnav.wall_grid import WallGrid
 
 logger = logging.getLogger(__name__)
 
@@ -160,7 +161,7 @@ class BSplineMPC:
         start = time.perf_counter()
         p0, v0, ref, times, others, other_radii, firm = self._validated(request)
         if self._grid is not None:
-            self._local_walls(p0, v0)
+            self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii)
         effort = SolverEffort()
@@ -338,7 +339,7 @@ class BSplineMPC:
         fast = max(self.robot.max_speed + self.settings.check_tolerance, math.hypot(v0[0], v0[1]))
         return self.robot.radius + fast * self.horizon + fast * fast / (2.0 * self._slowest_stop) + 0.1
 
-    def _local_walls(self, p0: np.ndarray, v0: np.ndarray) -> None:
+    def _local_walls(self, grid: WallGrid, p0: np.ndarray, v0: np.ndarray) -> None:
         """Keep in the setup only the walls within :meth:`wall_reach` of the robot plus
         :data:`LOCAL_SLACK` (every wall within reach from anywhere within the slack of where the
         set was taken), taken again once the robot has moved beyond it."""
@@ -347,7 +348,7 @@ class BSplineMPC:
             return
         radius = need + LOCAL_SLACK
         boxes = self._all_setup.obstacles
-        near = self._grid.near(p0 - radius, p0 + radius)
+        near = grid.near(p0 - radius, p0 + radius)
         b = boxes[near]
         gap = np.hypot(np.maximum(np.maximum(b[:, 0] - p0[0], p0[0] - b[:, 2]), 0.0),
                        np.maximum(np.maximum(b[:, 1] - p0[1], p0[1] - b[:, 3]), 0.0))

@@ -51,3 +51,42 @@ def test_a_world_with_a_map_goes_through_its_index_with_the_same_values():
     a, b = rng.uniform(0.0, 10.0, (500, 2)), rng.uniform(0.0, 10.0, (500, 2))
     assert np.array_equal(segment_clearance(mapped, a, b), segment_clearance(plain, a, b))
     assert np.array_equal(mapped.clearance(a), plain.clearance(a))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_clearance_verdict_through_the_index_is_the_full_loops(seed):
+    """segment_clear_indexed against the full loop's value compared with the threshold, with
+    thresholds drawn round the exact clearance (equal to it, a hair above and below), negative
+    ones, and segments leaving the world."""
+    from nodnav.wall_grid import segment_clear_indexed
+
+    rng = np.random.default_rng(seed)
+    bounds = np.array([-3.0, -2.0, 9.0, 7.0])
+    lo = rng.uniform(bounds[:2], bounds[2:], (300, 2))
+    boxes = np.hstack([lo, lo + rng.uniform(0.05, 1.5, (300, 2))])
+    grid = WallGrid(boxes, bounds, cell=0.5)
+    a = rng.uniform(bounds[:2] - 0.5, bounds[2:] + 0.5, (3000, 2))
+    b = rng.uniform(bounds[:2] - 0.5, bounds[2:] + 0.5, (3000, 2))
+    b[::2] = a[::2] + rng.normal(0.0, 0.4, (len(a[::2]), 2))
+    pieces = np.zeros((0, 3, 2))
+    full = _segment_clearance_kernel(a, b, boxes, bounds, pieces)
+    for need in (full, np.nextafter(full, np.inf), np.nextafter(full, -np.inf), full + rng.normal(0.0, 0.3, len(full)),
+                 rng.uniform(-0.5, 1.5, len(full)), np.full(len(full), 0.25)):
+        got = segment_clear_indexed(a, b, np.ascontiguousarray(need), boxes, bounds, pieces, *grid.arrays())
+        assert np.array_equal(got, full >= need)
+
+
+def test_a_map_worlds_clearance_verdict_equals_the_plain_worlds():
+    from nodnav.geometry import segment_is_clear
+    from nodnav.scenario.world import Passage, World
+
+    rng = np.random.default_rng(5)
+    lo = rng.uniform(0.0, 10.0, (150, 2))
+    boxes = tuple(map(tuple, np.hstack([lo, lo + rng.uniform(0.05, 1.0, (150, 2))])))
+    passage = (Passage(start=(0.0, 5.0), end=(1.0, 5.0), width=0.5),)
+    mapped = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage, map_walls=len(boxes))
+    plain = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage)
+    a, b = rng.uniform(0.0, 10.0, (50, 4, 2)), rng.uniform(0.0, 10.0, (50, 4, 2))
+    need = np.array([0.0, 0.1, 0.2, 0.4])  # one per robot, broadcast as the joint checks do
+    assert np.array_equal(segment_is_clear(mapped, a, b, need), segment_is_clear(plain, a, b, need))
+    assert segment_is_clear(mapped, a, b, need).shape == (50, 4)

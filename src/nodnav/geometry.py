@@ -193,6 +193,21 @@ def segment_clearance(walls: Walls, a: np.ndarray, b: np.ndarray) -> np.ndarray:
                                      walls.piece_array).reshape(shape)
 
 
+def segment_is_clear(walls: Walls, a: np.ndarray, b: np.ndarray, need: np.ndarray | float) -> np.ndarray:
+    """Whether ``segment_clearance(walls, a, b) >= need`` for each segment (``need`` per segment or
+    one for all), exactly; a world with a wall index answers from the boxes within ``need`` of
+    each segment (:meth:`nodnav.wall_grid.WallGrid.segment_clear`), the others compare the
+    clearance itself."""
+    grid = getattr(walls, "wall_grid", None)
+    if grid is None:
+        return np.asarray(segment_clearance(walls, a, b) >= need)
+    shape = np.shape(a)[:-1] if np.ndim(a) > 1 else (1,)
+    a = np.ascontiguousarray(a, dtype=float).reshape(-1, 2)
+    b = np.ascontiguousarray(b, dtype=float).reshape(-1, 2)
+    need = np.ascontiguousarray(np.broadcast_to(np.asarray(need, dtype=float), shape).reshape(-1))
+    return grid.segment_clear(a, b, need, walls.obstacle_array, walls.bounds_array, walls.piece_array).reshape(shape)
+
+
 @compiled
 def _segment_clearance_kernel(a, b, walls, bounds, pieces):
     """The loop of :func:`segment_clearance` over segments."""

@@ -65,6 +65,12 @@ class WallGrid:
         has an index."""
         return segment_clearance_indexed(a, b, boxes, bounds, pieces, *self.arrays())
 
+    def segment_clear(self, a: np.ndarray, b: np.ndarray, need: np.ndarray, boxes: np.ndarray, bounds: np.ndarray,
+                      pieces: np.ndarray) -> np.ndarray:
+        """:func:`segment_clear_indexed`: whether each segment keeps ``need`` from the indexed
+        ``boxes`` (:func:`nodnav.geometry.segment_is_clear` calls it for a world with an index)."""
+        return segment_clear_indexed(a, b, need, boxes, bounds, pieces, *self.arrays())
+
 
 @compiled
 def _grid_range(lo, hi, origin, cell, n):
@@ -76,9 +82,14 @@ def _grid_range(lo, hi, origin, cell, n):
 
 @compiled
 def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
-    """:func:`nodnav.geometry.segment_clearance`'s loop through a :class:`WallGrid`: the boxes meeting the
-    segment's bounding box grown by ``R`` (one bucket, then doubled) are examined until the
-    nearest is within ``R`` (every other box is farther than ``R``) or the whole grid has been."""
+    """:func:`nodnav.geometry.segment_clearance`'s loop through a :class:`WallGrid`.
+
+    First the boxes in the buckets along the segment (sampled every half bucket): one that the
+    segment touches gives 0, the least value there is, and ends the search. Otherwise the boxes
+    in the buckets within ``R`` of the segment (one bucket, then doubled) are examined until the
+    nearest is within ``R`` (every box not examined is farther than ``R``: it lies in buckets
+    farther than ``R``) or the whole grid has been. The minimum is over a set that holds the
+    nearest box, with the same arithmetic per box: the value of the full loop, exactly."""
     out = np.empty(a.shape[0])
     seen = np.zeros(walls.shape[0], dtype=np.int64)  # the pass that last examined each box
     stamp = 0
@@ -88,13 +99,38 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
         d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
         if walls.shape[0]:
             nearest = np.inf
+            stamp += 1
+            n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+            for t in range(n_samples + 1):
+                f = t / n_samples
+                i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
+                j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
+                k = j * nx + i
+                for q in range(starts[k], starts[k + 1]):
+                    w = items[q]
+                    if seen[w] == stamp:
+                        continue
+                    seen[w] = stamp
+                    nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1],
+                                                              walls[w, 2], walls[w, 3]))
+                if nearest == 0.0:
+                    break
             reach = cell
-            while True:
+            while nearest > 0.0:
                 stamp += 1
                 i0, i1 = _grid_range(min(ax, bx) - reach, max(ax, bx) + reach, gx, cell, nx)
                 j0, j1 = _grid_range(min(ay, by) - reach, max(ay, by) + reach, gy, cell, ny)
+                whole = i0 == 0 and j0 == 0 and i1 == nx - 1 and j1 == ny - 1
                 for j in range(j0, j1 + 1):
                     for i in range(i0, i1 + 1):
+                        # A bucket farther than R from the segment holds no box within R of it (with
+                        # a margin for rounding; the grid's edge buckets hold the boxes beyond it, and
+                        # at the last, whole-grid pass every bucket is examined).
+                        inner = 0 < i < nx - 1 and 0 < j < ny - 1
+                        if inner and not whole and segment_box_d2_one(
+                                ax, ay, bx, by, gx + i * cell, gy + j * cell, gx + (i + 1) * cell,
+                                gy + (j + 1) * cell) > (reach + 1e-6) * (reach + 1e-6):
+                            continue
                         k = j * nx + i
                         for q in range(starts[k], starts[k + 1]):
                             w = items[q]
@@ -103,7 +139,6 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
                             seen[w] = stamp
                             nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1],
                                                                       walls[w, 2], walls[w, 3]))
-                whole = i0 == 0 and j0 == 0 and i1 == nx - 1 and j1 == ny - 1
                 if nearest <= reach * reach or whole:
                     break
                 reach *= 2.0
@@ -149,4 +184,86 @@ def clearance_indexed(points, bounds, obstacles, gx, gy, cell, nx, ny, starts, i
                 break
             reach *= 2.0
         out[p] = min(d, best)
+    return out
+
+
+@compiled
+def _box_too_close(ax, ay, bx, by, walls, w, want):
+    """Whether box ``w`` is closer than ``want`` to the segment (its clearance verdict fails)."""
+    return math.sqrt(segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3])) < want
+
+
+@compiled
+def segment_clear_indexed(a, b, need, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
+    """Whether :func:`nodnav.geometry.segment_clearance` of each segment ``a -> b`` is at least
+    ``need[s]``, through a :class:`WallGrid`: the verdict of the full loop, exactly.
+
+    The verdict fails exactly when some box is closer than ``need``, and every such box lies in a
+    bucket within ``need`` of the segment. So: first the boxes of the buckets along the segment
+    (sampled every half bucket; a segment through a wall ends there), then, row by row, the
+    buckets within ``need`` (plus a margin for rounding) of the part of the segment in that
+    row's band. A long clear segment costs the buckets along it, not its bounding box's. A
+    segment leaving the world (negative clearance of the bounds, only with a negative ``need``)
+    examines every box."""
+    out = np.empty(a.shape[0], dtype=np.bool_)
+    seen = np.zeros(walls.shape[0], dtype=np.int64)
+    for s in range(a.shape[0]):
+        ax, ay, bx, by, want = a[s, 0], a[s, 1], b[s, 0], b[s, 1], need[s]
+        x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
+        d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
+        ok = d >= want
+        if ok and walls.shape[0] and d < 0.0:
+            for w in range(walls.shape[0]):
+                if _box_too_close(ax, ay, bx, by, walls, w, want):
+                    ok = False
+                    break
+        elif ok and walls.shape[0]:
+            n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+            for t in range(n_samples + 1):
+                f = t / n_samples
+                i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
+                j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
+                k = j * nx + i
+                for q in range(starts[k], starts[k + 1]):
+                    w = items[q]
+                    if seen[w] != s + 1:
+                        seen[w] = s + 1
+                        if _box_too_close(ax, ay, bx, by, walls, w, want):
+                            ok = False
+                            break
+                if not ok:
+                    break
+            reach = max(want, 0.0) + 1e-6
+            j0, j1 = _grid_range(min(ay, by) - reach, max(ay, by) + reach, gy, cell, ny)
+            for j in range(j0, j1 + 1):
+                if not ok:
+                    break
+                # The part of the segment within ``reach`` of this row's band (the edge rows hold
+                # the boxes beyond the grid: their band is unbounded).
+                lo = gy + j * cell - reach if j > 0 else -np.inf
+                hi = gy + (j + 1) * cell + reach if j < ny - 1 else np.inf
+                if by != ay:
+                    t0, t1 = (lo - ay) / (by - ay), (hi - ay) / (by - ay)
+                    t0, t1 = max(min(t0, t1), 0.0), min(max(t0, t1), 1.0)
+                    if t0 > t1:
+                        continue
+                elif lo <= ay <= hi:
+                    t0, t1 = 0.0, 1.0
+                else:
+                    continue
+                xa, xb = ax + t0 * (bx - ax), ax + t1 * (bx - ax)
+                i0, i1 = _grid_range(min(xa, xb) - reach - 1e-6, max(xa, xb) + reach + 1e-6, gx, cell, nx)
+                for q in range(starts[j * nx + i0], starts[j * nx + i1 + 1]):
+                    w = items[q]
+                    if seen[w] != s + 1:
+                        seen[w] = s + 1
+                        if _box_too_close(ax, ay, bx, by, walls, w, want):
+                            ok = False
+                            break
+        if ok and pieces.shape[0]:
+            nearest = np.inf
+            for w in range(pieces.shape[0]):
+                nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
+            ok = math.sqrt(nearest) >= want
+        out[s] = ok
     return out

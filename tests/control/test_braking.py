@@ -190,3 +190,28 @@ def test_tail_clearance_is_segment_clearance_of_the_tail_bit_for_bit():
                                        world.bounds_array))
         got = tail_clearance(p, v, 1.2, world.obstacle_array, world.piece_array, world.bounds_array)
         assert np.float64(got).tobytes() == np.float64(want).tobytes()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_segment_clearance_examining_the_nearest_walls_is_the_loop_over_all(seed):
+    """The tail's clearance skips walls whose bounding box is farther than the least value found:
+    the same value, bit for bit, as the minimum over every wall (boxes and polygon pieces),
+    for tails that enter walls (negative values) and tails far from all."""
+    from nodnav.control.braking import _closest_on_segment
+    from nodnav.scenario.polygons import convex_pieces, padded_pieces
+
+    rng = np.random.default_rng(seed)
+    bounds = np.array([-5.0, -5.0, 5.0, 5.0])
+    lo = rng.uniform(-5.0, 5.0, (200, 2))
+    boxes = np.hstack([lo, lo + rng.uniform(0.02, 0.8, (200, 2))])
+    triangle = np.array([[0.0, 0.0], [0.5, 0.0], [0.3, 0.4]])
+    polys = [c + rng.uniform(-0.4, 0.4) + triangle for c in rng.uniform(-4, 4, (5, 2))]
+    pieces = padded_pieces([q for p in polys for q in convex_pieces(p)])
+    for _ in range(300):
+        a = rng.uniform(-5.0, 5.0, 2)
+        b = a + rng.normal(0.0, 1.0, 2)
+        want = min(min(a[0] - bounds[0], bounds[2] - a[0], a[1] - bounds[1], bounds[3] - a[1]),
+                   min(b[0] - bounds[0], bounds[2] - b[0], b[1] - bounds[1], bounds[3] - b[1]))
+        for g in range(len(boxes) + len(pieces)):
+            want = min(want, _closest_on_segment(a[0], a[1], b[0], b[1], g, boxes, pieces)[1])
+        assert segment_clearance(a, b, boxes, pieces, bounds) == want

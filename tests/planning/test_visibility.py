@@ -294,3 +294,48 @@ def test_a_path_from_the_edge_of_a_disc_goes_round_it_without_turning_back():
     angles = np.unwrap(np.arctan2(*(path.points - centre).T[::-1]))
     assert np.all(np.diff(angles) >= -1e-9)
     assert np.all(np.hypot(*(path.points[1:] - centre).T) >= 1.0 - 1e-9)
+
+
+def _python_chain(n_nodes, i, j, length, source, target):
+    """The binary-heap Dijkstra on adjacency lists in edge order, as written before it was compiled."""
+    import heapq
+
+    adjacent = [[] for _ in range(n_nodes)]
+    for a, b, w in zip(i.tolist(), j.tolist(), length.tolist()):
+        adjacent[a].append((w, b))
+        adjacent[b].append((w, a))
+    dist, prev = [np.inf] * n_nodes, [-1] * n_nodes
+    dist[source] = 0.0
+    heap = [(0.0, source)]
+    while heap:
+        d, u = heapq.heappop(heap)
+        if u == target:
+            break
+        if d > dist[u]:
+            continue
+        for w, v in adjacent[u]:
+            if d + w < dist[v]:
+                dist[v], prev[v] = d + w, u
+                heapq.heappush(heap, (d + w, v))
+    if not np.isfinite(dist[target]):
+        return []
+    chain = [target]
+    while chain[-1] != source:
+        chain.append(prev[chain[-1]])
+    return chain[::-1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_chain_is_the_python_heaps_chain_ties_included(seed):
+    """Whole-number lengths make many equal paths: the compiled search must pick the same one."""
+    rng = np.random.default_rng(seed)
+    n = 60
+    i, j = np.triu_indices(n, 1)
+    keep = rng.random(len(i)) < 0.1
+    order = rng.permutation(int(keep.sum()))
+    i, j = i[keep][order], j[keep][order]
+    swap = rng.random(len(i)) < 0.5
+    i, j = np.where(swap, j, i), np.where(swap, i, j)
+    w = rng.integers(1, 4, len(i)).astype(float)
+    for target in range(1, n):
+        assert shortest_chain(n, i, j, w, 0, target) == _python_chain(n, i, j, w, 0, target)

@@ -32,6 +32,7 @@ docs/safety.md). All are reported with ``success=False`` and ``info["fallback"]`
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -40,7 +41,7 @@ import numpy as np
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
-from nodnav.control.braking import Committed, braking_profile, tail_clearance
+from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
 from nodnav.control.mpc_rows import group_state
@@ -48,8 +49,14 @@ from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
+from nodnav.wall_grid import WallGrid
 
 logger = logging.getLogger(__name__)
+
+LOCAL_SLACK = 1.0
+"""How far (m) a robot on a map may move before its controller takes its nearby walls again: the
+set holds every wall within its reach plus this, so it serves until the robot has moved this far
+(at 0.4 m/s, about every 25 control steps)."""
 
 
 class SharedSetups:
@@ -99,6 +106,11 @@ class BSplineMPC:
         self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
+        # A map's world: the rows hold only the walls within reach (:meth:`_local_walls`).
+        self._grid = world.wall_grid if params.local_walls else None
+        self._all_setup, self._anchor, self._local_radius = self.setup, np.zeros(2), -1.0
+        self._slowest_stop = min(robot.max_accel, tail_decel(robot.max_accel, params.terminal_decel,
+                                                             params.accel_polygon_sides))
         self._previous: np.ndarray | None = None
         self._braking: tuple[np.ndarray, np.ndarray] | None = None
         # The committed trajectory (docs/safety.md): the last accepted plan and its braking tail.
@@ -148,6 +160,8 @@ class BSplineMPC:
         """
         start = time.perf_counter()
         p0, v0, ref, times, others, other_radii, firm = self._validated(request)
+        if self._grid is not None:
+            self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii)
         effort = SolverEffort()
@@ -314,6 +328,36 @@ class BSplineMPC:
         if firm.shape != radii.shape:
             raise ValueError(f"firm must have one flag per prediction {radii.shape}, got {firm.shape}")
         return p0, v0, ref, times, others, radii, firm
+
+    def wall_reach(self, v0: np.ndarray) -> float:
+        """How far (m) from its position a wall can matter to this step: a plan's positions
+        within the horizon (speed at most ``V``, the limit plus the check's tolerance or the
+        present speed if higher: a faster plan is rejected by the exact check whatever the
+        walls) plus its straight braking tail (``V^2 / 2 d`` at the slower of the tail's and the
+        emergency braking's decelerations) plus the radius and a margin of 0.1 m, as the rows'
+        own cut-offs (``far``, the tail rows' reach)."""
+        fast = max(self.robot.max_speed + self.settings.check_tolerance, math.hypot(v0[0], v0[1]))
+        return self.robot.radius + fast * self.horizon + fast * fast / (2.0 * self._slowest_stop) + 0.1
+
+    def _local_walls(self, grid: WallGrid, p0: np.ndarray, v0: np.ndarray) -> None:
+        """Keep in the setup only the walls within :meth:`wall_reach` of the robot plus
+        :data:`LOCAL_SLACK` (every wall within reach from anywhere within the slack of where the
+        set was taken), taken again once the robot has moved beyond it."""
+        need = self.wall_reach(v0)
+        if math.hypot(p0[0] - self._anchor[0], p0[1] - self._anchor[1]) + need <= self._local_radius:
+            return
+        radius = need + LOCAL_SLACK
+        boxes = self._all_setup.obstacles
+        near = grid.near(p0 - radius, p0 + radius)
+        b = boxes[near]
+        gap = np.hypot(np.maximum(np.maximum(b[:, 0] - p0[0], p0[0] - b[:, 2]), 0.0),
+                       np.maximum(np.maximum(b[:, 1] - p0[1], p0[1] - b[:, 3]), 0.0))
+        kept = np.ascontiguousarray(b[gap <= radius])
+        kept.setflags(write=False)  # as the world's array: the compiled kernels' same specialisation
+        self.setup = dataclasses.replace(self._all_setup, obstacles=kept)
+        self.obstacles = self.setup.obstacles
+        self._problems, self._last_problem = {}, None
+        self._anchor, self._local_radius = p0.copy(), radius
 
     def _problem(self, n_others: int, times: np.ndarray) -> MPCProblem:
         exact = (n_others, times.tobytes())

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodnav.geometry import TOL, segment_clearance, segment_point_distance
+from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
 from nodnav.planning.fast_state import Cut, Route, Track
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import entry_cell, polyline_segments
@@ -128,7 +128,7 @@ class GeometricPaths:
                 if len(unsure):
                     au, bu = a[unsure], b[unsure]
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
-                    good[unsure] = segment_clearance(world, au, bu) >= limit - TOL
+                    good[unsure] = segment_is_clear(world, au, bu, limit - TOL)
                 ok[corners] = good
         inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
         door = self.params.door_clearance

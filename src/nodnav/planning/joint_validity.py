@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.compiled import compiled as _njit
-from nodnav.geometry import TOL, segment_clearance, segment_clearance_one
+from nodnav.geometry import TOL, segment_clearance_one, segment_is_clear
 from nodnav.scenario.world import World
 
 BEFORE, INSIDE, AFTER = 0, 1, 2
@@ -208,7 +208,7 @@ def edges_valid(world: World, start: np.ndarray, end: np.ndarray, radii: np.ndar
     for lo in range(0, len(start), chunk):
         a, b = start[lo:lo + chunk], end[lo:lo + chunk]
         pa, pb = _as_points(a, n), _as_points(b, n)
-        ok = np.all(segment_clearance(world, pa, pb) >= need - TOL, axis=1)
+        ok = np.all(segment_is_clear(world, pa, pb, need - TOL), axis=1)
         if n > 1:
             ok &= np.all(segment_pair_distance(a, b, n) >= min_separation - TOL, axis=1)
         ok &= edge_order_holds(world.along(pa), world.along(pb), directions, world)

@@ -22,7 +22,6 @@ without discs (keyed by the discs the path had to go around).
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass
 
@@ -30,7 +29,8 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, segment_clearance, segment_point_distance
+from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.scenario.world import World
 
@@ -221,7 +221,7 @@ class VisibilityGraph:
         self._visible = np.zeros((m, m), dtype=bool)
         if m > 1:
             i, j = np.triu_indices(m, 1)
-            ok = segment_clearance(world, self.vertices[i], self.vertices[j]) >= self.clearance - TOL
+            ok = segment_is_clear(world, self.vertices[i], self.vertices[j], self.clearance - TOL)
             lengths = np.linalg.norm(self.vertices[i] - self.vertices[j], axis=1)
             weights[i[ok], j[ok]] = lengths[ok]
             weights[j[ok], i[ok]] = lengths[ok]
@@ -305,16 +305,15 @@ class VisibilityGraph:
         thr_goal = np.minimum(self.clearance, c_goal) - TOL
         a = np.vstack([starts, np.repeat(starts, nv, axis=0), np.repeat(goals, nv, axis=0)])
         b = np.vstack([goals, np.tile(v, (2 * m, 1))])
-        seg = segment_clearance(self.world, a, b)
-        direct = seg[:m] >= np.minimum(thr_start, thr_goal)
+        need = np.concatenate([np.minimum(thr_start, thr_goal), np.repeat(thr_start, nv), np.repeat(thr_goal, nv)])
+        seen = segment_is_clear(self.world, a, b, need)
+        direct = seen[:m]
         if nv:
-            from_start = seg[m:m + m * nv].reshape(m, nv) >= thr_start[:, None]
-            to_goal = seg[m + m * nv:].reshape(m, nv) >= thr_goal[:, None]
+            from_start = seen[m:m + m * nv].reshape(m, nv)
+            to_goal = seen[m + m * nv:].reshape(m, nv)
             d_start = np.where(from_start, np.hypot(v[:, 0] - starts[:, 0:1], v[:, 1] - starts[:, 1:2]), np.inf)
             d_goal = np.where(to_goal, np.hypot(v[:, 0] - goals[:, 0:1], v[:, 1] - goals[:, 1:2]), np.inf)
-            total = (d_start[:, :, None] + self._dist[None] + d_goal[:, None, :]).reshape(m, -1)
-            best = total.argmin(axis=1)
-            cost = total[np.arange(m), best]
+            best, cost = _best_via(d_start, self._dist, d_goal, from_start, to_goal)
         paths = []
         for i in range(m):
             start, goal = starts[i], goals[i]
@@ -359,8 +358,7 @@ class VisibilityGraph:
         rest = np.flatnonzero(~known)
         thr = np.full(len(nodes), self.clearance - TOL)
         thr[0], thr[1] = thr_start, thr_goal
-        ok[rest] = segment_clearance(self.world, nodes[i[rest]], nodes[j[rest]]) >= np.minimum(thr[i[rest]],
-                                                                                               thr[j[rest]])
+        ok[rest] = segment_is_clear(self.world, nodes[i[rest]], nodes[j[rest]], np.minimum(thr[i[rest]], thr[j[rest]]))
         e = np.flatnonzero(ok)
         limit = np.repeat(radii[None], len(e), axis=0)
         first = i[e] == 0
@@ -396,39 +394,24 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     return np.asarray((d < limit - TOL).any(axis=0))
 
 
-def shortest_chain(n_nodes: int, i: np.ndarray, j: np.ndarray, length: np.ndarray, source: int,
-                   target: int) -> list[int]:
-    """Nodes of a shortest path from ``source`` to ``target`` in an undirected graph with edges
-    ``(i[e], j[e])`` of ``length[e]`` (Dijkstra with a binary heap); empty if unreachable.
-
-    Written out rather than taken from ``scipy.sparse.csgraph`` because these graphs have a few
-    dozen nodes, where checking and converting the input would cost more than the search.
-    """
-    adjacent: list[list[tuple[float, int]]] = [[] for _ in range(n_nodes)]
-    for a, b, w in zip(i.tolist(), j.tolist(), length.tolist()):
-        adjacent[a].append((w, b))
-        adjacent[b].append((w, a))
-    dist = [math.inf] * n_nodes
-    prev = [-1] * n_nodes
-    dist[source] = 0.0
-    heap = [(0.0, source)]
-    while heap:
-        d, u = heapq.heappop(heap)
-        if u == target:
-            break
-        if d > dist[u]:
+def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,
+              to_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each query ``q``, the first pair ``(first, last)`` (as ``first * V + last``) in row-major
+    order minimising ``d_start[q, first] + dist[first, last] + d_goal[q, last]``, and that least
+    sum. Only the vertices seen from the start and from the goal are summed (the rest are
+    ``inf``): the same pair and value as the whole ``(V, V)`` table, at a fraction of its cost
+    on a map's graph of a thousand vertices."""
+    m, nv = d_start.shape
+    best = np.zeros(m, dtype=np.int64)
+    cost = np.full(m, np.inf)
+    for q in range(m):
+        fs, tg = np.flatnonzero(from_start[q]), np.flatnonzero(to_goal[q])
+        if not (len(fs) and len(tg)):
             continue
-        for w, v in adjacent[u]:
-            if d + w < dist[v]:
-                dist[v] = d + w
-                prev[v] = u
-                heapq.heappush(heap, (d + w, v))
-    if not math.isfinite(dist[target]):
-        return []
-    chain = [target]
-    while chain[-1] != source:
-        chain.append(prev[chain[-1]])
-    return chain[::-1]
+        total = d_start[q, fs][:, None] + dist[np.ix_(fs, tg)] + d_goal[q, tg][None, :]
+        k = int(total.argmin())
+        best[q], cost[q] = fs[k // len(tg)] * nv + tg[k % len(tg)], total.flat[k]
+    return best, cost
 
 
 def _path(points: np.ndarray) -> GeometricPath:

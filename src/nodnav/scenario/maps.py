@@ -39,9 +39,11 @@ bound) and take time linear in the cells (docs/maps.md: 1.1 million cells in 1.8
 in 5.9 s). The image's size is read from its header and checked before its pixels are decoded."""
 
 MAX_MAP_WALLS = 20_000
-"""Most wall boxes a map's grid may need. The world's clearance queries go through a bucket index
-of them (:class:`nodnav.geometry.WallGrid`), but the controller's rows, the compiled planners'
-kernels and the collision checks still loop over every wall."""
+"""Most wall boxes a map's grid may need. The world's clearance queries, the planners' visibility,
+the controller's rows and the contact counts look only at the walls near each query through a
+bucket index of them (:class:`nodnav.wall_grid.WallGrid`; docs/maps.md, "How fast on maps"), but
+the visibility graph has vertices at the boxes' corners and the PRM planner's compiled joint
+checks still loop over every wall."""
 
 MIN_FREE_AREA = 0.05
 """Free pockets of less than this area (m^2) are walls: no robot fits (a disc of radius 0.13 m

@@ -220,6 +220,11 @@ class MPCParams(ControllerParams):
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
+    local_walls: bool = True
+    """On a map's world (hundreds of wall boxes), whether the controller's rows and checks hold
+    only the walls within reach of the robot (horizon plus braking distance, refreshed as it
+    moves; docs/maps.md) rather than every wall; the same constraint verdicts, other worlds
+    unaffected."""
     braking_tail: bool = True
     """Whether every accepted plan must end in a straight braking tail clear of the walls, and
     the robot follows the last accepted plan and its tail when no new plan is found

@@ -20,6 +20,7 @@ import dataclasses
 
 import numpy as np
 
+from nodnav.geometry import segment_is_clear
 from nodnav.scenario.params import SensingParams
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
@@ -70,8 +71,9 @@ def visibility(world: World, positions: np.ndarray, params: SensingParams) -> np
     if params.walls_block:
         check = np.flatnonzero(pair)
         if check.size:
-            clear = world.segment_clearance(positions[i[check]], positions[k[check]])
-            pair[check] = clear > 0.0
+            # Clearance above 0, asked as a verdict: a map's world answers it from the walls
+            # along the line of sight only (geometry.segment_is_clear, exactly the same).
+            pair[check] = segment_is_clear(world, positions[i[check]], positions[k[check]], np.nextafter(0.0, 1.0))
     seen[i, k] = pair
     seen[k, i] = pair
     return seen

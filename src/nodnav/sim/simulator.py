@@ -64,6 +64,14 @@ def contact_counts(path: np.ndarray, radii: np.ndarray, tol: float, bounds: np.n
     clear = clearance_of(flat, bounds, obstacles)
     if pieces.shape[0]:
         clear = np.minimum(clear, piece_clearance(flat, pieces))
+    return contact_tally(path, radii, tol, clear)
+
+
+@compiled
+def contact_tally(path: np.ndarray, radii: np.ndarray, tol: float, clear: np.ndarray) -> tuple[int, int]:
+    """:func:`contact_counts` given the clearance ``clear`` ``(S N,)`` of every robot at every
+    sub-step (a map's world gives it through its wall index, the same values)."""
+    n_sub, n = path.shape[0], path.shape[1]
     pairs, walls = 0, 0
     for i in range(n):
         hit_wall = False
@@ -384,7 +392,11 @@ class Simulation:
         """Outcome after a step in which the robots passed ``path`` ``(S, N, 2)`` (at the step's
         :data:`STEP_FRACTIONS`, ending where they are now)."""
         s, world = self.scenario, self.scenario.world
-        if self.people is None:
+        if self.people is None and world.wall_grid is not None:  # a map's many boxes: through the index
+            clear = world.clearance(np.ascontiguousarray(path.reshape(-1, 2)))
+            pair_hits, wall_hits = contact_tally(path, s.radii, s.sim.collision_tolerance, clear)
+            kind = collision_kind(pair_hits, wall_hits)
+        elif self.people is None:
             pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
                                                   world.obstacle_array, world.piece_array)
             kind = collision_kind(pair_hits, wall_hits)

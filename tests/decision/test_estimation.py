@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from nodnav.decision.estimation import estimate_social_term, estimated_opinions, reachable_predictions
+from nodnav.decision.estimation import (
+    estimate_social_term,
+    estimated_opinions,
+    mismatch_predictions,
+    reachable_predictions,
+)
 
 
 def straight_line(start, velocity, times):
@@ -156,3 +161,35 @@ def test_reachable_speed_change_is_limited_by_each_robots_accel(window):
     assert np.allclose(out[0, :, 2], np.minimum(0.5 * times, 1.0))
     assert np.allclose(out[1, :, 3], np.minimum(4.0 * times, 1.0))
     assert np.allclose(out[0, 2, 0], 0.5 * 0.5 * 0.2 ** 2)
+
+
+def test_mismatch_predictions_do_not_count_the_acceleration_limit_twice():
+    # A plan timed within a = 2 m/s^2 from rest (planner.timing: feasible), as plans are sampled:
+    # the velocity of sample m is that of step m, v_m = a dt (m + 1); positions x_m = a dt^2 m (m + 1) / 2.
+    # The robot observed at the start of the window is at rest (v = 0), at x = 0.
+    dt, a, m = 0.1, 2.0, np.arange(11)
+    plan = np.stack([a * dt**2 * m * (m + 1) / 2, 0 * m, a * dt * (m + 1), 0 * m], axis=-1)[None, None].astype(float)
+    observed = np.zeros((1, 11, 4))
+    # Mismatch: the error of a dt in velocity is gone after one step; the position stays a dt^2 / 2 behind.
+    out = mismatch_predictions(observed, plan, np.array([a]), dt)
+    assert np.allclose(out[0, 0, 1:, 0], plan[0, 0, 1:, 0] - a * dt**2 / 2)
+    assert np.allclose(out[0, 0, 1:, 2], plan[0, 0, 1:, 2])
+    # Chasing the planned velocity at the limit lags one step for good: v = a dt m, x = a dt^2 m^2 / 2,
+    # a deficit of a dt^2 m / 2 that grows over the window (0.1 m after 1 s).
+    lag = reachable_predictions(observed, plan, np.array([a]), dt)
+    assert np.allclose(lag[0, 0, :, 2], a * dt * m)
+    assert np.allclose(lag[0, 0, :, 0], a * dt**2 * m**2 / 2)
+
+
+def test_mismatch_predictions_brake_a_robot_moving_against_a_plan_at_rest():
+    # Observed moving at 1 m/s along x; the plan holds it at rest. At a = 2 m/s^2 it stops in
+    # 0.5 s after 0.25 m (1^2 / (2 a)), then stays (hand computation, trapezoidal positions exact).
+    dt, a = 0.1, 2.0
+    plan = np.zeros((1, 1, 11, 4))
+    observed = np.zeros((1, 11, 4))
+    observed[0, 0, 2] = 1.0
+    out = mismatch_predictions(observed, plan, np.array([a]), dt)
+    assert np.allclose(out[0, 0, :, 2], np.maximum(1.0 - a * np.arange(11) * dt, 0.0))
+    assert np.isclose(out[0, 0, -1, 0], 0.25)
+    # The same as reachable_predictions when the plan's velocity is constant.
+    assert np.allclose(out, reachable_predictions(observed, plan, np.array([a]), dt))

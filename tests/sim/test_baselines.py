@@ -228,7 +228,8 @@ def test_closest_first_follows_the_distance_order():
 
 def test_oracle_gives_everyone_the_order_with_the_smallest_planned_makespan():
     s = load_scenario("3r-case2")
-    # Plan every order from the start in the test, with a planner of our own.
+    # Plan every order from the start in the test, with a planner of our own, timed as the robots
+    # can drive it: within each one's speed and acceleration limit (planner.timing: feasible).
     planner = make_planner(s.planner, s.world)
     tol = s.sim.goal_tolerance
     orders = [(0, 1, 2), (0, 2, 1), (1, 0, 2), (1, 2, 0), (2, 0, 1), (2, 1, 0)]
@@ -236,7 +237,7 @@ def test_oracle_gives_everyone_the_order_with_the_smallest_planned_makespan():
     for order in orders:
         plan = planner.plan(PlanRequest(world=s.world, positions=s.origins, velocities=np.zeros((3, 2)),
                                         destinations=s.destinations, radii=s.radii, max_speeds=s.max_speeds,
-                                        order=order))
+                                        order=order, max_accels=np.array([r.max_accel for r in s.robots])))
         assert plan.success
         last = 0.0
         for k in range(3):

@@ -113,12 +113,32 @@ def test_an_arrived_person_makes_way_until_the_robot_has_passed():
     assert speed > 0.0 and abs(heading[0]) < 1e-9 and math.isclose(abs(heading[1]), 1.0)
     # Held while within twice the gap (0.9 m apart), released beyond it (1.1 m) ...
     assert person.in_the_way_of(0, view_at([goal, goal + [1.3, 0.0]])) == [1]
-    heading, speed = person.make_way(0, view_at([goal, goal + [1.3, 0.0]]), [1])
+    coming = view_at([goal, goal + [1.3, 0.0]], [[0.0, 0.0], [-0.5, 0.0]])  # the robot drives on
+    heading, speed = person.make_way(0, coming, [1])
     assert speed == 0.0  # farther than make_way_gap: it stands aside
+    # ... unless the robot waits there (slower than waiting_speed, 0.1 m/s): it goes on making way.
+    assert person.params.waiting_speed == 0.1
+    waiting = view_at([goal, goal + [1.3, 0.0]], [[0.0, 0.0], [-0.05, 0.0]])
+    heading, speed = person.make_way(0, waiting, [1])
+    assert speed > 0.0 and math.isclose(abs(heading[1]), 1.0)
     assert person.in_the_way_of(0, view_at([goal, goal + [1.5, 0.0]])) == []
     # ... or once the robot is at its own destination.
     assert person.in_the_way_of(0, view_at([goal, robot])) == [1]
     assert person.in_the_way_of(0, view_at([goal, scenario.destinations[1]])) == []
+
+
+def test_an_arrived_person_makes_way_for_a_robot_waiting_near_it():
+    # A robot still 0.9 m off (bodies 0.2 m each, centres 1.3 m apart), under way: it waits for the
+    # person, who starts to make way although it is farther than make_way_gap (0.5 m) ...
+    scenario, person = person_in("2r-case1", 0)
+    goal = scenario.destinations[0]
+    person.arrived.add(0)
+    still = view_at([goal, goal + [1.3, 0.0]])
+    assert person.in_the_way_of(0, still) == [1]
+    # ... but not for one still beyond twice the gap (1.1 m), nor for one driving up at 0.5 m/s.
+    person.making_way.clear()
+    assert person.in_the_way_of(0, view_at([goal, goal + [1.5, 0.0]])) == []
+    assert person.in_the_way_of(0, view_at([goal, goal + [1.3, 0.0]], [[0.0, 0.0], [-0.5, 0.0]])) == []
 
 
 def test_a_person_before_the_corridor_steps_off_the_line_for_one_coming_out():

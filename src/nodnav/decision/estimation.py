@@ -86,6 +86,41 @@ def reachable_predictions(observed: np.ndarray, planned: np.ndarray, accel: np.n
     return out
 
 
+def mismatch_predictions(observed: np.ndarray, planned: np.ndarray, accel: np.ndarray, dt: float) -> np.ndarray:
+    """The planned motion plus what the observed robot's initial mismatch with it costs (not in the paper).
+
+    :func:`reachable_predictions` has the robot chase the planned *velocity* at its acceleration
+    limit. A plan timed within that limit (``planner.timing: feasible``) already accelerates at
+    it, and its sample ``m`` carries the velocity of step ``m``, one ``accel * dt`` ahead of a
+    robot at rest: the chase then lags one step for good while the plan accelerates (at 2 m/s^2,
+    0.1 m after a 1 s window), so the limit is counted twice and a robot that goes as planned
+    looks like one that hesitates. Here only the mismatch is carried: the velocity error
+    ``e = v_observed - v_planned`` at the start of the window shrinks by at most ``accel * dt`` a
+    sample and its integral shifts the planned positions (the positions start at the observed
+    ones). For a plan at constant velocity this is :func:`reachable_predictions`; a plan the
+    robot follows is unchanged but for that first step.
+
+    Shapes as :func:`reachable_predictions`.
+    """
+    observed = np.asarray(observed, dtype=float)
+    planned = np.asarray(planned, dtype=float)
+    out = planned.copy()
+    err_p = observed[None, :, 0, :2] - planned[:, :, 0, :2]
+    err_v = observed[None, :, 0, 2:] - planned[:, :, 0, 2:]
+    out[:, :, 0, :2] += err_p
+    out[:, :, 0, 2:] += err_v
+    step = (np.asarray(accel, dtype=float) * dt)[None, :]
+    for m in range(1, planned.shape[2]):
+        norm = np.linalg.norm(err_v, axis=-1)
+        scale = np.where(norm > step, 1.0 - step / np.maximum(norm, 1e-12), 0.0)
+        next_v = err_v * scale[..., None]
+        err_p = err_p + 0.5 * dt * (err_v + next_v)
+        err_v = next_v
+        out[:, :, m, :2] += err_p
+        out[:, :, m, 2:] += err_v
+    return out
+
+
 def estimate_social_term(z_prime: np.ndarray, planned: np.ndarray | None = None) -> np.ndarray:
     """Estimated social scores ``r_kl = R(zbar'_kl)``, with ``zbar'`` from eq. (4b) and ``R`` from (9).
 

@@ -52,10 +52,13 @@ class OpinionParams:
     standoff_patience: float = field(default=2.0, metadata=accepted(0.0, 600.0))
     """After how long a standoff with a game player (neither progressing, although the robot's
     plan has one of them progress) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
-    estimation: Literal["paper", "reachable"] = "reachable"
+    estimation: Literal["paper", "reachable", "mismatch"] = "mismatch"
     """How eq. (4) reads a plan: ``paper`` (the planned states as they are) or ``reachable`` (the
     planned motion as the observed robot can carry it out from its observed state at the start of
-    the window, its velocity changing at most at its ``max_accel``)."""
+    the window, its velocity changing at most at its ``max_accel``) or ``mismatch`` (the planned
+    motion shifted by the observed robot's initial mismatch with it, the mismatch shrinking at its
+    ``max_accel``; the default: ``reachable`` counts the limit twice with ``planner.timing:
+    feasible``, docs/safety.md)."""
     nonplayers: Literal["static", "entered"] = "entered"
     """How robots outside N_i(t) enter the robot's planning: ``static`` (the paper: not planned,
     held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the

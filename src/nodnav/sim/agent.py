@@ -14,7 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nodnav.decision.estimation import estimate_social_term, estimated_opinions, reachable_predictions
+from nodnav.decision.estimation import (
+    estimate_social_term,
+    estimated_opinions,
+    mismatch_predictions,
+    reachable_predictions,
+)
 from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
@@ -304,6 +309,8 @@ class NODAgent:
             dt = float(view.window_times[1] - view.window_times[0])
             if self.params.estimation == "reachable":
                 planned = reachable_predictions(observed, planned, self.accel[list(players)], dt)
+            elif self.params.estimation == "mismatch":
+                planned = mismatch_predictions(observed, planned, self.accel[list(players)], dt)
             z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order

@@ -144,6 +144,11 @@ class SocialForceParams:
     within twice this; chosen: with 1 m a person stood aside for ever while the robot waited for it
     to go to its destination first (``person-standing-aside-for-a-waiting-robot``), in 5 of the first
     100 draws of ``mixed`` against 1 the other way (0 disables making way)."""
+    waiting_speed: float = 0.1
+    """Someone under way within twice ``make_way_gap`` of a person at its destination who moves
+    slower than this waits for it (m/s): the person makes way for them as for someone nearer
+    than ``make_way_gap``; chosen: a robot that plans the person to step aside waits 0.5-1 m
+    off (``person-standing-aside-for-a-waiting-robot`` with the feasible timing); 0 disables."""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -397,11 +402,18 @@ class PersonMethod:
                 if not keep:
                     held.discard(k)
                     self.coming_out.get(i, set()).discard(k)
-            elif gaps[k] < gap_limit and ((i in self.arrived and under_way[k]) or coming_out):
+            elif (gaps[k] < gap_limit or self._waiting(k, i, view, gaps[k])) and (
+                    (i in self.arrived and under_way[k]) or coming_out):
                 held.add(k)
                 if coming_out:
                     self.coming_out.setdefault(i, set()).add(k)
         return sorted(held)
+
+    def _waiting(self, k: int, i: int, view: RobotView, gap: float) -> bool:
+        """Whether ``k`` waits near person ``i`` at its destination: within twice ``make_way_gap``,
+        slower than ``waiting_speed``."""
+        return (i in self.arrived and gap < 2.0 * self.params.make_way_gap
+                and float(np.linalg.norm(view.velocities[k])) < self.params.waiting_speed)
 
     def make_way(self, i: int, view: RobotView, others: list[int]) -> tuple[np.ndarray, float]:
         """Heading and preferred speed of person ``i`` making way for ``others``.
@@ -422,7 +434,7 @@ class PersonMethod:
                           room=self.room)
             return e, self.speed(i)
         gaps = np.linalg.norm(view.positions[others] - p, axis=1) - s.radii[others] - s.radii[i]
-        near = [k for k, g in zip(others, gaps) if g < self.params.make_way_gap]
+        near = [k for k, g in zip(others, gaps) if g < self.params.make_way_gap or self._waiting(k, i, view, g)]
         if not near:
             return np.zeros(2), 0.0
         return away_from(p, view.positions[near], view.velocities[near], room=self.room), self.speed(i)

@@ -26,7 +26,9 @@ def _projection_index(orders, game):
 
 @pytest.mark.parametrize("name, players, seed", [("3r-case4", None, 1), ("4r-case2", None, 2), ("4r-case2", 1, 1)])
 def test_opinions_per_game_equal_opinions_per_strategy_while_the_game_stays(monkeypatch, name, players, seed):
-    scenario = load_scenario(name)
+    # The paper's eq. (4) (opinion.estimation: paper), as the reference computes it: what is
+    # compared is opinions per game against opinions per strategy, not the estimation's mode.
+    scenario = load_scenario(name, {"opinion.estimation": "paper"})
     if players is not None:
         scenario = scenario.with_overrides(game_players=players)
     n = scenario.n_robots

@@ -36,6 +36,7 @@ standard output to the null device while it solves.
 from __future__ import annotations
 
 import ctypes
+import functools
 import importlib.util
 import logging
 import os
@@ -142,12 +143,13 @@ def recording(into: list[RecordedQP], source: Callable[[], str] = lambda: "") ->
             None if start_active is None else np.array(start_active, dtype=bool), source()))
         return saved(self, hessian, gradient, rows, lower, tol, bounds, start_active)
 
-    solve.__wrapped__ = saved  # type: ignore[attr-defined]
+    functools.update_wrapper(solve, saved)
+    name = "solve"  # set by name: the class's method is replaced for the recording only
     try:
-        SolverEffort.solve = solve  # type: ignore[method-assign]
+        setattr(SolverEffort, name, solve)
         yield into
     finally:
-        SolverEffort.solve = saved  # type: ignore[method-assign]
+        setattr(SolverEffort, name, saved)
 
 
 def record_trials(scenarios: tuple[str, ...], seeds: tuple[int, ...], method: str = "nod",

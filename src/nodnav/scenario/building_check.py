@@ -52,12 +52,14 @@ class Plan:
 
     def __init__(self, mapping: dict):
         world = mapping["world"]
-        self.bounds = tuple(float(v) for v in world["bounds"])
-        boxes = tuple(tuple(float(v) for v in o) for o in world.get("obstacles", []) if not isinstance(o[0], list))
+        low_x, low_y, high_x, high_y = (float(v) for v in world["bounds"])
+        self.bounds = (low_x, low_y, high_x, high_y)
+        boxes = tuple((float(o[0]), float(o[1]), float(o[2]), float(o[3])) for o in world.get("obstacles", [])
+                      if not isinstance(o[0], list))
         polys = tuple(tuple((float(p[0]), float(p[1])) for p in o) for o in world.get("obstacles", [])
                       if isinstance(o[0], list))
         self.passages = [Passage(tuple(p["from"]), tuple(p["to"]), float(p["width"])) for p in world["passages"]]
-        self.world = World(bounds=self.bounds, obstacles=boxes, passages=(self.passages[0],),  # type: ignore[arg-type]
+        self.world = World(bounds=self.bounds, obstacles=boxes, passages=(self.passages[0],),
                            polygons=polys)
         robots = mapping["robots"]
         self.radii = np.array([float(r.get("radius", 0.2)) for r in robots])

@@ -113,7 +113,7 @@ def draw(family: Family | BuildingFamily, seed: int, attempts: int = MAX_ATTEMPT
                       "widen the family's rooms or ranges, or set rooms.grow: true")
 
 
-def write_draws(family: Family, seed: int, count: int, out: str | Path) -> list[Path]:
+def write_draws(family: Family | BuildingFamily, seed: int, count: int, out: str | Path) -> list[Path]:
     """Write draws ``seed .. seed + count - 1`` of ``family`` as scenario files ``out/NAME-SEED.yaml``.
 
     Each file is :func:`~nodnav.scenario.schema.scenario_to_dict` of the draw; loading it gives the

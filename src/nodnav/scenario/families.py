@@ -61,7 +61,7 @@ import re
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
@@ -70,6 +70,9 @@ from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import yaml_error_message
 from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import CLEARANCE
+
+if TYPE_CHECKING:  # building_family imports this module
+    from nodnav.scenario.building_family import BuildingFamily
 
 MAX_ROBOTS = 8
 """Most robots a family may draw (the scaling issue's largest scenarios)."""
@@ -242,7 +245,7 @@ def _check_keys(data: dict, valid, where: str) -> None:
             raise FamilyError(f"{where}: unknown key '{key}'{nearest_hint(str(key), valid)}")
 
 
-def family_from_dict(data: Any, source: str = "family") -> Family:
+def family_from_dict(data: Any, source: str = "family") -> Family | BuildingFamily:
     """Validate a parsed family mapping (see the module docstring) and build a :class:`Family`."""
     if not isinstance(data, dict):
         raise FamilyError(f"{source}: expected a mapping with keys such as 'family' and 'robots', "
@@ -257,7 +260,7 @@ def family_from_dict(data: Any, source: str = "family") -> Family:
     if "building" in data:  # a family of floor plans (issue 20)
         from nodnav.scenario.building_family import building_family_from_dict
 
-        return building_family_from_dict(data, source, name, description)  # type: ignore[return-value]
+        return building_family_from_dict(data, source, name, description)
     sec = {}
     for section, keys in _SECTIONS.items():
         sec[section] = _mapping(data.get(section), f"{source}: {section}")
@@ -351,7 +354,7 @@ def _read_yaml(text: str, source: str) -> Any:
         raise FamilyError(f"{source}: the YAML is nested too deeply to be a family file") from None
 
 
-def load_family(spec: str | Path) -> Family:
+def load_family(spec: str | Path) -> Family | BuildingFamily:
     """A built-in family by name (``mixed``) or a family file by path."""
     spec = str(spec)
     if spec in builtin_families():

@@ -41,10 +41,13 @@ def test_separation_and_cost_match_a_recomputation(result, cache):
     (b,) = result.planners
     sc = load_scenario("2r-case1")
     planner = make_planner(PRMParams(name="prm", roadmap_vertices=VERTICES, cache_dir=cache), sc.world)
+    # The bench plans as a trial does (its module docstring): from rest, each robot within its
+    # own speed and acceleration limit, so the recomputation passes both limits too.
+    accels = np.array([r.max_accel for r in sc.robots], dtype=float)
     dists, costs, durations = [], [], []
     for order in itertools.permutations(range(2)):
         res = planner.plan(PlanRequest(sc.world, sc.origins, np.zeros((2, 2)), sc.destinations, sc.radii,
-                                       sc.max_speeds, order))
+                                       sc.max_speeds, order, max_accels=accels))
         tr = res.trajectory
         t = np.linspace(tr.times[0], tr.times[-1], 5 * (len(tr.times) - 1) + 1)
         p = tr.positions_at(t)

@@ -47,15 +47,25 @@ def test_stages_partition_a_short_trial_and_leave_it_unchanged():
 
 
 def test_more_frequent_decisions_put_more_time_into_decision():
-    """Deciding every control step instead of every opinion period makes decision a larger share."""
+    """Deciding every control step instead of every opinion period makes decision a larger share.
+
+    Each trial is 0.1-0.2 s of processor time, so one-off costs landing in either (a compile, a
+    cache of the world's built on first use, whatever the process did before) move the shares a
+    lot: on a cold compile cache the first trial alone takes 15 s, decision 2.6 % of it. The two
+    are therefore measured twice, alternately, and each is judged by its least disturbed run
+    (least processor time); the first round doubles as the warm-up."""
     base = load_scenario("2r-case2").with_overrides(game_players="all", time_limit=6.0)
     dt = base.controller.dt
     heavy = base.with_overrides(**{"opinion.T": 2 * dt})
+    runs: dict[str, list] = {"base": [], "heavy": []}
+    for _ in range(2):
+        for name, s in (("base", base), ("heavy", heavy)):
+            runs[name].append(measure_stages(s, seed=1))
     share = {}
-    for name, s in (("base", base), ("heavy", heavy)):
-        t = measure_stages(s, seed=1)
+    for name, measured in runs.items():
+        t = min(measured, key=lambda m: m.cpu_time)
         share[name] = t.cpu_seconds["decision"] / t.cpu_time
-    assert share["heavy"] > 1.3 * share["base"]  # five times the decisions; measured about twice the share
+    assert share["heavy"] > 1.3 * share["base"], share  # five times the decisions; measured 0.085 -> 0.22
 
 
 def test_cli_prints_the_breakdown_as_json_and_refuses_several_player_counts(capsys):

@@ -1,6 +1,7 @@
 """``nodnav bench planners``: every planner on every built-in scenario in every passing order.
 
-Each query plans from the scenario's origins to its destinations in one order. Latency is the
+Each query plans from rest at the scenario's origins to its destinations in one order, each
+robot within its own speed and acceleration limit (the default, feasible timing). Latency is the
 wall time of :meth:`Planner.plan` measured here; for the PRM* planner the roadmaps are obtained
 (loaded or built) before the timed queries, and reported separately, so latency is the query
 alone. Separation is measured on every successful plan independently of the planner, at a

@@ -371,7 +371,20 @@ class VisibilityGraph:
         if not chain:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
-        return _path(nodes[chain])
+        return _path(_without_repeats(nodes[chain]))
+
+
+def _without_repeats(points: np.ndarray) -> np.ndarray:
+    """``points`` without a vertex within :data:`TOL` of the one before (the start and the goal
+    kept). A start on an octagon's edge has an exit node at the start itself, so the shortest
+    chain may or may not step through it (a zero-length edge, a tie that rounding breaks, and
+    differently in a turned world); without repeats both chains are one path."""
+    step = np.hypot(*(points[1:] - points[:-1]).T)
+    keep = np.concatenate([[True], step > TOL])
+    if not keep[-1]:  # the goal repeats the vertex before it: keep the goal
+        before = np.flatnonzero(keep[:-1])[-1]
+        keep[-1], keep[before] = True, before == 0
+    return points[keep]
 
 
 def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,

@@ -24,10 +24,11 @@ SIDES = {"controller.speed_polygon_sides": 24, "controller.accel_polygon_sides":
 
 #: Largest distance (m) between the trial and its turned copy, turned back. Every turn is exact to
 #: rounding (measured: 30 degrees 3.9e-12 m, 90 1.2e-12, 135 6.7e-12, 180 7.2e-12, over the whole
-#: trial). Two ties used to be broken by the last bits of coordinates and so differently in a
-#: turned world: equally near escape spots on a ring (now in the ring's order, lengths to 1 nm;
-#: planning/making_way.py) and a shortest path around discs stepping or not through an octagon
-#: exit at its start (a repeated vertex, now dropped; planning/visibility.py).
+#: trial). A tie used to be broken by the last bits of coordinates and so differently in a turned
+#: world: a shortest path around discs stepping or not through an octagon exit at its start (a
+#: repeated vertex, now dropped; planning/visibility.py). Equally near escape spots on a ring
+#: are still told apart by their lengths' last bits (docs/execution.md); 3r-case4 does not meet
+#: such a tie.
 TOLERANCE = {30.0: 1e-9, 90.0: 1e-9, 135.0: 1e-9, 180.0: 1e-9}
 
 

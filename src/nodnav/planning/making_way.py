@@ -37,10 +37,6 @@ from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
 
-LENGTH_DIGITS = 9
-"""Decimals (of a metre) to which the ways to the spots are compared: lengths equal to 1 nm are a tie."""
-
-
 class MakingWay(FastPlannerHooks):
     """The fast planner's ways of making room (a mixin of
     :class:`~nodnav.planning.prioritized.PrioritizedPlanner`, whose geometry and timing it uses)."""
@@ -176,11 +172,7 @@ class MakingWay(FastPlannerHooks):
         if not len(spots):
             return spots, []
         ways = graph.shortest_paths(np.repeat(pos[None], len(spots), 0), spots)
-        # Nearest first; a ring's spots are often equally far (straight ways of its radius), and
-        # such ties go by the spots' order (from the passage's angle), not by the lengths' last
-        # bits, which depend on how the world lies: a turned world picks the same spot.
-        lengths = np.round(np.array([w.length for w in ways], dtype=float), LENGTH_DIGITS)
-        near = np.argsort(lengths, kind="stable")[:3 * self.params.retreat_tries]
+        near = np.argsort([w.length for w in ways], kind="stable")[:3 * self.params.retreat_tries]
         return spots[near], [ways[q] for q in near]
 
     def _escape_motions(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,

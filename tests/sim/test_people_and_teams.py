@@ -12,7 +12,8 @@ from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import paper_world
 from nodnav.sim.methods import NODMethod, Team, make_team
-from nodnav.sim.person import (
+from nodnav.sim.simulator import Simulation, run_trial, trial_generators
+from nodnav.sim.social_force import (
     SocialForceParams,
     agent_forces,
     clip_against_walls,
@@ -23,7 +24,6 @@ from nodnav.sim.person import (
     wall_forces,
     wall_social,
 )
-from nodnav.sim.simulator import Simulation, run_trial, trial_generators
 from nodnav.sim.team_contacts import PeopleContacts, approach_speeds, contact_causes
 
 P = SocialForceParams()

@@ -29,7 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from nodnav.scenario.families import (
+from nodnav.scenario.family_fields import (
     SETTING_KEYS,
     FamilyError,
     Range,

@@ -56,46 +56,37 @@ loads it wherever a scenario name is accepted (:mod:`nodnav.scenario.draws` draw
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import yaml
 
 from nodnav.errors import nearest_hint
+from nodnav.scenario.building_family import BuildingFamily, building_family_from_dict
+from nodnav.scenario.family_fields import (
+    MAX_ROBOTS,
+    SETTING_KEYS,
+    FamilyError,
+    Range,
+    _check_keys,
+    _count,
+    _mapping,
+    _range,
+    _real,
+    _shown,
+    _weights,
+)
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import yaml_error_message
 from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import CLEARANCE
 
-if TYPE_CHECKING:  # building_family imports this module
-    from nodnav.scenario.building_family import BuildingFamily
-
-MAX_ROBOTS = 8
-"""Most robots a family may draw (the scaling issue's largest scenarios)."""
 TRAFFIC = ("head-on", "one-sided", "mixed")
 FORMATIONS = ("scatter", "abreast", "line")
 INSIDE_ORDERS = ("apart", "any", "facing")
-SETTING_KEYS = ("opinion", "game_players", "planner", "controller", "sim", "execution", "baselines", "sensing")
-
-
-class FamilyError(ScenarioError):
-    """A family file or draw is malformed; the message is one line saying what and how to fix."""
-
-
-@dataclass(frozen=True)
-class Range:
-    """A closed interval drawn uniformly."""
-
-    lo: float
-    """Lower end."""
-    hi: float
-    """Upper end (equal to ``lo`` for a fixed value)."""
-
-
 @dataclass(frozen=True)
 class Family:
     """A validated family file: every range a draw uses."""
@@ -178,73 +169,6 @@ _TOP = ("family", "description", *_SECTIONS, "traffic", "scenario", "building")
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]*")
 
 
-def _shown(value: Any) -> str:
-    """``repr(value)``, cut to 40 characters so that an error stays one readable line."""
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _real(value: Any, where: str, lo: float, hi: float, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise FamilyError(f"{where}: expected a number{unit}, got {_shown(value)}")
-    try:
-        v = float(value)
-    except OverflowError:  # an integer beyond any float
-        v = math.inf
-    if not (math.isfinite(v) and lo <= v <= hi):
-        raise FamilyError(f"{where}: expected a number{unit} in [{lo:g}, {hi:g}], got {_shown(value)}")
-    return v
-
-
-def _range(value: Any, where: str, lo: float, hi: float, unit: str = "") -> Range:
-    if isinstance(value, (list, tuple)):
-        if len(value) != 2:
-            raise FamilyError(f"{where}: expected [low, high]{unit}, got {_shown(value)}")
-        a, b = (_real(v, where, lo, hi, unit) for v in value)
-        if a > b:
-            raise FamilyError(f"{where}: low {a:g} is above high {b:g}; write [low, high]")
-        return Range(a, b)
-    v = _real(value, where, lo, hi, unit)
-    return Range(v, v)
-
-
-def _count(value: Any, where: str) -> tuple[int, int]:
-    values = list(value) if isinstance(value, (list, tuple)) else [value, value]
-    if len(values) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) and 2 <= v <= MAX_ROBOTS
-                                   for v in values):
-        raise FamilyError(f"{where}: expected a whole number or [low, high] in 2..{MAX_ROBOTS}, got {_shown(value)}")
-    if values[0] > values[1]:
-        raise FamilyError(f"{where}: low {values[0]} is above high {values[1]}; write [low, high]")
-    return values[0], values[1]
-
-
-def _weights(value: Any, where: str, names: tuple[str, ...]) -> tuple[tuple[str, float], ...]:
-    if not isinstance(value, dict) or not value:
-        raise FamilyError(f"{where}: expected weights like {{{names[0]}: 1, {names[1]}: 2}}, got {_shown(value)}")
-    out = []
-    for key, w in value.items():
-        if key not in names:
-            raise FamilyError(f"{where}: unknown key '{key}'{nearest_hint(str(key), names)}")
-        out.append((key, _real(w, f"{where}.{key}", 0.0, 1e6, " (a weight)")))
-    if sum(w for _, w in out) <= 0:
-        raise FamilyError(f"{where}: at least one weight must be positive")
-    return tuple(out)
-
-
-def _mapping(value: Any, where: str) -> dict:
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise FamilyError(f"{where}: expected a mapping of keys to values, got {_shown(value)}")
-    return value
-
-
-def _check_keys(data: dict, valid, where: str) -> None:
-    for key in data:
-        if key not in valid:
-            raise FamilyError(f"{where}: unknown key '{key}'{nearest_hint(str(key), valid)}")
-
-
 def family_from_dict(data: Any, source: str = "family") -> Family | BuildingFamily:
     """Validate a parsed family mapping (see the module docstring) and build a :class:`Family`."""
     if not isinstance(data, dict):
@@ -258,8 +182,6 @@ def family_from_dict(data: Any, source: str = "family") -> Family | BuildingFami
     if not isinstance(description, str):
         raise FamilyError(f"{source}: description: expected one line of text")
     if "building" in data:  # a family of floor plans (issue 20)
-        from nodnav.scenario.building_family import building_family_from_dict
-
         return building_family_from_dict(data, source, name, description)
     sec = {}
     for section, keys in _SECTIONS.items():

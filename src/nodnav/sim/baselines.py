@@ -53,16 +53,15 @@ from nodnav.scenario.world import World
 from nodnav.sim.agent import (
     Decision,
     NODAgent,
-    PlanCache,
     RobotView,
     approach_sides,
     clearing_plan,
-    joint_requests,
-    local_order,
     players_in_sight,
 )
 from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
+from nodnav.sim.order_plans import NO_OPINION, closest_first_order, plan_for_order
+from nodnav.sim.passage_baselines import ClosestFirstPassage
 from nodnav.sim.several import PassageAgent
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
@@ -94,15 +93,6 @@ def best_strategy(makespans: np.ndarray, costs: np.ndarray) -> int:
     costs = np.asarray(costs, dtype=float)
     # Makespans are sums of time steps: round away floating-point noise before comparing.
     return int(np.lexsort((np.arange(len(makespans)), costs, np.round(makespans, 9)))[0])
-
-
-def closest_first_order(distances: np.ndarray, resolution: float) -> tuple[int, ...]:
-    """Robots sorted by distance to their entrance (eq. (10)'s d_{i,corridor}), nearest first;
-    distances equal at ``resolution`` (m) are ordered by robot number, so that robots placed
-    symmetrically by hand tie exactly."""
-    d = np.asarray(distances, dtype=float)
-    key = np.round(d / resolution)
-    return tuple(int(k) for k in np.lexsort((np.arange(len(d)), key)))
 
 
 def fixed_preference_probabilities(z0: np.ndarray, bias: np.ndarray, eta: float) -> np.ndarray:
@@ -157,8 +147,6 @@ def wall_polygons(world: World) -> list[np.ndarray]:
     return polys
 
 
-#: Opinions or probabilities of a method that has none: nothing.
-NO_OPINION = np.zeros(0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -186,19 +174,6 @@ class NoCoordinationMethod(PlannedMethod):
 
     def decide_robot(self, i: int, view: RobotView) -> Decision:
         return self.agents[i].decide(view)
-
-
-def plan_for_order(scenario: Scenario, plans: PlanCache, view: RobotView, robots: tuple[int, ...],
-                   order: tuple[int, ...]) -> PlanResult:
-    """The joint plan of ``robots`` (scenario indices, the planning robot first) in ``order``
-    projected onto them, from ``view``, with its robots listed as in ``robots``.
-
-    The query lists the robots in increasing index, as :meth:`NODAgent.plan_all` does, so that
-    robots posing the same joint problem share the answer through the plan cache.
-    """
-    canonical = tuple(sorted(robots))
-    request = joint_requests(scenario, view, canonical, [local_order(order, canonical)])[0]
-    return relabel(plans.plan(request), [canonical.index(k) for k in robots])
 
 
 def enumerable(scenario: Scenario, method: str) -> None:
@@ -315,8 +290,6 @@ class ClosestFirstMethod(FixedOrderMethod):
         super().__init__(scenario, rngs, planner)
         self.agents: list[PassageAgent] | None = None
         if self.passages is not None:  # the convention at each passage of several (docs/several-passages.md)
-            from nodnav.sim.passage_baselines import ClosestFirstPassage  # it builds on this module
-
             passages = self.passages
 
             def make(one: Scenario, k: int, i: int) -> ClosestFirstPassage:

@@ -1,0 +1,209 @@
+"""The social force model of a walking person (Helbing and Molnar 1995; Helbing, Farkas and Vicsek
+2000, "HFV"): its parameters with their published values, and the forces and limits it is made of,
+as small pure functions. :mod:`nodnav.sim.person` steers people with it (docs/mixed-teams.md gives
+the model's choices and sources).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.scenario.world import World
+
+
+@dataclass(frozen=True)
+class SocialForceParams:
+    """The social force model's parameters (Helbing, Farkas and Vicsek 2000; field of view from
+    Helbing and Molnar 1995) and a person's walking habits."""
+
+    mass: float = 80.0
+    """Body mass m (kg); HFV 2000: 80."""
+    tau: float = 0.5
+    """Relaxation time tau of the driving force (s); HFV 2000: 0.5."""
+    A: float = 2000.0
+    """Strength A of the social repulsion (N); HFV 2000: 2 x 10^3."""
+    B: float = 0.08
+    """Range B of the social repulsion (m); HFV 2000: 0.08."""
+    k: float = 1.2e5
+    """Body compression coefficient k (kg/s^2); HFV 2000: 1.2 x 10^5."""
+    kappa: float = 2.4e5
+    """Sliding friction coefficient kappa (kg/(m s)); HFV 2000: 2.4 x 10^5."""
+    fov: float = 200.0
+    """Field of view 2 phi (degrees); Helbing and Molnar 1995: 200."""
+    behind: float = 0.5
+    """Weight c of the social repulsion from someone outside the field of view; Helbing and Molnar 1995: 0.5
+    (1 gives HFV's isotropic model)."""
+    speed_mean: float = 1.34
+    """Mean preferred walking speed (m/s); Weidmann 1993: 1.34."""
+    speed_sd: float = 0.26
+    """Standard deviation of the preferred walking speed (m/s); Weidmann 1993: 0.26."""
+    min_speed: float = 0.5
+    """Lowest preferred speed drawn (m/s); chosen: slower draws (2.2 sd below the mean) are clipped."""
+    route_margin: float = 0.05
+    """Least clearance kept from the walls by the route, beyond the radius (m); as ``baselines.orca_route_margin``."""
+    comfort_margin: float = 0.3
+    """Clearance from the walls, beyond the radius, a person's route keeps where the passage leaves
+    room for it (m): it passes a corner no nearer than this, and through a narrower passage along
+    its middle (:meth:`PersonMethod.route`); chosen: HFV's wall repulsion is 70 N (under half the
+    driving force of a person at 1 m/s) there. ``route_margin`` (or less) gives the literal
+    shortest route that hugs the corners."""
+    range: float = 2.0
+    """Distance beyond which walls and others exert no force (m): the exponential is below 1e-7 A there."""
+    yield_distance: float = 1.5
+    """``person-yielding``: distance to its entrance at which a person waits while someone comes the other way (m)."""
+    substeps: int = 8
+    """Integration steps per control step (0.1 s): the stiff wall and body terms (natural period
+    about 0.6 s in the paper's corridor) need steps well below the control step."""
+    wall_lateral: bool = True
+    """Whether the wall's social (exponential) term only steers (its part against the person's
+    heading dropped, :func:`lateral`); chosen, see the module docstring; ``False`` is HFV's literal term."""
+    slow_for_turns: bool = True
+    """Whether a person slows before the bends of its route so that its velocity, which follows
+    the heading only with the relaxation time tau, does not carry it into the walls
+    (:func:`turn_speed`); chosen; ``False`` walks every bend at its preferred speed."""
+    turn_lookahead: float = 2.0
+    """How far along its route a person looks for bends to slow for (m); chosen: beyond the
+    distance in which the fastest drawn person (2 m/s) stops at 1 m/s^2."""
+    waypoint_reach: float = 0.25
+    """A person heads for the vertex after the next once within this of the next (m) (a waypoint
+    switching radius); chosen: otherwise, a few centimetres off its route just before a vertex,
+    its heading swings by tens of degrees from one step to the next, and in a narrow mouth (a
+    vertex at each end) it swayed from wall to wall on the spot (``person-swaying-at-a-vertex``)."""
+    make_way_gap: float = 0.5
+    """A person starts to make way for someone it is in the way of (:meth:`PersonMethod.in_the_way_of`)
+    when their bodies come nearer than this (m), and goes on standing aside while they are under way
+    within twice this; chosen: with 1 m a person stood aside for ever while the robot waited for it
+    to go to its destination first (``person-standing-aside-for-a-waiting-robot``), in 5 of the first
+    100 draws of ``mixed`` against 1 the other way (0 disables making way)."""
+    waiting_speed: float = 0.1
+    """Someone under way within twice ``make_way_gap`` of a person at its destination who moves
+    slower than this waits for it (m/s): the person makes way for them as for someone nearer
+    than ``make_way_gap``; chosen: a robot that plans the person to step aside waits 0.5-1 m
+    off (``person-standing-aside-for-a-waiting-robot`` with the feasible timing); 0 disables."""
+
+
+# ---------------------------------------------------------------------------------------------
+# The equations, as pure functions
+
+
+def g(x: np.ndarray | float) -> np.ndarray:
+    """HFV's contact function: ``x`` if positive (overlap), else 0."""
+    return np.maximum(x, 0.0)
+
+
+def driving_force(velocity: np.ndarray, preferred: np.ndarray, mass: float, tau: float) -> np.ndarray:
+    """``m (v0 e - v) / tau`` (N): the pull towards the preferred velocity ``v0 e``."""
+    return mass * (np.asarray(preferred, dtype=float) - np.asarray(velocity, dtype=float)) / tau
+
+
+def agent_forces(p_i: np.ndarray, v_i: np.ndarray, r_i: float, p_j: np.ndarray, v_j: np.ndarray, r_j: np.ndarray,
+                 p: SocialForceParams) -> np.ndarray:
+    """HFV's force ``f_ij`` ``(m, 2)`` (N) on a person at ``p_i`` (velocity ``v_i``, radius ``r_i``)
+    from each of ``m`` others at ``p_j`` ``(m, 2)`` (velocities ``v_j``, radii ``r_j``), without
+    the field-of-view weight (:func:`view_weights`)."""
+    d_vec = np.asarray(p_i, dtype=float)[None] - np.asarray(p_j, dtype=float).reshape(-1, 2)
+    d = np.maximum(np.linalg.norm(d_vec, axis=1), 1e-9)
+    n = d_vec / d[:, None]
+    t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+    overlap = np.asarray(r_i + np.asarray(r_j, dtype=float)) - d
+    dv_t = np.einsum("ij,ij->i", np.asarray(v_j, dtype=float).reshape(-1, 2) - np.asarray(v_i, dtype=float)[None], t)
+    normal = p.A * np.exp(overlap / p.B) + p.k * g(overlap)
+    return normal[:, None] * n + (p.kappa * g(overlap) * dv_t)[:, None] * t
+
+
+def social_part(p_i: np.ndarray, r_i: float, p_j: np.ndarray, r_j: np.ndarray, p: SocialForceParams) -> np.ndarray:
+    """The social (exponential) term of :func:`agent_forces` alone ``(m, 2)`` (N), the part the
+    field of view weighs."""
+    d_vec = np.asarray(p_i, dtype=float)[None] - np.asarray(p_j, dtype=float).reshape(-1, 2)
+    d = np.maximum(np.linalg.norm(d_vec, axis=1), 1e-9)
+    return (p.A * np.exp((r_i + np.asarray(r_j, dtype=float) - d) / p.B))[:, None] * (d_vec / d[:, None])
+
+
+def view_weights(heading: np.ndarray, p_i: np.ndarray, p_j: np.ndarray, p: SocialForceParams) -> np.ndarray:
+    """Helbing and Molnar's field-of-view weight ``(m,)``: 1 for others within ``fov / 2`` of
+    ``heading`` (the direction the person wants to go), ``behind`` for the rest; 1 for all when
+    there is no heading."""
+    h = np.asarray(heading, dtype=float)
+    norm = float(np.hypot(*h))
+    to_j = np.asarray(p_j, dtype=float).reshape(-1, 2) - np.asarray(p_i, dtype=float)[None]
+    if norm == 0.0:
+        return np.ones(len(to_j))
+    dist = np.maximum(np.linalg.norm(to_j, axis=1), 1e-9)
+    cos = (to_j @ (h / norm)) / dist
+    return np.where(cos >= math.cos(math.radians(p.fov / 2.0)), 1.0, p.behind)
+
+
+def nearest_wall_points(world: World, point: np.ndarray) -> np.ndarray:
+    """The nearest point ``(W, 2)`` of every wall rectangle, then of each of the four sides of
+    the world's boundary, to ``point``."""
+    q = np.asarray(point, dtype=float)
+    walls = world.obstacle_array
+    inside = np.stack([np.clip(q[0], walls[:, 0], walls[:, 2]), np.clip(q[1], walls[:, 1], walls[:, 3])], axis=1) \
+        if len(walls) else np.zeros((0, 2))
+    x0, y0, x1, y1 = world.bounds
+    sides = np.array([[x0, q[1]], [x1, q[1]], [q[0], y0], [q[0], y1]], dtype=float)
+    return np.concatenate([inside, sides])
+
+
+def lateral(force: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """``force`` without its component against the unit ``heading`` (unchanged if it has none)."""
+    f = np.asarray(force, dtype=float)
+    e = np.asarray(heading, dtype=float)
+    along = float(f @ e)
+    return f - along * e if along < 0.0 else f
+
+
+def wall_social(p_i: np.ndarray, r_i: float, wall_point: np.ndarray, p: SocialForceParams) -> np.ndarray:
+    """The social (exponential) part of :func:`wall_forces` from one wall point ``(2,)`` (N)."""
+    d_vec = np.asarray(p_i, dtype=float) - np.asarray(wall_point, dtype=float)
+    d = max(float(np.hypot(*d_vec)), 1e-9)
+    return p.A * math.exp((r_i - d) / p.B) * d_vec / d
+
+
+def wall_forces(p_i: np.ndarray, v_i: np.ndarray, r_i: float, wall_points: np.ndarray,
+                p: SocialForceParams) -> np.ndarray:
+    """HFV's force ``f_iW`` ``(W, 2)`` (N) on a person at ``p_i`` (velocity ``v_i``, radius
+    ``r_i``) from walls whose nearest points are ``wall_points`` ``(W, 2)``."""
+    d_vec = np.asarray(p_i, dtype=float)[None] - np.asarray(wall_points, dtype=float).reshape(-1, 2)
+    d = np.maximum(np.linalg.norm(d_vec, axis=1), 1e-9)
+    n = d_vec / d[:, None]
+    t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+    overlap = r_i - d
+    normal = p.A * np.exp(overlap / p.B) + p.k * g(overlap)
+    slide = p.kappa * g(overlap) * (t @ np.asarray(v_i, dtype=float))
+    return normal[:, None] * n - slide[:, None] * t
+
+
+def clip_norm(vector: np.ndarray, limit: float) -> np.ndarray:
+    """``vector`` scaled down to length ``limit`` if longer."""
+    v = np.asarray(vector, dtype=float)
+    norm = float(np.hypot(*v))
+    return v if norm <= limit or norm == 0.0 else v * (limit / norm)
+
+
+def clip_against_walls(world: World, position: np.ndarray, step: np.ndarray, radius: float) -> np.ndarray:
+    """The part of ``step`` a disc of ``radius`` at ``position`` can take without coming nearer a
+    wall than ``radius`` along the way: the whole step, else its component along x or along y
+    (sliding along an axis-aligned wall; the longer that is possible), else nothing."""
+    p = np.asarray(position, dtype=float)
+    s = np.asarray(step, dtype=float)
+    start_clear = float(world.clearance(p[None])[0])
+    need = min(radius, start_clear)  # a body already squeezed may leave but never go closer
+    candidates = [s, np.array([s[0], 0.0]), np.array([0.0, s[1]])]
+    candidates = sorted(candidates[1:], key=lambda c: -float(np.hypot(*c)))
+    for c in [s, *candidates]:
+        if not c.any():
+            continue
+        if float(world.segment_clearance(p[None], (p + c)[None])[0]) >= need:
+            return c
+    return np.zeros(2)
+
+
+def preferred_speed(rng: np.random.Generator, max_speed: float, p: SocialForceParams) -> float:
+    """One person's preferred walking speed (m/s): Weidmann's normal (``speed_mean``, ``speed_sd``)
+    clipped to ``[min(min_speed, max_speed), max_speed]``."""
+    low = min(p.min_speed, max_speed)
+    return float(np.clip(rng.normal(p.speed_mean, p.speed_sd), low, max_speed))

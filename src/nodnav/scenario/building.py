@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.scenario.building_family import BuildingFamily
-from nodnav.scenario.layout import SLACK, _Draws, _mm, _Reject, travel_time
+from nodnav.scenario.layout import SLACK, _Draws, _mm, _Reject, draw_bodies, travel_time
 from nodnav.scenario.validity import ABREAST_MARGIN, CLEARANCE, FIT_MARGIN, mouth_zone_radius
 from nodnav.scenario.world import Passage, World
 
@@ -85,18 +85,7 @@ class BuildingAttempt:
     # -- 1. robots -------------------------------------------------------------------------------
 
     def robots(self) -> list[_BRobot]:
-        f, d = self.f, self.d
-        n = d.integer(*f.count)
-        r0 = _mm(d.range(f.radius))
-        top = max(r0, min(f.radius.hi, 2 * r0 - 0.08))  # any two radii then sum to r_max + 0.08
-        radii = [_mm(d.uniform(r0, top)) for _ in range(n)] if d.chance(f.mixed_radii) else [r0] * n
-        v0 = _mm(d.range(f.max_speed))
-        speeds = [_mm(d.range(f.max_speed)) for _ in range(n)] if d.chance(f.mixed_speeds) else [v0] * n
-        accels = [f.max_accel.lo] * n
-        if f.max_accel.hi > f.max_accel.lo:
-            a0 = _mm(d.range(f.max_accel))
-            accels = [_mm(d.range(f.max_accel)) for _ in range(n)] if d.chance(f.mixed_accels) else [a0] * n
-        return [_BRobot(r, v, a) for r, v, a in zip(radii, speeds, accels)]
+        return [_BRobot(r, v, a) for r, v, a in zip(*draw_bodies(self.f, self.d))]
 
     # -- 2. walls and passages -------------------------------------------------------------------
 

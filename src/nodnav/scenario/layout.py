@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nodnav.scenario.building_family import BuildingFamily
 from nodnav.scenario.families import Family, Range
 from nodnav.scenario.validity import CLEARANCE, room_needs
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT
@@ -92,6 +93,24 @@ def _placed(p: np.ndarray | None) -> np.ndarray:
     return p
 
 
+def draw_bodies(f: Family | BuildingFamily, d: _Draws) -> tuple[list[float], list[float], list[float]]:
+    """The robots' count, radii, speed limits and acceleration limits of a draw (either kind of
+    family): alike, or half the time (``mixed_*``) each robot its own."""
+    n = d.integer(*f.count)
+    r0 = _mm(d.range(f.radius))
+    top = max(r0, min(f.radius.hi, 2 * r0 - 0.08))  # any two radii then sum to r_max + 0.08
+    radii = [_mm(d.uniform(r0, top)) for _ in range(n)] if d.chance(f.mixed_radii) else [r0] * n
+    v0 = _mm(d.range(f.max_speed))
+    speeds = [_mm(d.range(f.max_speed)) for _ in range(n)] if d.chance(f.mixed_speeds) else [v0] * n
+    # A single acceleration draws nothing: such a family's draws are what they were before
+    # accelerations were drawn.
+    accels = [f.max_accel.lo] * n
+    if f.max_accel.hi > f.max_accel.lo:
+        a0 = _mm(d.range(f.max_accel))
+        accels = [_mm(d.range(f.max_accel)) for _ in range(n)] if d.chance(f.mixed_accels) else [a0] * n
+    return radii, speeds, accels
+
+
 class _Attempt:
     """One attempt at a draw; raises :class:`_Reject` when a construction step cannot satisfy a rule."""
 
@@ -100,18 +119,8 @@ class _Attempt:
 
     def robots(self) -> list[_Robot]:
         f, d = self.f, self.d
-        n = d.integer(*f.count)
-        r0 = _mm(d.range(f.radius))
-        top = max(r0, min(f.radius.hi, 2 * r0 - 0.08))  # any two radii then sum to r_max + 0.08
-        radii = [_mm(d.uniform(r0, top)) for _ in range(n)] if d.chance(f.mixed_radii) else [r0] * n
-        v0 = _mm(d.range(f.max_speed))
-        speeds = [_mm(d.range(f.max_speed)) for _ in range(n)] if d.chance(f.mixed_speeds) else [v0] * n
-        # A single acceleration draws nothing: such a family's draws are what they were before
-        # accelerations were drawn.
-        accels = [f.max_accel.lo] * n
-        if f.max_accel.hi > f.max_accel.lo:
-            a0 = _mm(d.range(f.max_accel))
-            accels = [_mm(d.range(f.max_accel)) for _ in range(n)] if d.chance(f.mixed_accels) else [a0] * n
+        radii, speeds, accels = draw_bodies(f, d)
+        n = len(radii)
         n_in = 0
         if f.inside_max >= 1 and d.chance(f.inside_probability):
             n_in = d.integer(1, min(f.inside_max, n - 1))

@@ -327,7 +327,8 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                     evade(j)
         track = self._track_for(world, state, k, now())
         if track.route.detour:
-            stand = np.array([self._start(state, j, now()) for j in layout.later]).reshape(-1, 2)
+            standing = now()  # nobody moves while the list is built
+            stand = np.array([self._start(state, j, standing) for j in layout.later]).reshape(-1, 2)
             start, goal = track.cells[0], track.cells[-1]
             crossed = disc_violations(track.route.path.points, stand, state.required[k, list(layout.later)],
                                       np.linalg.norm(stand - start, axis=1), np.linalg.norm(stand - goal, axis=1))

@@ -193,3 +193,17 @@ def test_mismatch_predictions_brake_a_robot_moving_against_a_plan_at_rest():
     assert np.isclose(out[0, 0, -1, 0], 0.25)
     # The same as reachable_predictions when the plan's velocity is constant.
     assert np.allclose(out, reachable_predictions(observed, plan, np.array([a]), dt))
+
+
+def test_mismatch_predictions_compiled_equals_the_plain_computation_bit_for_bit():
+    from nodnav.decision.estimation import mismatch_predictions, mismatch_predictions_plain
+
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        g, n, m = (int(v) for v in rng.integers(1, [7, 4, 12]))
+        observed = rng.normal(size=(n, m, 4))
+        # Small and large velocity errors: below and above one step's acceleration.
+        planned = rng.normal(size=(g, n, m, 4)) * rng.choice([0.01, 1.0, 3.0])
+        accel = rng.uniform(0.1, 3.0, size=n)
+        assert mismatch_predictions(observed, planned, accel, 0.1).tobytes() == \
+            mismatch_predictions_plain(observed, planned, accel, 0.1).tobytes()

@@ -68,6 +68,27 @@ def test_observe_equals_observed_progress_and_gate_sample():
         assert execution.gates.tolist() == gates
 
 
+
+@pytest.mark.parametrize("gated", [True, False])
+def test_read_equals_the_plain_computation_bit_for_bit(gated):
+    rng = np.random.default_rng(5)
+    times = 2.0 + np.linspace(0.0, 8.0, 41)  # a plan that starts at t = 2 s
+    starts, ends = rng.uniform(-2, 2, (3, 2)), rng.uniform(-2, 2, (3, 2))
+    frac = np.clip((times[:, None] - 2.0 - np.array([0.0, 2.0, 1.0])) / 5.0, 0.0, 1.0)
+    traj = JointTrajectory.from_positions(times, starts[None] + frac[..., None] * (ends - starts)[None])
+    settings = ExecutionSettings(gated=gated, dt=0.1, horizon=6.0, lag=0.3, margin=0.1, tolerance=0.02)
+    execution = PlanExecution(traj, (0, 1, 2), np.full(3, 0.3), settings)
+    offsets = 0.1 * np.arange(0, 25)
+    for k in range(80):  # past the plan's end: positions held
+        seen = traj.positions_at(2.0 + 0.1 * k)[0] + rng.normal(0.0, 0.05, (3, 2))
+        execution.observe(seen)
+        got = execution.read(offsets)
+        assert got.shape == (len(offsets), 3, 2)
+        assert got.tobytes() == execution.read_plain(offsets).tobytes()
+        execution.advance()
+    one = PlanExecution(JointTrajectory.from_positions(times[:1], starts[None]), (0, 1, 2), np.full(3, 0.3), settings)
+    assert one.read(offsets).tobytes() == one.read_plain(offsets).tobytes()
+
 def _advanced_plain(progress, positions, reach):
     """PlanProgress.advanced as it was written in NumPy before it was compiled."""
     from nodnav.sim.progress import OFF_ROUTE

@@ -59,6 +59,20 @@ set holds every wall within its reach plus this, so it serves until the robot ha
 (at 0.4 m/s, about every 25 control steps)."""
 
 
+
+def _apart(a: np.ndarray, b: np.ndarray) -> bool:
+    """``np.hypot(*(a - b)) > 1e-6`` for two points ``(2,)``, deciding without the hypot where
+    the coordinates' differences alone do, with room to spare for rounding (``max(|dx|, |dy|)
+    <= hypot <= |dx| + |dy|``): as a rule the robot is exactly where the last step said (both
+    differences zero)."""
+    dx, dy = abs(float(a[0]) - float(b[0])), abs(float(a[1]) - float(b[1]))
+    if dx > 2e-6 or dy > 2e-6:
+        return True
+    if dx + dy <= 0.5e-6:
+        return False
+    return bool(np.hypot(a[0] - b[0], a[1] - b[1]) > 1e-6)
+
+
 class SharedSetups:
     """MPC setups, and their problems by number of other robots and sample times, shared by the
     controllers of one trial whose robots have the same body and limits in the same world.
@@ -228,7 +242,7 @@ class BSplineMPC:
         c.elapsed += self.dt
         # Where the last step said the robot would be (the committed trajectory one step on).
         at, vel = self._expected
-        if np.hypot(*(at - p0)) > 1e-6 or np.hypot(*(vel - v0)) > 1e-6:
+        if _apart(at, p0) or _apart(vel, v0):
             self._committed = None
             return None
         return c

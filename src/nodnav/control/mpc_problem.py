@@ -26,6 +26,7 @@ constraint rows, the Hessians and the map from the reference to the cost's gradi
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -491,7 +492,7 @@ class StepData:
     box_high: np.ndarray | None = None
     """Highest allowed position ``(2,)`` (m)."""
 
-    @property
+    @cached_property
     def need_clear(self) -> float:
         """The smallest clearance the plan has to keep from any wall or bound (m)."""
         return float(min(self.need[:self.n_walls].min(initial=np.inf), self.need_box.min()))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.decision.opinion import relative_opinions, saturation
 
 
@@ -102,6 +103,45 @@ def mismatch_predictions(observed: np.ndarray, planned: np.ndarray, accel: np.nd
 
     Shapes as :func:`reachable_predictions`.
     """
+    observed = np.asarray(observed, dtype=float)
+    planned = np.asarray(planned, dtype=float)
+    # One compiled loop, the same float operations as mismatch_predictions_plain.
+    return _mismatch_kernel(np.ascontiguousarray(observed), np.ascontiguousarray(planned),
+                            np.asarray(accel, dtype=float) * dt, 0.5 * dt)
+
+
+@compiled
+def _mismatch_kernel(observed, planned, step, half_dt):
+    """:func:`mismatch_predictions_plain` element by element (``step`` is ``accel * dt``)."""
+    out = planned.copy()
+    n_g, n_k, n_m = planned.shape[0], planned.shape[1], planned.shape[2]
+    for g in range(n_g):
+        for j in range(n_k):
+            px = observed[j, 0, 0] - planned[g, j, 0, 0]
+            py = observed[j, 0, 1] - planned[g, j, 0, 1]
+            vx = observed[j, 0, 2] - planned[g, j, 0, 2]
+            vy = observed[j, 0, 3] - planned[g, j, 0, 3]
+            out[g, j, 0, 0] += px
+            out[g, j, 0, 1] += py
+            out[g, j, 0, 2] += vx
+            out[g, j, 0, 3] += vy
+            for m in range(1, n_m):
+                norm = np.sqrt(vx * vx + vy * vy)
+                scale = 1.0 - step[j] / max(norm, 1e-12) if norm > step[j] else 0.0
+                nx, ny = vx * scale, vy * scale
+                px = px + half_dt * (vx + nx)
+                py = py + half_dt * (vy + ny)
+                vx, vy = nx, ny
+                out[g, j, m, 0] += px
+                out[g, j, m, 1] += py
+                out[g, j, m, 2] += vx
+                out[g, j, m, 3] += vy
+    return out
+
+
+def mismatch_predictions_plain(observed: np.ndarray, planned: np.ndarray, accel: np.ndarray,
+                               dt: float) -> np.ndarray:
+    """:func:`mismatch_predictions` in NumPy, the reference its compiled loop is tested against."""
     observed = np.asarray(observed, dtype=float)
     planned = np.asarray(planned, dtype=float)
     out = planned.copy()

@@ -124,6 +124,17 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
+def _allclose_point(a: np.ndarray, b: np.ndarray) -> bool:
+    """``np.allclose(a, b)`` of two finite points ``(2,)`` at its default tolerances
+    (``|a - b| <= 1e-8 + 1e-5 |b|`` per coordinate, the same float operations), without its
+    array overhead (it ran once per planned robot)."""
+    for d in range(2):
+        x, y = float(a[d]), float(b[d])
+        if not abs(x - y) <= 1e-08 + 1e-05 * abs(y):
+            return False
+    return True
+
+
 @register_planner("fast")
 class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     """Prioritised space-time planner (see the module docstring); deterministic, no precomputation."""
@@ -316,7 +327,8 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                     evade(j)
         track = self._track_for(world, state, k, now())
         if track.route.detour:
-            stand = np.array([self._start(state, j, now()) for j in layout.later]).reshape(-1, 2)
+            standing = now()  # nobody moves while the list is built
+            stand = np.array([self._start(state, j, standing) for j in layout.later]).reshape(-1, 2)
             start, goal = track.cells[0], track.cells[-1]
             crossed = disc_violations(track.route.path.points, stand, state.required[k, list(layout.later)],
                                       np.linalg.norm(stand - start, axis=1), np.linalg.norm(stand - goal, axis=1))
@@ -393,7 +405,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if timing.success and state.accels is not None and state.velocities is not None:
             # Moving now only if it starts where it stands now (not after getting out of the way).
             v0 = 0.0
-            if t0 == 0 and len(track.segments[1]) and np.allclose(cells[0], state.positions[k]):
+            if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
             timing = retimed(timing, track.arc, free, v0, float(state.max_speeds[k]), float(state.accels[k]),
                              float(self.params.dt))

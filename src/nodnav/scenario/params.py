@@ -274,6 +274,15 @@ class ExecutionParams:
     reaction_slack: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """How much of the present gap to another robot the reaction margin leaves free (m), so that
     switching the margin on never puts a robot inside the other's braking disc at once."""
+    skip_at_rest: bool = False
+    """Speed setting, off by default (it changes trajectories, by at most ``rest_tolerance``): a robot
+    at rest, whose reference stays where it stands and whom every prediction keeps ``rest_clearance``
+    beyond the full separation, stays exactly put without solving its MPC (docs/performance.md)."""
+    rest_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
+    """How far from its reference, and how fast, a robot may be to count as at rest (m, m/s)."""
+    rest_clearance: float = field(default=0.5, metadata=accepted(0.0, 100.0))
+    """How far beyond the full separation every other robot's predictions must stay for a robot
+    at rest to skip its MPC (m)."""
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
+from nodnav.compiled import compiled
 from nodnav.geometry import TOL, clearance_of, piece_clearance, segment_clearance
 from nodnav.wall_grid import WallGrid, clearance_indexed
 
@@ -375,7 +376,69 @@ def distance_to_go(world: World, points: np.ndarray, destinations: np.ndarray, a
 
     A robot before the corridor goes via both entrances, one inside goes via the far entrance,
     one past it goes straight; robots with no crossing (``approach_side`` on the destination's
-    side) go straight. Used to measure progress, not to plan.
+    side) go straight. Used to measure progress, not to plan. The arguments broadcast against
+    each other (points ``(..., 2)``); one compiled loop (:func:`_distance_to_go_kernel`, the
+    same float operations as :func:`distance_to_go_plain`).
+    """
+    p = np.asarray(points, dtype=float)
+    dest = np.asarray(destinations, dtype=float)
+    side = np.asarray(approach_side)
+    shape = np.broadcast_shapes(p.shape[:-1], dest.shape[:-1], side.shape)
+    if p.shape[:-1] != shape:
+        p = np.broadcast_to(p, shape + (2,))
+    if dest.shape[:-1] != shape:
+        dest = np.broadcast_to(dest, shape + (2,))
+    if side.shape != shape:
+        side = np.broadcast_to(side, shape)
+    g = world.passage
+    out = _distance_to_go_kernel(np.ascontiguousarray(p.reshape(-1, 2)), np.ascontiguousarray(dest.reshape(-1, 2)),
+                                 np.ascontiguousarray(side.reshape(-1), dtype=np.int64),
+                                 np.asarray(world.entrances, dtype=float), g.along_x, g.axis[0], g.axis[1],
+                                 g.s_start, g.s_end)
+    return out.reshape(shape)
+
+
+@compiled
+def _side_along(px, py, along_x, ax, ay, s_start, s_end):
+    """:meth:`Passage.side_of_along` of :meth:`Passage.along` for one point."""
+    s = px if along_x else px * ax + py * ay
+    return LEFT if s < s_start else (RIGHT if s > s_end else INSIDE)
+
+
+@compiled
+def _distance_to_go_kernel(p, dest, side, ent, along_x, ax, ay, s_start, s_end):
+    """:func:`distance_to_go_plain` point by point (its norms are ``sqrt(x * x + y * y)``, as NumPy's)."""
+    out = np.empty(p.shape[0])
+    for k in range(p.shape[0]):
+        sd = side[k]
+        near = ent[1] if sd > 0 else ent[0]
+        far = ent[1] if -sd > 0 else ent[0]
+        px, py, dx, dy = p[k, 0], p[k, 1], dest[k, 0], dest[k, 1]
+        crossing = _side_along(dx, dy, along_x, ax, ay, s_start, s_end) == -sd
+        where = _side_along(px, py, along_x, ax, ay, s_start, s_end)
+        if crossing and where == sd:  # before the corridor: via both entrances
+            tx, ty = dx - far[0], dy - far[1]
+            ux, uy = near[0] - px, near[1] - py
+            wx, wy = far[0] - near[0], far[1] - near[1]
+            out[k] = np.sqrt(ux * ux + uy * uy) + np.sqrt(wx * wx + wy * wy) + np.sqrt(tx * tx + ty * ty)
+        elif crossing and where == INSIDE:  # inside: via the far entrance
+            tx, ty = dx - far[0], dy - far[1]
+            ux, uy = far[0] - px, far[1] - py
+            out[k] = np.sqrt(ux * ux + uy * uy) + np.sqrt(tx * tx + ty * ty)
+        else:
+            ux, uy = dx - px, dy - py
+            out[k] = np.sqrt(ux * ux + uy * uy)
+    return out
+
+
+def distance_to_go_plain(world: World, points: np.ndarray, destinations: np.ndarray,
+                         approach_side: np.ndarray) -> np.ndarray:
+    """Length (m) of the shortest route through the corridor's entrances to each destination.
+
+    A robot before the corridor goes via both entrances, one inside goes via the far entrance,
+    one past it goes straight; robots with no crossing (``approach_side`` on the destination's
+    side) go straight. Used to measure progress, not to plan. The NumPy reference of
+    :func:`distance_to_go`.
     """
     p = np.asarray(points, dtype=float)
     dest = np.asarray(destinations, dtype=float)

@@ -183,10 +183,11 @@ def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...],
     positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
     entered = tuple(local_of[k] for k in view.entered if k in local_of)
     accels = np.array([scenario.robots[k].max_accel for k in rows], dtype=float)
+    # The scenario's arrays are built anew on every access: once for all orders.
+    destinations, radii, max_speeds = scenario.destinations[rows], scenario.radii[rows], scenario.max_speeds[rows]
     return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
-                        destinations=scenario.destinations[rows], radii=scenario.radii[rows],
-                        max_speeds=scenario.max_speeds[rows], order=order, entered=entered, t0=view.t,
-                        max_accels=accels)
+                        destinations=destinations, radii=radii, max_speeds=max_speeds, order=order,
+                        entered=entered, t0=view.t, max_accels=accels)
             for order in orders]
 
 

@@ -95,6 +95,11 @@ class PlanExecution:
     def read(self, offsets: np.ndarray) -> np.ndarray:
         """Plan positions of every robot at ``offsets`` ``(M,)`` (s) after its clock, each held at
         its limit: ``(M, n, 2)``."""
+        return _read_kernel(self.trajectory.times, self.trajectory.positions, self.t0, self.clocks,
+                            np.asarray(offsets, dtype=float), self.limits())
+
+    def read_plain(self, offsets: np.ndarray) -> np.ndarray:
+        """:meth:`read` in NumPy, the reference its compiled loop is tested against."""
         when = np.minimum(self.clocks[None, :] + np.asarray(offsets, dtype=float)[:, None], self.limits()[None, :])
         flat = self.trajectory.positions_at(self.t0 + when.reshape(-1)).reshape(len(offsets), -1, len(self.robots), 2)
         columns = np.arange(len(self.robots))
@@ -103,6 +108,29 @@ class PlanExecution:
     def advance(self) -> None:
         """Run every clock on by one control step, up to its limit."""
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
+
+
+@compiled
+def _read_kernel(times, positions, t0, clocks, offsets, limits):
+    """:meth:`PlanExecution.read_plain` as one loop: robot ``r``'s own column of the plan at
+    ``t0 + min(clocks[r] + offset, limits[r])`` for each offset, interpolated as
+    :func:`~nodnav.planning.base.interpolate_positions` does (the other robots' columns at that
+    time, which the plain version computes and drops, are not computed)."""
+    n_off, n = offsets.shape[0], clocks.shape[0]
+    k = times.shape[0]
+    out = np.empty((n_off, n, 2))
+    for m in range(n_off):
+        for r in range(n):
+            q = t0 + min(clocks[r] + offsets[m], limits[r])
+            if k == 1:
+                out[m, r, 0], out[m, r, 1] = positions[0, r, 0], positions[0, r, 1]
+                continue
+            i = min(max(np.searchsorted(times, q, side="right") - 1, 0), k - 2)
+            w = min(max((q - times[i]) / (times[i + 1] - times[i]), 0.0), 1.0)
+            for d in range(2):
+                start = positions[i, r, d]
+                out[m, r, d] = start + w * (positions[i + 1, r, d] - start)
+    return out
 
 
 @compiled

@@ -68,6 +68,26 @@ def horizon_predictions(planned: np.ndarray, columns: np.ndarray, positions: np.
     return out
 
 
+@compiled
+def at_rest_and_clear(position, velocity, reference, predictions, radii, reach, clearance, tolerance):
+    """Whether a robot at ``position`` moving at ``velocity`` is at rest (speed at most ``tolerance``),
+    told to stay (every point of its ``reference`` ``(K, 2)`` within ``tolerance`` of where it is)
+    and clear of everyone: every point of every prediction ``(m, K, 2)`` of radius ``radii[j]``
+    more than ``reach + radii[j] + clearance`` away (``reach``: its radius plus the safety margin)."""
+    if np.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1]) > tolerance:
+        return False
+    for k in range(reference.shape[0]):
+        if abs(reference[k, 0] - position[0]) > tolerance or abs(reference[k, 1] - position[1]) > tolerance:
+            return False
+    for j in range(predictions.shape[0]):
+        keep = reach + radii[j] + clearance
+        for k in range(predictions.shape[1]):
+            dx, dy = predictions[j, k, 0] - position[0], predictions[j, k, 1] - position[1]
+            if dx * dx + dy * dy <= keep * keep:
+                return False
+    return True
+
+
 class Method(Protocol):
     """A decentralised navigation method for every robot of a trial."""
 
@@ -114,6 +134,10 @@ class PlannedMethod:
             margin=scenario.planner.margin, tolerance=ex.tolerance)
         self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
         self.reactions = ReactionMargins(scenario)
+        # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
+        self._rest = None if not ex.skip_at_rest else [
+            (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
+            for r in scenario.robots]
         self.passages = None
         if several(scenario):
             def planner_for(world: World) -> Any:
@@ -208,12 +232,24 @@ class PlannedMethod:
             firm = self._firm
             if view.age is not None or view.sigma is not None:
                 predictions, radii, firm = self._sensed(i, view, predictions, radii)
+            if self._rest is not None and at_rest_and_clear(view.positions[i], view.velocities[i], reference,
+                                                            predictions, radii, *self._rest[i]):
+                out[i] = self._stay(view.positions[i])
+                self.reactions.conflicted[i] = False
+                continue
             request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=firm)
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
+
+    def _stay(self, position: np.ndarray) -> ControlResult:
+        """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""
+        p = np.array(position, dtype=float)
+        return ControlResult(success=True, reason="", velocity=np.zeros(2), next_position=p, next_velocity=np.zeros(2),
+                             planned_positions=np.tile(p, (len(self.sample_times), 1)),
+                             step_positions=np.tile(p, (4, 1)), info={"fallback": "", "at_rest": True})
 
     def _sensed(self, i: int, view: RobotView, predictions: np.ndarray,
                 radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -67,6 +67,22 @@ def test_a_route_that_comes_back_gets_a_local_goal_short_of_the_turn():
     assert -2.0 - goal[0] == pytest.approx(-0.3 - 0.02, abs=0.03)
 
 
+def test_routes_are_the_trials_own_and_computed_once_per_trial():
+    # No module-level memo (the project forbids global state): the simulator takes its routes
+    # from the trial's method (one computation per trial), and two trials of the same scenario
+    # compute their own, equal ones (a route depends on the scenario alone).
+    import nodnav.sim.several as several_module
+
+    assert not [k for k, v in vars(several_module).items() if not k.startswith("__") and isinstance(v, dict)]
+    s = load_scenario(str(EXAMPLE))
+    first, second = Simulation(s, "nod", 1), Simulation(s, "closest-first", 2)
+    assert first.routes is first.method.passages.routes
+    assert first.routes is not second.routes
+    for a, b in zip(first.routes, second.routes):
+        assert np.array_equal(a.points, b.points) and (a.passages, a.entry_sides, a.goals) == (
+            b.passages, b.entry_sides, b.goals)
+
+
 def test_game_membership_follows_the_next_passage_on_each_route():
     s = load_scenario(str(EXAMPLE))
     views = PassageViews(s, lambda world: make_planner(s.planner, world))

@@ -61,7 +61,7 @@ def main(path: str, radii: list[float]) -> None:
              for w in (world, dataclasses.replace(world, map_walls=0))]
     for r in rules:
         r.motions_ok(pairs[:2], pair_ends[:2])
-    edge = [min(_timed(lambda: r.motions_ok(pairs, pair_ends), len(pairs)) for _ in range(5)) for r in rules]
+    edge = [min(_timed(lambda rule=r: rule.motions_ok(pairs, pair_ends), len(pairs)) for _ in range(5)) for r in rules]
     agree = np.array_equal(rules[0].motions_ok(pairs, pair_ends), rules[1].motions_ok(pairs, pair_ends))
     best = f"{loop * 1e6:.1f} us looping over every wall, {indexed * 1e6:.2f} us indexed"
     seg = f"{seg_loop * 1e6:.1f} us / {seg_indexed * 1e6:.2f} us"

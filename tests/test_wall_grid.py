@@ -90,3 +90,45 @@ def test_a_map_worlds_clearance_verdict_equals_the_plain_worlds():
     need = np.array([0.0, 0.1, 0.2, 0.4])  # one per robot, broadcast as the joint checks do
     assert np.array_equal(segment_is_clear(mapped, a, b, need), segment_is_clear(plain, a, b, need))
     assert segment_is_clear(mapped, a, b, need).shape == (50, 4)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_prm_joint_checks_through_the_index_are_the_full_loops(seed):
+    """The PRM* planner's compiled joint checks (states and straight edges of 2-3 robots) give on
+    a map's world, through its wall index, exactly the verdicts of the full loop over every wall
+    (the same world without the index), including thresholds equal to a robot's exact clearance."""
+    from nodnav.geometry import TOL, segment_clearance_one
+    from nodnav.planning.joint_validity import CompiledRules
+    from nodnav.scenario.world import Passage, World
+
+    rng = np.random.default_rng(seed)
+    lo = rng.uniform(0.0, 10.0, (400, 2))
+    boxes = tuple(map(tuple, np.hstack([lo, lo + rng.uniform(0.05, 0.6, (400, 2))])))
+    passage = (Passage(start=(0.0, 5.0), end=(1.0, 5.0), width=0.5),)
+    mapped = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage, map_walls=len(boxes))
+    plain = World(bounds=(0.0, 0.0, 10.0, 10.0), obstacles=boxes, passages=passage)
+    checked = 0
+    for n in (2, 3):
+        dirs = np.zeros(n, dtype=int)  # no robot crosses: the order rule only forbids the passage
+        sep = np.full(n * (n - 1) // 2, 0.3)
+        radii = rng.uniform(0.0, 0.4, n)
+        index, full = CompiledRules.of(mapped, radii, dirs, sep), CompiledRules.of(plain, radii, dirs, sep)
+        assert index.args[-3][3] > 0 and full.args[-3][3] == 0  # the first goes through the index
+        a = rng.uniform(0.0, 10.0, (3000, 2 * n))
+        b = a + rng.normal(0.0, rng.choice([0.05, 0.5, 3.0]), a.shape)
+        assert np.array_equal(index.motions_ok(a, b), full.motions_ok(a, b))
+        states = [index.state_ok(x) for x in a[:1000]]
+        assert states == [full.state_ok(x) for x in a[:1000]]
+        checked += int(np.sum(states))
+        # Thresholds on the verdict's edge: robot 0's requirement equal to its exact clearance
+        # (the full loop's value) along the edge, then a hair above it.
+        for x, y in zip(a[:200], b[:200]):
+            exact = segment_clearance_one(x[0], x[1], y[0], y[1], plain.obstacle_array, plain.bounds_array,
+                                          plain.piece_array)
+            for need in (exact + TOL, np.nextafter(exact + TOL, np.inf)):
+                clear = np.array([need] + [0.0] * (n - 1))
+                one = CompiledRules.of(mapped, clear, dirs, np.zeros_like(sep))
+                other = CompiledRules.of(plain, clear, dirs, np.zeros_like(sep))
+                assert one.motion_ok(x, y) == other.motion_ok(x, y)
+                assert one.state_ok(x) == other.state_ok(x)
+    assert checked > 0  # some valid states among them, not only refusals

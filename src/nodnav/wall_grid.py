@@ -196,74 +196,79 @@ def _box_too_close(ax, ay, bx, by, walls, w, want):
 @compiled
 def segment_clear_indexed(a, b, need, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
     """Whether :func:`nodnav.geometry.segment_clearance` of each segment ``a -> b`` is at least
-    ``need[s]``, through a :class:`WallGrid`: the verdict of the full loop, exactly.
-
-    The verdict fails exactly when some box is closer than ``need``, and every such box lies in a
-    bucket within ``need`` of the segment. So: first the boxes of the buckets along the segment
-    (sampled every half bucket; a segment through a wall ends there), then, row by row, the
-    buckets within ``need`` (plus a margin for rounding) of the part of the segment in that
-    row's band. A long clear segment costs the buckets along it, not its bounding box's. A
-    segment leaving the world (negative clearance of the bounds, only with a negative ``need``)
-    examines every box."""
+    ``need[s]``, through a :class:`WallGrid`: the verdict of the full loop, exactly
+    (:func:`segment_clear_one_indexed` for each segment)."""
     out = np.empty(a.shape[0], dtype=np.bool_)
     seen = np.zeros(walls.shape[0], dtype=np.int64)
     for s in range(a.shape[0]):
-        ax, ay, bx, by, want = a[s, 0], a[s, 1], b[s, 0], b[s, 1], need[s]
-        x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
-        d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
-        ok = d >= want
-        if ok and walls.shape[0] and d < 0.0:
-            for w in range(walls.shape[0]):
-                if _box_too_close(ax, ay, bx, by, walls, w, want):
-                    ok = False
-                    break
-        elif ok and walls.shape[0]:
-            n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
-            for t in range(n_samples + 1):
-                f = t / n_samples
-                i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
-                j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
-                k = j * nx + i
-                for q in range(starts[k], starts[k + 1]):
-                    w = items[q]
-                    if seen[w] != s + 1:
-                        seen[w] = s + 1
-                        if _box_too_close(ax, ay, bx, by, walls, w, want):
-                            ok = False
-                            break
-                if not ok:
-                    break
-            reach = max(want, 0.0) + 1e-6
-            j0, j1 = _grid_range(min(ay, by) - reach, max(ay, by) + reach, gy, cell, ny)
-            for j in range(j0, j1 + 1):
-                if not ok:
-                    break
-                # The part of the segment within ``reach`` of this row's band (the edge rows hold
-                # the boxes beyond the grid: their band is unbounded).
-                lo = gy + j * cell - reach if j > 0 else -np.inf
-                hi = gy + (j + 1) * cell + reach if j < ny - 1 else np.inf
-                if by != ay:
-                    t0, t1 = (lo - ay) / (by - ay), (hi - ay) / (by - ay)
-                    t0, t1 = max(min(t0, t1), 0.0), min(max(t0, t1), 1.0)
-                    if t0 > t1:
-                        continue
-                elif lo <= ay <= hi:
-                    t0, t1 = 0.0, 1.0
-                else:
-                    continue
-                xa, xb = ax + t0 * (bx - ax), ax + t1 * (bx - ax)
-                i0, i1 = _grid_range(min(xa, xb) - reach - 1e-6, max(xa, xb) + reach + 1e-6, gx, cell, nx)
-                for q in range(starts[j * nx + i0], starts[j * nx + i1 + 1]):
-                    w = items[q]
-                    if seen[w] != s + 1:
-                        seen[w] = s + 1
-                        if _box_too_close(ax, ay, bx, by, walls, w, want):
-                            ok = False
-                            break
-        if ok and pieces.shape[0]:
-            nearest = np.inf
-            for w in range(pieces.shape[0]):
-                nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
-            ok = math.sqrt(nearest) >= want
-        out[s] = ok
+        out[s] = segment_clear_one_indexed(a[s, 0], a[s, 1], b[s, 0], b[s, 1], need[s], walls, bounds, pieces,
+                                           gx, gy, cell, nx, ny, starts, items, seen, s + 1)
     return out
+
+
+@compiled
+def segment_clear_one_indexed(ax, ay, bx, by, want, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items,
+                              seen, mark):
+    """Whether :func:`nodnav.geometry.segment_clearance` of the one segment ``(ax, ay) -> (bx, by)``
+    is at least ``want``, through a :class:`WallGrid`: the verdict of the full loop, exactly (the
+    compiled twin for other kernels, e.g. the PRM planner's joint checks).
+
+    The verdict fails exactly when some box is closer than ``want``, and every such box lies in a
+    bucket within ``want`` of the segment. So: first the boxes of the buckets along the segment
+    (sampled every half bucket; a segment through a wall ends there), then, row by row, the
+    buckets within ``want`` (plus a margin for rounding) of the part of the segment in that
+    row's band. A long clear segment costs the buckets along it, not its bounding box's. A
+    segment leaving the world (negative clearance of the bounds, only with a negative ``want``)
+    examines every box. ``seen`` ``(M,)`` records the boxes examined (``seen[w] == mark``: not
+    again); ``mark`` must differ from every value ``seen`` holds from an earlier segment."""
+    x0, y0, x1, y1 = bounds[0], bounds[1], bounds[2], bounds[3]
+    d = min(min(min(ax - x0, x1 - ax), min(ay - y0, y1 - ay)), min(min(bx - x0, x1 - bx), min(by - y0, y1 - by)))
+    if not d >= want:
+        return False
+    if walls.shape[0] and d < 0.0:
+        for w in range(walls.shape[0]):
+            if _box_too_close(ax, ay, bx, by, walls, w, want):
+                return False
+    elif walls.shape[0]:
+        n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+        for t in range(n_samples + 1):
+            f = t / n_samples
+            i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
+            j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
+            k = j * nx + i
+            for q in range(starts[k], starts[k + 1]):
+                w = items[q]
+                if seen[w] != mark:
+                    seen[w] = mark
+                    if _box_too_close(ax, ay, bx, by, walls, w, want):
+                        return False
+        reach = max(want, 0.0) + 1e-6
+        j0, j1 = _grid_range(min(ay, by) - reach, max(ay, by) + reach, gy, cell, ny)
+        for j in range(j0, j1 + 1):
+            # The part of the segment within ``reach`` of this row's band (the edge rows hold
+            # the boxes beyond the grid: their band is unbounded).
+            lo = gy + j * cell - reach if j > 0 else -np.inf
+            hi = gy + (j + 1) * cell + reach if j < ny - 1 else np.inf
+            if by != ay:
+                t0, t1 = (lo - ay) / (by - ay), (hi - ay) / (by - ay)
+                t0, t1 = max(min(t0, t1), 0.0), min(max(t0, t1), 1.0)
+                if t0 > t1:
+                    continue
+            elif lo <= ay <= hi:
+                t0, t1 = 0.0, 1.0
+            else:
+                continue
+            xa, xb = ax + t0 * (bx - ax), ax + t1 * (bx - ax)
+            i0, i1 = _grid_range(min(xa, xb) - reach - 1e-6, max(xa, xb) + reach + 1e-6, gx, cell, nx)
+            for q in range(starts[j * nx + i0], starts[j * nx + i1 + 1]):
+                w = items[q]
+                if seen[w] != mark:
+                    seen[w] = mark
+                    if _box_too_close(ax, ay, bx, by, walls, w, want):
+                        return False
+    if pieces.shape[0]:
+        nearest = np.inf
+        for w in range(pieces.shape[0]):
+            nearest = min(nearest, _segment_piece_d2_one(ax, ay, bx, by, pieces[w]))
+        return math.sqrt(nearest) >= want
+    return True

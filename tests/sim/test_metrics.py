@@ -253,3 +253,79 @@ def test_metrics_of_a_real_trial_agree_with_the_simulator():
     if result.success:
         assert m["robots_crossed"] == 2
     json.dumps(json_ready(m), allow_nan=False)
+
+
+def _two_passage_history():
+    """Passage A along x from (-5, 0) to (-2, 0), passage B along y from (3, 2) to (3, 5), both
+    0.7 m wide; three robots on axis-parallel polylines at 1 m/s, sampled every 0.1 s:
+
+    - robot 1: (-7, 0) -> (0, 0) -> (3, 0) -> (3, 7): A left to right (in at x = -5, t = 2; out at
+      x = -2, t = 5), then B upwards (in at y = 2, t = 12; out at y = 5, t = 15);
+    - robot 2: (3, 7) -> (3, 0) -> (-7, 0): B downwards (in at y = 5, t = 2; out at y = 2, t = 5),
+      then A right to left (in at x = -2, t = 12; out at x = -5, t = 15);
+    - robot 3: (-7, 3.5) -> (0, 3.5): along A's axis through x = -5..-2 and across B's band
+      y = 2..5, but 3.5 m off A's centreline and 3 m or more off B's: it crosses neither.
+    """
+    from dataclasses import replace
+
+    from nodnav.scenario.world import Passage, World
+
+    t = np.round(np.arange(0, 201) * DT, 10)
+
+    def polyline(points):
+        points = np.asarray(points, dtype=float)
+        at = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        return np.stack([np.interp(t, at, points[:, 0]), np.interp(t, at, points[:, 1])], axis=-1)
+
+    paths = [polyline([(-7, 0), (0, 0), (3, 0), (3, 7)]), polyline([(3, 7), (3, 0), (-7, 0)]),
+             polyline([(-7, 3.5), (0, 3.5)])]
+    # The robots' origins and destinations (in the paper's world, which the world below replaces)
+    # do not enter the crossing metrics.
+    sc = _scenario([(-5, 0), (5, 0), (-5, 1)], [(5, 0), (-5, 0), (5, 1)])
+    world = World(bounds=(-8.0, -1.0, 8.0, 8.0), obstacles=(),
+                  passages=(Passage(start=(-5.0, 0.0), end=(-2.0, 0.0), width=0.7),
+                            Passage(start=(3.0, 2.0), end=(3.0, 5.0), width=0.7)))
+    return _history(replace(sc, world=world), t, np.stack(paths, axis=1))
+
+
+def test_crossings_entry_order_and_flow_per_passage_of_several():
+    m = compute_metrics(_two_passage_history())
+    a_times, b_times = m["passage_entry_times_s"]
+    assert a_times[:2] == pytest.approx([2.0, 12.0]) and math.isnan(a_times[2])
+    assert b_times[:2] == pytest.approx([12.0, 2.0]) and math.isnan(b_times[2])
+    assert m["passage_entry_orders"] == [[1, 2], [2, 1]]  # robot numbers from 1, per passage
+    assert m["passage_robots_crossed"] == [2, 2]  # robot 3 passes beside both, crosses neither
+    assert m["passage_flow_rate_rps"] == pytest.approx([2.0 / (15.0 - 2.0), 2.0 / (15.0 - 2.0)])
+    # The trial's headline crossing numbers are the first passage's.
+    assert m["robots_crossed"] == 2 and m["flow_rate_rps"] == pytest.approx(2.0 / 13.0)
+    # Along A's axis alone (the one-passage rule), robot 3 would count as crossing it.
+    assert flow_rate(np.asarray(_two_passage_history().times), _two_passage_history().arrays()["positions"],
+                     _two_passage_history().scenario.world)[0] == 3
+
+
+def test_a_crossing_broken_by_a_sample_beside_the_passage_does_not_count():
+    from nodnav.scenario.world import Passage
+    from nodnav.sim.metrics import AWAY, passage_crossings, passage_states
+
+    g = Passage(start=(3.0, 2.0), end=(3.0, 5.0), width=0.7)
+    assert passage_states(np.array([[3.0, 1.0], [3.3, 3.0], [3.4, 3.0], [0.0, 3.0], [2.0, 6.0]]), g).tolist() == [
+        -1, 0, AWAY, AWAY, 1]
+    t = np.arange(5.0)
+    # Below, inside, beside (off the rectangle), inside, above: no complete crossing.
+    p = np.array([[3.0, 1.0], [3.0, 3.0], [4.0, 3.5], [3.0, 4.0], [3.0, 6.0]])
+    assert len(passage_crossings(t, p, g)[0]) == 0
+    # Without the detour it is one, in at y = 2 (t = 0.5), out at y = 5 (t = 3.5).
+    p[2] = (3.0, 3.5)
+    t_in, t_out = passage_crossings(t, p, g)
+    assert t_in == pytest.approx([0.5]) and t_out == pytest.approx([3.5])
+
+
+def test_one_passage_adds_no_per_passage_metrics():
+    assert not [k for k in compute_metrics(_two_straight_robots()) if k.startswith("passage_")]
+
+
+def test_the_snapshot_title_names_the_order_of_each_passage():
+    from nodnav.viz.trial import passage_orders_text
+
+    assert passage_orders_text(_two_passage_history()) == "; crossed passage 1: 1,2; passage 2: 2,1"
+    assert passage_orders_text(_two_straight_robots()) == ""

@@ -8,6 +8,7 @@ import pytest
 import yaml
 
 from nodnav.cli import main
+from nodnav.cli.terminal import trial_summary_lines
 from nodnav.planning import make_planner
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import ScenarioError, scenario_from_dict
@@ -67,6 +68,22 @@ def test_a_route_that_comes_back_gets_a_local_goal_short_of_the_turn():
     assert -2.0 - goal[0] == pytest.approx(-0.3 - 0.02, abs=0.03)
 
 
+def test_routes_are_the_trials_own_and_computed_once_per_trial():
+    # No module-level memo (the project forbids global state): the simulator takes its routes
+    # from the trial's method (one computation per trial), and two trials of the same scenario
+    # compute their own, equal ones (a route depends on the scenario alone).
+    import nodnav.sim.several as several_module
+
+    assert not [k for k, v in vars(several_module).items() if not k.startswith("__") and isinstance(v, dict)]
+    s = load_scenario(str(EXAMPLE))
+    first, second = Simulation(s, "nod", 1), Simulation(s, "closest-first", 2)
+    assert first.routes is first.method.passages.routes
+    assert first.routes is not second.routes
+    for a, b in zip(first.routes, second.routes):
+        assert np.array_equal(a.points, b.points) and (a.passages, a.entry_sides, a.goals) == (
+            b.passages, b.entry_sides, b.goals)
+
+
 def test_game_membership_follows_the_next_passage_on_each_route():
     s = load_scenario(str(EXAMPLE))
     views = PassageViews(s, lambda world: make_planner(s.planner, world))
@@ -108,6 +125,15 @@ def test_the_two_corridor_example_succeeds_without_collision(method, seed):
     assert result.min_separation > 0.4
     # every robot went through both corridors, in each in some order
     assert sorted(result.entry_order) == [0, 1, 2, 3]
+    # ... and the metrics per passage say so: each corridor crossed once by each of the four
+    orders = result.metrics["passage_entry_orders"]
+    assert [sorted(o) for o in orders] == [[1, 2, 3, 4], [1, 2, 3, 4]]
+    assert result.metrics["passage_robots_crossed"] == [4, 4]
+    # robots 1 and 3 start left of corridor 1 and cross it before corridor 2, robots 2 and 4 the
+    # other way round (the example's layout): their entry times per passage are in that order
+    t1, t2 = (np.array(t) for t in result.metrics["passage_entry_times_s"])
+    assert (t1[[0, 2]] < t2[[0, 2]]).all() and (t2[[1, 3]] < t1[[1, 3]]).all()
+    assert "crossed passage 1 in the order" in "\n".join(trial_summary_lines(result, s, method, seed))
 
 
 def test_one_passage_of_several_that_is_not_single_file_gets_one_line():

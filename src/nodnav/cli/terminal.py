@@ -134,6 +134,10 @@ def trial_summary_lines(result, scenario, method: str, seed: int) -> list[str]:
         order_text += (f", which is strategy {strategy_label(j)} {order_label(strategy_order(j, scenario.n_robots))}; "
                        f"the robots {'agreed' if summary['consensus'] else 'did not agree'} on the order beforehand")
     lines.append("  " + order_text)
+    if summary.get("passage_entry_orders"):  # several passages: the order each was crossed in
+        lines.append("  crossed " + "; ".join(f"passage {k + 1} in the order ({','.join(map(str, o))})" if o else
+                                              f"passage {k + 1} by no robot"
+                                              for k, o in enumerate(summary["passage_entry_orders"])))
     braking = (f"emergency braking at {plural(result.mpc_infeasible, 'robot step')} (no safe plan for the controller)"
                if result.mpc_infeasible else "no emergency braking")
     closest = (f"closest approach {result.min_separation:.3f} m between robot centres, "

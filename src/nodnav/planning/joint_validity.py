@@ -49,6 +49,7 @@ import numpy as np
 from nodnav.compiled import compiled as _njit
 from nodnav.geometry import TOL, segment_clearance_one, segment_is_clear
 from nodnav.scenario.world import World
+from nodnav.wall_grid import segment_clear_one_indexed
 
 BEFORE, INSIDE, AFTER = 0, 1, 2
 """Stages of a robot relative to the corridor, along its crossing direction."""
@@ -252,12 +253,26 @@ def _order_ok(xs, dirs, cx0, cx1):
 
 
 @_njit
-def _state_ok(x, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
+def _wall_clear(ax, ay, bx, by, want, box, rects, pieces, grid, starts, items, seen, mark):
+    """Whether the segment ``(ax, ay) -> (bx, by)`` keeps ``want`` from the walls: through the
+    world's wall index when it has one (``grid[3]``, the buckets across, above 0: a map's world;
+    :func:`~nodnav.wall_grid.segment_clear_one_indexed`, the full loop's verdict exactly), else
+    the full loop over every wall."""
+    if grid[3] > 0:
+        return segment_clear_one_indexed(ax, ay, bx, by, want, rects, box, pieces, grid[0], grid[1], grid[2],
+                                         int(grid[3]), int(grid[4]), starts, items, seen, mark)
+    return not segment_clearance_one(ax, ay, bx, by, rects, box, pieces) < want
+
+
+@_njit
+def _state_ok(x, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy, grid, starts, items):
     """Rules 1-3 at one configuration (scalar :func:`configurations_valid`); ``clear`` is the
     required wall clearance per robot (the radii), ``sep`` the required distance per pair."""
     n = clear.shape[0]
+    seen = np.zeros(rects.shape[0] if grid[3] > 0 else 0, dtype=np.int64)
     for i in range(n):
-        if segment_clearance_one(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], rects, box, pieces) < clear[i] - TOL:
+        if not _wall_clear(x[2 * i], x[2 * i + 1], x[2 * i], x[2 * i + 1], clear[i] - TOL, box, rects, pieces,
+                           grid, starts, items, seen, i + 1):
             return False
     k = 0
     for a in range(n):
@@ -282,12 +297,13 @@ def _along(x, i, ux, uy):
 
 
 @_njit
-def _motion_ok(xa, xb, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
+def _motion_ok(xa, xb, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy, grid, starts, items):
     """Rules 1-3 all along one straight edge (scalar :func:`edges_valid`)."""
     n = clear.shape[0]
+    seen = np.zeros(rects.shape[0] if grid[3] > 0 else 0, dtype=np.int64)
     for i in range(n):
-        if (segment_clearance_one(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], rects, box, pieces)
-                < clear[i] - TOL):
+        if not _wall_clear(xa[2 * i], xa[2 * i + 1], xb[2 * i], xb[2 * i + 1], clear[i] - TOL, box, rects, pieces,
+                           grid, starts, items, seen, i + 1):
             return False
     k = 0
     for a in range(n):
@@ -344,11 +360,23 @@ def _motion_ok(xa, xb, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
 
 
 @_njit
-def _motions_ok(starts, ends, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy):
+def _motions_ok(starts, ends, clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy, grid, buckets, items):
     out = np.empty(starts.shape[0], dtype=np.bool_)
     for e in range(starts.shape[0]):
-        out[e] = _motion_ok(starts[e], ends[e], clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy)
+        out[e] = _motion_ok(starts[e], ends[e], clear, dirs, sep, box, rects, pieces, cx0, cx1, ux, uy, grid, buckets,
+                            items)
     return out
+
+
+def _index_args(world: World) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The world's wall index (:attr:`World.wall_grid`, a map's world) as the kernels take it:
+    ``(x0, y0, cell, nx, ny)`` as floats, bucket starts, box indices; without one, counts 0 (the
+    kernels then loop over every wall, as they did before the index)."""
+    grid = world.wall_grid
+    if grid is None:
+        return np.zeros(5), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    x0, y0, cell, nx, ny, starts, items = grid.arrays()
+    return np.array([x0, y0, cell, nx, ny], dtype=float), starts, items
 
 
 @dataclass(frozen=True, eq=False)
@@ -359,7 +387,8 @@ class CompiledRules:
 
     args: tuple
     """Kernel arguments: clearance, directions, separations, bounds, wall boxes, convex wall
-    pieces, the passage's mouths along its axis, and its axis."""
+    pieces, the passage's mouths along its axis, its axis, and the world's wall index (origin,
+    bucket side and counts as floats, bucket starts, box indices; counts 0 without one)."""
 
     @staticmethod
     def of(world: World, clearance: np.ndarray, directions: np.ndarray, min_separation: np.ndarray) -> "CompiledRules":
@@ -369,7 +398,7 @@ class CompiledRules:
                               np.ascontiguousarray(min_separation, dtype=np.float64),
                               world.bounds_array, world.obstacle_array, world.piece_array,
                               float(world.passage.s_start), float(world.passage.s_end),
-                              float(world.passage.axis[0]), float(world.passage.axis[1])))
+                              float(world.passage.axis[0]), float(world.passage.axis[1]), *_index_args(world)))
 
     def state_ok(self, x: np.ndarray) -> bool:
         """Whether configuration ``x`` ``(2n,)`` is valid."""

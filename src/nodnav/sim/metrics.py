@@ -14,7 +14,11 @@ import numpy as np
 
 from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import passing_orders
-from nodnav.scenario.world import INSIDE, World
+from nodnav.scenario.world import INSIDE, LEFT, RIGHT, Passage, World
+
+#: A point beside a passage: between its mouths along its axis, but outside its clear rectangle
+#: (in another room of a world with several passages).
+AWAY = 2
 
 
 def arrival_times(times: np.ndarray, positions: np.ndarray, destinations: np.ndarray, tolerance: float) -> np.ndarray:
@@ -98,6 +102,66 @@ def flow_rate(times: np.ndarray, positions: np.ndarray, world: World) -> tuple[i
     return crossed, float(crossed / (max(exits) - min(entries)))
 
 
+def passage_states(points: np.ndarray, passage: Passage) -> np.ndarray:
+    """Where each point is relative to one passage of several, shape of ``points`` ``(..., 2)``
+    without its last axis: ``INSIDE`` its clear rectangle (between the mouths and within half its
+    width of the centreline), ``LEFT`` before its first mouth, ``RIGHT`` beyond its second, and
+    :data:`AWAY` between the mouths along the axis but off the rectangle (another room: with
+    several passages, the band between one passage's mouths crosses the others' rooms)."""
+    s = passage.along(points)
+    side = passage.side_of_along(s)
+    beside = np.abs(passage.across(points) - passage.t_centre) > 0.5 * passage.width + 1e-9
+    return np.where((side == INSIDE) & beside, AWAY, side)
+
+
+def passage_crossings(times: np.ndarray, points: np.ndarray, passage: Passage) -> tuple[np.ndarray, np.ndarray]:
+    """Entry and exit times of every complete crossing of one passage of several by one robot (s).
+
+    ``points`` ``(K, 2)`` is the robot's recorded positions. As :func:`corridor_crossings`, with
+    the places of :func:`passage_states`: a crossing is a pair of consecutive recorded samples
+    not inside the passage, one ``LEFT`` and one ``RIGHT``, with only samples inside it between
+    them; a sample :data:`AWAY` from it breaks a crossing. Entry and exit are interpolated on the
+    along-coordinate at the mouth gone through."""
+    state = passage_states(points, passage)
+    x = passage.along(points)
+    outside = np.flatnonzero(state != INSIDE)
+    k1, k2 = outside[:-1], outside[1:]
+    crossing = ((state[k1] == LEFT) | (state[k1] == RIGHT)) & (state[k2] == -state[k1])
+    k1, k2 = k1[crossing], k2[crossing]
+    entry_x = np.where(state[k1] == LEFT, passage.s_start, passage.s_end)
+    exit_x = np.where(state[k2] == LEFT, passage.s_start, passage.s_end)
+
+    def cross_time(k: np.ndarray, line: np.ndarray) -> np.ndarray:
+        w = (line - x[k]) / (x[k + 1] - x[k])
+        return times[k] + w * (times[k + 1] - times[k])
+
+    return cross_time(k1, entry_x), cross_time(k2 - 1, exit_x)
+
+
+def per_passage(times: np.ndarray, positions: np.ndarray, world: World) -> dict:
+    """The crossing metrics of each passage of a world with several (docs/metrics.md), from the
+    recorded positions ``(K, N_r, 2)``: per passage, each robot's entry time into its first
+    complete crossing (NaN without one), the robots in the order of those times (1-based, ties
+    by number), how many crossed, and the flow rate (as :func:`flow_rate`)."""
+    entry_times, orders, crossed, flows = [], [], [], []
+    for passage in world.passages:
+        first = np.full(positions.shape[1], np.nan)
+        starts, ends = [], []
+        for i in range(positions.shape[1]):
+            t_in, t_out = passage_crossings(times, positions[:, i], passage)
+            if len(t_in):
+                first[i] = t_in[0]
+                starts.append(t_in.min())
+                ends.append(t_out.max())
+        done = np.flatnonzero(np.isfinite(first))
+        entry_times.append([float(t) for t in first])
+        orders.append([int(k) + 1 for k in done[np.argsort(first[done], kind="stable")]])
+        crossed.append(len(done))
+        flows.append(float(len(done) / (max(ends) - min(starts))) if len(done) else math.nan)
+    return {"passage_entry_times_s": entry_times, "passage_entry_orders": orders, "passage_robots_crossed": crossed,
+            "passage_flow_rate_rps": flows}
+
+
 def smoothness(velocities: np.ndarray) -> float:
     """Mean over robots and control steps of ``|v_{k+1} - v_k|`` (m/s); NaN with fewer than two steps.
 
@@ -173,6 +237,9 @@ def compute_metrics(history) -> dict:
     crossed, flow = flow_rate(times, positions, s.world)
     switches = opinion_switches(a["ranks"])
     makespan = float(goal.max()) if history.outcome == "success" and np.isfinite(goal).all() else math.nan
+    passages = per_passage(times, positions, s.world) if len(s.world.passages) > 1 else {}
+    if passages:  # the first passage's, off its clear rectangle's band (another room) not counted
+        crossed, flow = passages["passage_robots_crossed"][0], passages["passage_flow_rate_rps"][0]
     return {
         "makespan_s": makespan,
         "time_to_goal_s": [float(t) for t in goal],
@@ -186,6 +253,7 @@ def compute_metrics(history) -> dict:
         "opinion_switches": int(switches.sum()),
         "opinion_switches_per_robot": [int(v) for v in switches],
         "time_to_consensus_s": time_to_consensus(a["decision_times"], a["ranks"], a["undecided"]),
+        **passages,
     }
 
 

@@ -134,21 +134,23 @@ def robot_route(world: World, origin: ArrayLike, destination: ArrayLike, radius:
     return route_crossings(world, path.points)
 
 
-_ROUTES: dict[tuple, list[RobotRoute]] = {}
-
-
 def trial_routes(scenario: Scenario) -> list[RobotRoute]:
-    """Every robot's route (:func:`robot_route`), computed once for a scenario (the simulator and
-    the robots' methods ask for the same; the last few answers are kept)."""
-    key = (scenario.world, scenario.origins.tobytes(), scenario.destinations.tobytes(), scenario.radii.tobytes())
-    routes = _ROUTES.get(key)
-    if routes is None:
-        graphs: dict[float, VisibilityGraph] = {}
-        routes = [robot_route(scenario.world, r.origin, r.destination, r.radius, graphs) for r in scenario.robots]
-        if len(_ROUTES) >= 8:
-            _ROUTES.pop(next(iter(_ROUTES)))
-        _ROUTES[key] = routes
-    return routes
+    """Every robot's route (:func:`robot_route`), one visibility graph per radius. Computed by
+    each trial (its method's :class:`PassageViews`; the simulator takes them from there, see
+    :func:`team_routes`): nothing is kept between trials."""
+    graphs: dict[float, VisibilityGraph] = {}
+    return [robot_route(scenario.world, r.origin, r.destination, r.radius, graphs) for r in scenario.robots]
+
+
+def team_routes(method: object, scenario: Scenario) -> list[RobotRoute]:
+    """The routes the trial's method (or a member of its team) has computed for ``scenario``,
+    else computed now: the simulator's and the robots' routes are the same objects, computed
+    once per trial (a route costs seconds on a map)."""
+    for member in (method, *getattr(method, "members", {}).values()):
+        views = getattr(member, "passages", None)
+        if isinstance(views, PassageViews) and views.scenario is scenario:
+            return views.routes
+    return trial_routes(scenario)
 
 
 def passage_sides(scenario: Scenario, routes: list[RobotRoute], k: int) -> np.ndarray:
@@ -179,6 +181,7 @@ class PassageViews:
         self.scenario = scenario
         world = scenario.world
         self.routes = trial_routes(scenario)
+        """Each robot's route (:func:`trial_routes`), computed for this trial."""
         n = scenario.n_robots
         self.scenarios: list[Scenario] = []
         self.free: list[Scenario] = []
@@ -381,4 +384,4 @@ def several(scenario: Scenario) -> bool:
 
 
 __all__ = ["LEFT", "RIGHT", "PassageAgent", "PassageViews", "RobotRoute", "drive_alone", "robot_route",
-           "route_crossings", "several", "passage_sides", "trial_routes"]
+           "route_crossings", "several", "passage_sides", "team_routes", "trial_routes"]

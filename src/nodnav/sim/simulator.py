@@ -30,7 +30,7 @@ from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
 from nodnav.sim.progress import PlanProgress
 from nodnav.sim.sensing import Sight, Tracker, within_sight
-from nodnav.sim.several import passage_sides, several, trial_routes
+from nodnav.sim.several import passage_sides, several, team_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 
 log = logging.getLogger(__name__)
@@ -216,7 +216,7 @@ class Simulation:
         m = self.steps_per_decision + 1
         self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed]
         self._window_offsets = self.dt * np.arange(m)[::-1]
-        self.routes = trial_routes(scenario) if several(scenario) else None
+        self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
         passages = scenario.world.passages
         self._passage_sides = ([self.sides] if self.routes is None else

@@ -60,7 +60,8 @@ def save_map_figure(m: OccupancyMap, passages: Sequence[Passage], path: str | Pa
 
 def draw_world(ax: Axes, world: World, *, entrances: bool = True) -> None:
     """Walls (boxes and polygons) in grey, the passage shaded, entrances as small black diamonds; a
-    world on a map draws the map's grid and numbers its passages."""
+    world on a map draws the map's grid and numbers its passages, and so does any world with
+    several passages (each passage's mouths as diamonds)."""
     x0, y0, x1, y1 = world.bounds
     ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, edgecolor="0.2", linewidth=1.5))
     if world.map_file:
@@ -73,8 +74,14 @@ def draw_world(ax: Axes, world: World, *, entrances: bool = True) -> None:
         ax.add_patch(Polygon(np.asarray(poly), closed=True, facecolor="0.55", edgecolor="0.3"))
     for passage in world.passages:
         ax.add_patch(Polygon(passage.outline(), closed=True, facecolor="#fff3c4", edgecolor="none", zorder=0))
-    if entrances:
-        ent = np.asarray(world.entrances)
+    several = len(world.passages) > 1
+    if several and not world.map_file:  # numbered as on a map (draw_map), for the per-passage figures
+        for k, passage in enumerate(world.passages):
+            ax.annotate(str(k + 1), np.mean([passage.start, passage.end], axis=0), xytext=(3, 3),
+                        textcoords="offset points", fontsize=6, color="#8a3b00", zorder=2)
+    if entrances:  # every passage's mouths (the paper's two entrances with one)
+        ent = (np.asarray([m for g in world.passages for m in (g.start, g.end)]) if several
+               else np.asarray(world.entrances))
         ax.plot(ent[:, 0], ent[:, 1], "kD", markersize=4, zorder=3)
     ax.set_xlim(x0 - 0.2, x1 + 0.2)
     ax.set_ylim(y0 - 0.2, y1 + 0.2)

@@ -18,6 +18,7 @@ from PIL import Image
 
 from nodnav.decision.strategies import order_label, strategy_index, strategy_label
 from nodnav.sim.history import History
+from nodnav.sim.metrics import per_passage
 from nodnav.viz.scenario import draw_world, new_figure, robot_color
 from nodnav.viz.text import set_suptitle, set_title, wrap_text
 
@@ -159,6 +160,18 @@ def draw_opinion_panel(ax, history: History, arrays: dict, marks: np.ndarray) ->
               + ("; hatched: the method gives no probability" if no_probability else ""), 8)
 
 
+def passage_orders_text(history: History, arrays: dict | None = None) -> str:
+    """With several passages, the order in which the robots crossed each (numbered as drawn;
+    :func:`nodnav.sim.metrics.per_passage`), e.g. ``"; crossed passage 1: 1,3; passage 2: 2"``;
+    empty with one passage (the figures keep the one-passage look)."""
+    world = history.scenario.world
+    if len(world.passages) < 2:
+        return ""
+    a = arrays if arrays is not None else history.arrays()
+    orders = per_passage(a["times"], a["positions"], world)["passage_entry_orders"]
+    return "; crossed " + "; ".join(f"passage {k + 1}: {','.join(map(str, o)) or 'none'}" for k, o in enumerate(orders))
+
+
 def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
     """The snapshot figure (the paper's Figs. 4 and 5), readable on its own.
 
@@ -193,8 +206,8 @@ def save_snapshots(history: History, path: str | Path, count: int = 4) -> Path:
     fig.legend(handles, labels, loc="outside lower center", ncol=len(handles), fontsize=7, frameon=False,
                title="marks of the top row", title_fontsize=7, handler_map={FancyArrowPatch: _ArrowHandler()})
     set_suptitle(fig, f"{scenario.name}, method {history.method}, seed {history.seed}: {history.outcome}"
-                 + ("" if opinions else f" (method {history.method} chooses no passing order: no opinions to show)"),
-                 10)
+                 + ("" if opinions else f" (method {history.method} chooses no passing order: no opinions to show)")
+                 + passage_orders_text(history, arrays), 10)
     fig.savefig(path, dpi=110)
     return Path(path)
 

@@ -86,6 +86,22 @@ class PlanExecution:
         _observe_kernel(self.samples, np.ascontiguousarray(positions, dtype=float), self.settings.tolerance,
                         self.dependencies, self.progress, self.gates)
 
+    def blockers(self) -> np.ndarray:
+        """Columns of the robots whose precedences hold the plan's first robot (the one executing
+        it) at its gate now: its next sample depends on where they have not yet got."""
+        if not self.settings.gated or self.gates[0] >= len(self.sample_times) - 1:
+            return np.zeros(0, dtype=np.int64)
+        row = self.dependencies[self.gates[0] + 1, 0]
+        held = row >= self.progress
+        held[0] = False
+        return np.flatnonzero(held)
+
+    def release(self, columns: np.ndarray, positions: np.ndarray) -> None:
+        """The plan's first robot stops waiting for the robots ``columns``: its precedences on them
+        are dropped, and its gate follows from the observed ``positions`` ``(n, 2)`` again."""
+        self.dependencies[:, 0, np.asarray(columns, dtype=np.int64)] = -1
+        self.observe(positions)
+
     def limits(self) -> np.ndarray:
         """Plan time (s after the plan's start) at which each robot's clock stops for now."""
         if not self.settings.gated:
@@ -270,3 +286,50 @@ class ReactionMargins:
         if mode == "moving":
             careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > self._surprise)
         return careful
+
+
+class WaitRelease:
+    """Breaking waiting cycles of the gated execution (``execution.wait_patience``; not in the paper).
+
+    Each robot executes the plan of its own decision, and the robots of a crowd do not always
+    select plans that agree: one robot's plan has a neighbour back out before it moves, the
+    neighbour's plan has the first robot move before it backs out, and each waits at its gate
+    for the other for ever (docs/execution.md, "Deadlocks in crowds"). Nothing a robot observes
+    changes while everyone stands. So when a robot has been held at its gate for ``patience``
+    while it and every robot of its plan stood, it stops waiting for the standing robots that
+    hold it, for ``patience`` seconds: it follows its own path, its MPC keeping it clear of
+    everyone as always, and whoever can move makes room. A robot held by a robot that moves, or
+    whose plan has anyone moving, waits as before.
+    """
+
+    def __init__(self, scenario: Scenario):
+        n = scenario.n_robots
+        self.patience = scenario.execution.wait_patience
+        self.dt = scenario.controller.dt
+        self.still = scenario.execution.surprise / self.dt  # below this speed (m/s) a robot stands
+        self.held = np.zeros(n)
+        """For how long each robot has been held at its gate with its whole plan standing (s)."""
+        self.released_until = np.full(n, -np.inf)
+        """Until when each robot ignores the standing robots that hold it (s)."""
+
+    def check(self, i: int, t: float, execution: PlanExecution, rows: np.ndarray, view: RobotView) -> None:
+        """Robot ``i``'s execution after :meth:`PlanExecution.observe` at time ``t``: count how long
+        it is held in a standing plan, and release it from standing robots once that lasts."""
+        if self.patience <= 0.0 or not execution.settings.gated:
+            return
+        positions = view.positions[rows]
+        standing = np.linalg.norm(view.velocities[rows], axis=1) < self.still
+        blockers = execution.blockers()
+        stuck = blockers[standing[blockers]]
+        if t < self.released_until[i] - 1e-9:
+            if len(stuck):
+                execution.release(stuck, positions)
+            return
+        if len(stuck) and standing.all():
+            self.held[i] += self.dt
+        else:
+            self.held[i] = 0.0
+        if self.held[i] >= self.patience - 1e-9:
+            self.held[i] = 0.0
+            self.released_until[i] = t + self.patience
+            execution.release(stuck, positions)

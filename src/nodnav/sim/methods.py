@@ -21,7 +21,7 @@ from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
-from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins
+from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
 from nodnav.sim.several import PassageAgent, PassageViews, several
 
 
@@ -114,6 +114,7 @@ class PlannedMethod:
             margin=scenario.planner.margin, tolerance=ex.tolerance)
         self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
         self.reactions = ReactionMargins(scenario)
+        self.waits = WaitRelease(scenario)
         self.passages = None
         if several(scenario):
             def planner_for(world: World) -> Any:
@@ -202,6 +203,7 @@ class PlannedMethod:
         for i, view in views.items():
             _, execution, rows, _ = self._held(i)
             execution.observe(view.positions[rows])
+            self.waits.check(i, t, execution, rows, view)
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self.reactions.radii(i, view, self._other_radii[i])

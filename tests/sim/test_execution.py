@@ -54,14 +54,14 @@ def _waits(patience: float):
 
     from nodnav.sim.execution import WaitRelease
 
-    scenario = SimpleNamespace(n_robots=2, controller=SimpleNamespace(dt=0.1),
-                               execution=SimpleNamespace(wait_patience=patience, surprise=5e-3))
+    scenario = SimpleNamespace(n_robots=2, sim=SimpleNamespace(progress_epsilon=0.2),
+                               execution=SimpleNamespace(wait_patience=patience))
     return WaitRelease(scenario)  # type: ignore[arg-type]
 
 
 def _held_follower(patience: float, leader_speed: float, steps: int) -> PlanExecution:
-    """The follower (robot 1) executing the queue while the leader stands at its start, both
-    observed with speed 0 but the leader's of ``leader_speed`` (m/s)."""
+    """The follower (robot 1) executing the queue while the leader stays at its start, or sways
+    across the queue's line by ``leader_speed`` (m) every second, which gets it nowhere along the plan."""
     from types import SimpleNamespace
 
     queue = _queue()  # the follower's plan lists the follower (scenario robot 1) first
@@ -70,8 +70,9 @@ def _held_follower(patience: float, leader_speed: float, steps: int) -> PlanExec
     waits = _waits(patience)
     rows = np.array([1, 0])
     for k in range(steps):
-        positions = np.array([[1.0, 0.0], [0.0, 0.0]])  # scenario order: robot 0 leader, robot 1 follower
-        velocities = np.array([[leader_speed, 0.0], [0.0, 0.0]])
+        sway = leader_speed * ((k // 10) % 2)  # a step of that size across the line every second
+        positions = np.array([[1.0, sway], [0.0, 0.0]])  # scenario order: robot 0 leader, robot 1 follower
+        velocities = np.zeros((2, 2))
         ex.observe(positions[rows])
         waits.check(1, 0.1 * k, ex, rows, SimpleNamespace(positions=positions, velocities=velocities))
         ex.advance()
@@ -80,15 +81,16 @@ def _held_follower(patience: float, leader_speed: float, steps: int) -> PlanExec
 
 def test_a_robot_held_by_a_standing_robot_in_a_standing_plan_stops_waiting_after_the_patience():
     # The follower may drive 0.5 m (to one conflict distance, 0.45 m, behind the standing leader,
-    # within a 0.1 m sample) and is held there. Each control step held counts 0.1 s, so the 30th
-    # step (3 s) releases it.
-    assert _held_follower(3.0, 0.0, 29).gates[0] == 5
-    released = _held_follower(3.0, 0.0, 30)
+    # within a 0.1 m sample) and is held there. Its wait begins at the first step (t = 0); the
+    # step at t = 3 s, the 31st, releases it.
+    assert _held_follower(3.0, 0.0, 30).gates[0] == 5
+    released = _held_follower(3.0, 0.0, 31)
     assert released.gates[0] == len(released.sample_times) - 1  # nothing holds it any more
     assert len(released.blockers()) == 0
 
 
 def test_a_robot_held_by_a_moving_robot_or_with_no_patience_waits_as_before():
-    # A leader observed moving at 0.1 m/s (above 5 mm per 0.1 s step) is not standing.
-    assert _held_follower(3.0, 0.1, 60).gates[0] == 5
+    # A leader that moves 0.3 m across the line (more than sim.progress_epsilon, 0.2 m) within
+    # every 3 s starts the wait anew each time: the follower waits for it as before.
+    assert _held_follower(3.0, 0.3, 60).gates[0] == 5
     assert _held_follower(0.0, 0.0, 60).gates[0] == 5

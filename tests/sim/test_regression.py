@@ -54,7 +54,7 @@ CASES = [
     ("abreast-after-backing-out.yaml", (66,)),
     ("standoff-with-an-arrived-robot.yaml", (1, 17)),
     ("wait-cycle-at-the-mouth.yaml", (133,)),
-    ("wait-for-a-parked-robot.yaml", (56,)),
+    ("wait-chain-at-the-right-mouth.yaml", (193,)),
 ]
 
 

@@ -275,9 +275,9 @@ class ExecutionParams:
     """How much of the present gap to another robot the reaction margin leaves free (m), so that
     switching the margin on never puts a robot inside the other's braking disc at once."""
     wait_patience: float = field(default=3.0, metadata=accepted(0.0, 600.0))
-    """After how long (s) a robot held by its plan's precedences, while it and every robot of its
-    plan stand, stops waiting for the standing robots that hold it, for as long again
-    (docs/execution.md, "Deadlocks in crowds"); 0: it waits for ever (before this setting)."""
+    """After how long (s) a robot held by its plan's precedences, while no robot of its plan got
+    ``sim.progress_epsilon`` from where it was, stops waiting for those that hold it, for as long
+    again (docs/execution.md, "Deadlocks in crowds"); 0: it waits for ever (before this setting)."""
 
 
 @dataclass(frozen=True)

@@ -295,41 +295,45 @@ class WaitRelease:
     select plans that agree: one robot's plan has a neighbour back out before it moves, the
     neighbour's plan has the first robot move before it backs out, and each waits at its gate
     for the other for ever (docs/execution.md, "Deadlocks in crowds"). Nothing a robot observes
-    changes while everyone stands. So when a robot has been held at its gate for ``patience``
-    while it and every robot of its plan stood, it stops waiting for the standing robots that
-    hold it, for ``patience`` seconds: it follows its own path, its MPC keeping it clear of
-    everyone as always, and whoever can move makes room. A robot held by a robot that moves, or
-    whose plan has anyone moving, waits as before.
+    changes while nobody gets anywhere. So when a robot has been held at its gate for
+    ``patience`` while no robot of its plan (itself included) moved ``sim.progress_epsilon`` from
+    where it was, it stops waiting for the robots that hold it and have not moved, for
+    ``patience`` seconds: it follows its own path, its MPC keeping it clear of everyone as
+    always, and whoever can move makes room. A robot held by a robot that gets somewhere, or
+    whose plan has anyone getting somewhere, waits as before.
     """
 
     def __init__(self, scenario: Scenario):
         n = scenario.n_robots
         self.patience = scenario.execution.wait_patience
-        self.dt = scenario.controller.dt
-        self.still = scenario.execution.surprise / self.dt  # below this speed (m/s) a robot stands
-        self.held = np.zeros(n)
-        """For how long each robot has been held at its gate with its whole plan standing (s)."""
+        self.reach = scenario.sim.progress_epsilon
+        self.anchors: list[np.ndarray | None] = [None] * n
+        """Where each robot saw every robot when its present wait began ``(N_r, 2)`` (m)."""
+        self.since = np.zeros(n)
+        """When each robot's present wait began (s)."""
         self.released_until = np.full(n, -np.inf)
-        """Until when each robot ignores the standing robots that hold it (s)."""
+        """Until when each robot ignores the robots that hold it without moving (s)."""
 
     def check(self, i: int, t: float, execution: PlanExecution, rows: np.ndarray, view: RobotView) -> None:
-        """Robot ``i``'s execution after :meth:`PlanExecution.observe` at time ``t``: count how long
-        it is held in a standing plan, and release it from standing robots once that lasts."""
+        """Robot ``i``'s execution after :meth:`PlanExecution.observe` at time ``t`` (``rows``: the
+        plan's robots as scenario indices): time how long it waits in a plan that gets nowhere,
+        and release it from the robots that hold it once that lasts ``patience``."""
         if self.patience <= 0.0 or not execution.settings.gated:
             return
-        positions = view.positions[rows]
-        standing = np.linalg.norm(view.velocities[rows], axis=1) < self.still
+        anchor = self.anchors[i]
+        if anchor is None:
+            anchor = self.anchors[i] = view.positions.copy()
+            self.since[i] = t
         blockers = execution.blockers()
-        stuck = blockers[standing[blockers]]
-        if t < self.released_until[i] - 1e-9:
-            if len(stuck):
-                execution.release(stuck, positions)
-            return
-        if len(stuck) and standing.all():
-            self.held[i] += self.dt
-        else:
-            self.held[i] = 0.0
-        if self.held[i] >= self.patience - 1e-9:
-            self.held[i] = 0.0
+        moved = np.linalg.norm(view.positions[rows] - anchor[rows], axis=1) > self.reach
+        if t >= self.released_until[i] - 1e-9:
+            if moved.any() or not len(blockers):  # not held, or somebody of the plan got somewhere
+                self.anchors[i] = view.positions.copy()
+                self.since[i] = t
+                return
+            if t - self.since[i] < self.patience - 1e-9:
+                return
             self.released_until[i] = t + self.patience
-            execution.release(stuck, positions)
+        stuck = blockers[~moved[blockers]]  # released: the robots that hold it and have not moved
+        if len(stuck):
+            execution.release(stuck, view.positions[rows])

@@ -53,6 +53,8 @@ CASES = [
     ("sight-remembered-robot-collision.yaml", (1,)),
     ("abreast-after-backing-out.yaml", (66,)),
     ("standoff-with-an-arrived-robot.yaml", (1, 17)),
+    ("wait-cycle-at-the-mouth.yaml", (133,)),
+    ("wait-chain-at-the-right-mouth.yaml", (193,)),
 ]
 
 

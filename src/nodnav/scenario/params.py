@@ -283,6 +283,10 @@ class ExecutionParams:
     rest_clearance: float = field(default=0.5, metadata=accepted(0.0, 100.0))
     """How far beyond the full separation every other robot's predictions must stay for a robot
     at rest to skip its MPC (m)."""
+    wait_patience: float = field(default=3.0, metadata=accepted(0.0, 600.0))
+    """After how long (s) a robot held by its plan's precedences, while no robot of its plan got
+    ``sim.progress_epsilon`` from where it was, stops waiting for those that hold it, for as long
+    again (docs/execution.md, "Deadlocks in crowds"); 0: it waits for ever (before this setting)."""
 
 
 @dataclass(frozen=True)

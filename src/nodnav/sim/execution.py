@@ -86,6 +86,22 @@ class PlanExecution:
         _observe_kernel(self.samples, np.ascontiguousarray(positions, dtype=float), self.settings.tolerance,
                         self.dependencies, self.progress, self.gates)
 
+    def blockers(self) -> np.ndarray:
+        """Columns of the robots whose precedences hold the plan's first robot (the one executing
+        it) at its gate now: its next sample depends on where they have not yet got."""
+        if not self.settings.gated or self.gates[0] >= len(self.sample_times) - 1:
+            return np.zeros(0, dtype=np.int64)
+        row = self.dependencies[self.gates[0] + 1, 0]
+        held = row >= self.progress
+        held[0] = False
+        return np.flatnonzero(held)
+
+    def release(self, columns: np.ndarray, positions: np.ndarray) -> None:
+        """The plan's first robot stops waiting for the robots ``columns``: its precedences on them
+        are dropped, and its gate follows from the observed ``positions`` ``(n, 2)`` again."""
+        self.dependencies[:, 0, np.asarray(columns, dtype=np.int64)] = -1
+        self.observe(positions)
+
     def limits(self) -> np.ndarray:
         """Plan time (s after the plan's start) at which each robot's clock stops for now."""
         if not self.settings.gated:
@@ -298,3 +314,54 @@ class ReactionMargins:
         if mode == "moving":
             careful = careful | (np.linalg.norm(view.velocities[others], axis=1) * self.dt > self._surprise)
         return careful
+
+
+class WaitRelease:
+    """Breaking waiting cycles of the gated execution (``execution.wait_patience``; not in the paper).
+
+    Each robot executes the plan of its own decision, and the robots of a crowd do not always
+    select plans that agree: one robot's plan has a neighbour back out before it moves, the
+    neighbour's plan has the first robot move before it backs out, and each waits at its gate
+    for the other for ever (docs/execution.md, "Deadlocks in crowds"). Nothing a robot observes
+    changes while nobody gets anywhere. So when a robot has been held at its gate for
+    ``patience`` while no robot of its plan (itself included) moved ``sim.progress_epsilon`` from
+    where it was, it stops waiting for the robots that hold it and have not moved, for
+    ``patience`` seconds: it follows its own path, its MPC keeping it clear of everyone as
+    always, and whoever can move makes room. A robot held by a robot that gets somewhere, or
+    whose plan has anyone getting somewhere, waits as before.
+    """
+
+    def __init__(self, scenario: Scenario):
+        n = scenario.n_robots
+        self.patience = scenario.execution.wait_patience
+        self.reach = scenario.sim.progress_epsilon
+        self.anchors: list[np.ndarray | None] = [None] * n
+        """Where each robot saw every robot when its present wait began ``(N_r, 2)`` (m)."""
+        self.since = np.zeros(n)
+        """When each robot's present wait began (s)."""
+        self.released_until = np.full(n, -np.inf)
+        """Until when each robot ignores the robots that hold it without moving (s)."""
+
+    def check(self, i: int, t: float, execution: PlanExecution, rows: np.ndarray, view: RobotView) -> None:
+        """Robot ``i``'s execution after :meth:`PlanExecution.observe` at time ``t`` (``rows``: the
+        plan's robots as scenario indices): time how long it waits in a plan that gets nowhere,
+        and release it from the robots that hold it once that lasts ``patience``."""
+        if self.patience <= 0.0 or not execution.settings.gated:
+            return
+        anchor = self.anchors[i]
+        if anchor is None:
+            anchor = self.anchors[i] = view.positions.copy()
+            self.since[i] = t
+        blockers = execution.blockers()
+        moved = np.linalg.norm(view.positions[rows] - anchor[rows], axis=1) > self.reach
+        if t >= self.released_until[i] - 1e-9:
+            if moved.any() or not len(blockers):  # not held, or somebody of the plan got somewhere
+                self.anchors[i] = view.positions.copy()
+                self.since[i] = t
+                return
+            if t - self.since[i] < self.patience - 1e-9:
+                return
+            self.released_until[i] = t + self.patience
+        stuck = blockers[~moved[blockers]]  # released: the robots that hold it and have not moved
+        if len(stuck):
+            execution.release(stuck, view.positions[rows])

@@ -21,7 +21,7 @@ from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
-from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins
+from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
 from nodnav.sim.several import PassageAgent, PassageViews, several
 
 
@@ -138,6 +138,7 @@ class PlannedMethod:
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
             for r in scenario.robots]
+        self.waits = WaitRelease(scenario)
         self.passages = None
         if several(scenario):
             def planner_for(world: World) -> Any:
@@ -226,6 +227,7 @@ class PlannedMethod:
         for i, view in views.items():
             _, execution, rows, _ = self._held(i)
             execution.observe(view.positions[rows])
+            self.waits.check(i, t, execution, rows, view)
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
             radii = self.reactions.radii(i, view, self._other_radii[i])

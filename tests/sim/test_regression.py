@@ -53,6 +53,8 @@ CASES = [
     ("sight-remembered-robot-collision.yaml", (1,)),
     ("abreast-after-backing-out.yaml", (66,)),
     ("standoff-with-an-arrived-robot.yaml", (1, 17)),
+    ("destination-behind-parked-robots.yaml", (1,)),
+    ("destination-behind-parked-robots-in-the-room.yaml", (1,)),
 ]
 
 

@@ -68,7 +68,7 @@ class OpinionParams:
     """With ``nonplayers: entered``, how robots outside N_i(t) that have crossed (outside the
     corridor, on their destination's side: parked, or on their way to park) enter the robot's
     planning: ``ignore`` (not planned, kept clear of by the MPC alone, as before) or ``planned``
-    (those packed round the destination of a robot of the plan are planned too, at the front of
+    (those packed round the way of a robot of the plan are planned too, at the front of
     the order, so that the planner routes round them or has them wait aside and park again;
     docs/execution.md, "Parked robots making way in crowds")."""
 

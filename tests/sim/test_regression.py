@@ -55,6 +55,8 @@ CASES = [
     ("standoff-with-an-arrived-robot.yaml", (1, 17)),
     ("wait-cycle-at-the-mouth.yaml", (133,)),
     ("wait-chain-at-the-right-mouth.yaml", (193,)),
+    ("destination-behind-parked-robots.yaml", (1,)),
+    ("destination-behind-parked-robots-in-the-room.yaml", (1,)),
 ]
 
 

@@ -64,6 +64,13 @@ class OpinionParams:
     held still in the MPC) or ``entered`` (those seen inside the corridor are planned too, at the
     front of the order, where history has put them; not with 0 game players, the paper's
     no-coordination case)."""
+    crossed: Literal["ignore", "planned"] = "planned"
+    """With ``nonplayers: entered``, how robots outside N_i(t) that have crossed (outside the
+    corridor, on their destination's side: parked, or on their way to park) enter the robot's
+    planning: ``ignore`` (not planned, kept clear of by the MPC alone, as before) or ``planned``
+    (those packed round the way of a robot of the plan are planned too, at the front of
+    the order, so that the planner routes round them or has them wait aside and park again;
+    docs/execution.md, "Parked robots making way in crowds")."""
 
     def bias_indices(self) -> dict[int, float]:
         """The bias b_ij as a mapping from strategy index (0-based: S1 is 0) to value."""

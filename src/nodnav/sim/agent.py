@@ -30,6 +30,7 @@ from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResu
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
+from nodnav.sim.parked import packed_crossed
 
 
 @dataclass(frozen=True)
@@ -355,15 +356,25 @@ class NODAgent:
 
         Planning with them costs little (history fixes them at the front of every order) and
         keeps a robot from planning into a corridor that someone it does not play with is coming
-        through; they take no part in eq. (4). A robot with no game players (k = 0) is the paper's
+        through; they take no part in eq. (4). With ``crossed: planned``, also the robots seen done
+        with the corridor that stand packed round the way of a robot of the plan
+        (:func:`~nodnav.sim.parked.packed_crossed`). A robot with no game players (k = 0) is the paper's
         no-coordination case, its Fig. 3 baseline, and stays literal: it plans alone, as with
         ``static``. (Planning robots it saw enter would be coordination of its own: first come,
         first served.)
         """
         if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
-        inside = self.scenario.world.in_corridor(view.positions) & view.known
-        return tuple(k for k in view.entered if inside[k] and k != self.index and k not in players)
+        world = self.scenario.world
+        inside = world.in_corridor(view.positions)
+        entered = tuple(k for k in view.entered if inside[k] and view.known[k] and k != self.index and k not in players)
+        if self.params.crossed != "planned":
+            return entered
+        # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
+        s = self.scenario
+        return entered + tuple(packed_crossed(world, view.positions, s.destinations, s.radii, view.known,
+                                              [self.index, *players, *entered], s.sim.goal_tolerance,
+                                              s.planner.margin, self._graphs))
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``

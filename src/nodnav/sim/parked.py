@@ -1,0 +1,65 @@
+"""Robots done with the corridor that join a robot's planning: those packed round a destination.
+
+With ``opinion.nonplayers: entered`` a robot plans, besides its game players, the robots it sees
+inside the corridor. Robots that have crossed (parked at their destinations, or on their way to
+park) were left to the MPC alone, and in crowds that left a late robot blind: its destination
+lies among robots parked at theirs (or its way to the mouth runs past robots parked right outside
+it), its game holds two of them, and its plan runs through the gap the third one closes; when the
+game changes with its position, the plan runs through another gap closed by another one, and it
+loops for ever (docs/execution.md, "Parked robots making way in crowds"). With
+``opinion.crossed: planned`` the crossed robots packed round the way of a robot of the plan join
+the planning too, at the front of the order, where history has put them:
+the planner then routes round them, or has those that close off the destination wait aside and
+park again afterwards (:mod:`nodnav.planning.parking`, :mod:`nodnav.planning.making_way`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nodnav.planning.base import crossing_directions
+from nodnav.planning.visibility import VisibilityGraph, polyline_point_distance
+from nodnav.scenario.world import World
+
+
+def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
+                   known: np.ndarray, planning: list[int], goal_tolerance: float, margin: float,
+                   graphs: dict | None = None) -> list[int]:
+    """The robots not in ``planning`` that join it: every robot seen (``known`` ``(N,)``, a mask)
+    that has crossed (outside the corridor, on its destination's side) and stands packed round the
+    way of a robot that has not arrived (farther than ``goal_tolerance`` from its destination):
+    its shortest path among the walls from where it stands to its destination. That robot is one
+    of ``planning``, or has crossed too and the robots packed round its way include one of
+    ``planning`` (then it joins as well). Packed: closer to the way than leaves its robot room to
+    pass (its diameter and twice the planner's ``margin`` between the bodies), or, in turn, that
+    close to a robot already packed round it. ``graphs`` caches visibility graphs by radius.
+    Increasing index."""
+    graphs = {} if graphs is None else graphs
+    crossed = known & (crossing_directions(world, positions, destinations) == 0) & ~world.in_corridor(positions)
+    mine = np.zeros(len(positions), dtype=bool)
+    mine[planning] = True
+    arriving = np.linalg.norm(positions - destinations, axis=1) > goal_tolerance
+    joining = np.zeros(len(positions), dtype=bool)
+    for k in np.flatnonzero(arriving & (mine | crossed)):
+        way = 2.0 * radii[k] + 2.0 * margin  # the room robot k needs between two bodies
+        key = (world, float(radii[k]))
+        graph = graphs.get(key)
+        if graph is None:
+            graph = graphs[key] = VisibilityGraph(world, float(radii[k]))
+        path = graph.shortest_path(positions[k], destinations[k])
+        line = path.points if path.success else np.array([positions[k], destinations[k]])
+        # Round its way first, then round each robot found, until nobody new is found.
+        gaps = polyline_point_distance(line, positions) - radii - radii[k]
+        packed = np.zeros(len(positions), dtype=bool)
+        new = crossed & (gaps < way)
+        new[k] = False
+        while new.any():
+            packed |= new
+            centres, reach = positions[new], radii[new]
+            gaps = np.linalg.norm(positions[:, None] - centres[None], axis=2) - radii[:, None] - reach[None]
+            new = crossed & ~packed & (gaps < way).any(axis=1)
+            new[k] = False
+        if mine[k] or (packed & mine).any():
+            joining |= packed
+            joining[k] = True
+    return np.flatnonzero(joining & ~mine).tolist()

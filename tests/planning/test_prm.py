@@ -213,3 +213,30 @@ def test_one_roadmap_serves_every_order_of_a_pattern(planner):
     for order in itertools.permutations(range(3)):
         assert fresh.plan(scenario_request("3r-case1", order)).success
     assert [(r.n_robots, r.pattern) for r in fresh.roadmap_reports()] == [(3, "+++")]
+
+
+def test_accelerated_trajectory_with_a_segment_too_short_to_resolve():
+    # Issue 20: a 1e-13 m segment (a start next to a roadmap vertex) gave a profile without a
+    # step, and indexing its last fraction raised IndexError. It now takes one step to its end.
+    from nodnav.planning.prm import accelerated_trajectory
+
+    path = np.array([[[0.0, 0.0], [5.0, 5.0]], [[1e-13, 0.0], [5.0, 5.0]], [[2.0, 0.0], [5.0, 5.0]]])
+    dt, vmax, amax = 0.1, np.ones(2), np.ones(2)
+    traj = accelerated_trajectory(path, vmax, amax, dt, 1.0)
+    assert np.array_equal(traj.positions[0], path[0]) and np.array_equal(traj.positions[-1], path[-1])
+    assert np.allclose(np.diff(traj.times), dt) and traj.times[0] == 1.0
+    speed = np.linalg.norm(np.diff(traj.positions, axis=0), axis=-1) / dt
+    assert speed.max() <= 1.0 + 1e-9
+    # The 2 m segment from rest to rest at 1 m/s^2 and 1 m/s: at least 2 / 1 + 1 / 1 = 3 s (trapezoid).
+    assert traj.duration >= 3.0 - 1e-9
+
+
+def test_a_joint_path_without_points_is_a_failed_plan(planner, monkeypatch):
+    # Issue 20: a plan with no points must be a failed result with a reason, never an exception.
+    from nodnav.planning.prm import SearchResult
+
+    req = request(paper_world(), [[-5.0, 1.0], [5.0, 0.0]], [[5.0, 1.0], [-5.0, 0.0]], (0, 1), t0=2.0)
+    monkeypatch.setattr(planner, "_search", lambda *args: SearchResult(True, "", np.zeros((0, 4)), {}))
+    res = planner.plan(req)
+    assert not res.success and "no points" in res.reason
+    assert res.trajectory.times.tolist() == [2.0] and np.array_equal(res.trajectory.positions[0], req.positions)

@@ -313,3 +313,33 @@ def test_build_all_roadmaps_reports_every_pattern(world, tmp_path):
                                   n_jobs=1)
     assert all(r.from_cache for r in again)
     assert "robots" in rc.format_build_reports(again)
+
+
+def test_map_roadmap_key_does_not_depend_on_where_the_map_lies(tmp_path):
+    """Issue 20: the key held the map file's absolute path, so each checkout (and each copy of a
+    scenario) seeded and built other roadmaps for the same walls, and PRM* trials on maps gave
+    other results in every checkout. The same map in two directories must give the same key;
+    other walls must not."""
+    import dataclasses
+    import shutil
+    from pathlib import Path
+
+    from nodnav.scenario.loading import load_scenario
+
+    src = Path(__file__).resolve().parents[2] / "examples" / "building"
+    worlds = []
+    for name in ("one", "two"):
+        d = tmp_path / name
+        d.mkdir()
+        for f in ("building-one-door-8.yaml", "one_door.yaml", "one_door.pgm"):
+            shutil.copy(src / f, d / f)
+        worlds.append(load_scenario(d / "building-one-door-8.yaml").world)
+    assert worlds[0].map_file != worlds[1].map_file and worlds[0].map_walls > 0
+    keys = [rm.make_key(w, [R, R], (1, -1), MARGIN, 0.1, 100) for w in worlds]
+    assert keys[0].digest() == keys[1].digest()
+    assert keys[0].filename() == keys[1].filename()
+    obstacles = list(worlds[0].obstacles)
+    x0, y0, x1, y1 = obstacles[0]
+    obstacles[0] = (x0, y0, x1 + 0.01, y1)
+    moved = dataclasses.replace(worlds[0], obstacles=tuple(obstacles))
+    assert rm.make_key(moved, [R, R], (1, -1), MARGIN, 0.1, 100).digest() != keys[0].digest()

@@ -128,6 +128,8 @@ def accelerated_trajectory(path: np.ndarray, max_speeds: np.ndarray, max_accels:
         rate = float(np.min(max_accels[moving] * span / lengths[j][moving]))
         progress, _ = feasible_profile(np.array([0.0, span]), span, 0.0, 1.0, rate, dt)
         frac = np.clip(progress[1:] / span, 0.0, 1.0)
+        if not len(frac):  # a segment shorter than the profile resolves (e.g. 1e-13 m): one step to its end
+            frac = np.ones(1)
         frac[-1] = 1.0
         out.append(p[j][None] + frac[:, None, None] * (p[j + 1] - p[j])[None])
     pos = np.concatenate(out, axis=0)
@@ -300,11 +302,15 @@ class PRMStarPlanner:
         if not found.success:
             return PlanResult.failure(request, found.reason, time.perf_counter() - t0)
         configs = found.configs
+        if not len(configs):
+            return PlanResult.failure(request, "the joint path has no points", time.perf_counter() - t0)
         joint = np.empty((len(configs), len(rank), 2))
         joint[:, rank] = configs.reshape(len(configs), -1, 2)
         accels = request.max_accels if self.params.timing == "feasible" else None
         trajectory = timed_trajectory(joint, np.asarray(request.max_speeds, dtype=float), self.params.dt,
                                       request.t0, accels)
+        if not len(trajectory.times):
+            return PlanResult.failure(request, "the timed joint path has no samples", time.perf_counter() - t0)
         cost = path_cost(configs, radii, self.params.w1, self.params.varsigma)
         reason = ""
         if order_planned != order:

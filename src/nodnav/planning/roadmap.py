@@ -140,6 +140,10 @@ class RoadmapKey:
             del data["world"]["passages"], data["world"]["polygons"]
         if not w.map_file:  # a world without a map is written as before maps existed (same seeds)
             del data["world"]["map_file"], data["world"]["map_walls"]
+        else:
+            # Not the map's path: its walls are the first map_walls boxes of obstacles, and a path
+            # (absolute, of one checkout) made each checkout seed and build other roadmaps.
+            del data["world"]["map_file"]
         data["radii"] = [float(r) for r in self.radii]
         data["directions"] = [int(d) for d in self.directions]
         return json.dumps(data, sort_keys=True, separators=(",", ":"))

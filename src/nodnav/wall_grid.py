@@ -81,6 +81,20 @@ def _grid_range(lo, hi, origin, cell, n):
 
 
 @compiled
+def _samples_along(ax, ay, bx, by, cell):
+    """How many steps of at most half a bucket sample the segment ``(ax, ay) -> (bx, by)``."""
+    return int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+
+
+@compiled
+def _bucket_along(ax, ay, bx, by, f, gx, gy, cell, nx, ny):
+    """The bucket holding the point at fraction ``f`` of the segment ``(ax, ay) -> (bx, by)``."""
+    i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
+    j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
+    return j * nx + i
+
+
+@compiled
 def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
     """:func:`nodnav.geometry.segment_clearance`'s loop through a :class:`WallGrid`.
 
@@ -100,12 +114,9 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
         if walls.shape[0]:
             nearest = np.inf
             stamp += 1
-            n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+            n_samples = _samples_along(ax, ay, bx, by, cell)
             for t in range(n_samples + 1):
-                f = t / n_samples
-                i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
-                j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
-                k = j * nx + i
+                k = _bucket_along(ax, ay, bx, by, t / n_samples, gx, gy, cell, nx, ny)
                 for q in range(starts[k], starts[k + 1]):
                     w = items[q]
                     if seen[w] == stamp:
@@ -230,12 +241,9 @@ def segment_clear_one_indexed(ax, ay, bx, by, want, walls, bounds, pieces, gx, g
             if _box_too_close(ax, ay, bx, by, walls, w, want):
                 return False
     elif walls.shape[0]:
-        n_samples = int(math.ceil(math.hypot(bx - ax, by - ay) / (0.5 * cell))) + 1
+        n_samples = _samples_along(ax, ay, bx, by, cell)
         for t in range(n_samples + 1):
-            f = t / n_samples
-            i = _grid_range(ax + f * (bx - ax), ax + f * (bx - ax), gx, cell, nx)[0]
-            j = _grid_range(ay + f * (by - ay), ay + f * (by - ay), gy, cell, ny)[0]
-            k = j * nx + i
+            k = _bucket_along(ax, ay, bx, by, t / n_samples, gx, gy, cell, nx, ny)
             for q in range(starts[k], starts[k + 1]):
                 w = items[q]
                 if seen[w] != mark:

@@ -47,6 +47,18 @@ def test_kernels_cache_in_the_directory_of_this_source():
     assert numba.config.CACHE_DIR != str(here)  # only nodnav's kernels cache there
 
 
+def test_the_cache_root_follows_nodnav_then_numba_settings(monkeypatch, tmp_path):
+    from nodnav.compiled import kernel_cache_root
+
+    monkeypatch.setenv("NODNAV_CACHE", str(tmp_path / "n"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "m"))
+    assert kernel_cache_root() == tmp_path / "n" / "kernels"
+    monkeypatch.delenv("NODNAV_CACHE")
+    assert kernel_cache_root() == tmp_path / "m" / "nodnav"
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    assert kernel_cache_root() == Path.home() / ".cache" / "nodnav" / "kernels"
+
+
 def test_prune_removes_only_old_directories_of_other_versions(tmp_path):
     old, recent, keep = (tmp_path / n for n in ("old", "recent", "keep"))
     for d in (old, recent, keep):

@@ -12,7 +12,8 @@ crash where array layouts changed (a segmentation fault in the braking tail's cl
 was one, after two branches were merged). So every kernel of one version of the package's
 source is cached in a directory of its own, named after a hash of all its ``.py`` files
 (:func:`kernel_cache_dir`): a change anywhere compiles everything afresh, once. The directory is
-under ``$NODNAV_CACHE`` (else ``~/.cache/nodnav``), in ``kernels/``; directories of versions not
+under ``$NODNAV_CACHE/kernels/`` (else ``$NUMBA_CACHE_DIR/nodnav/``, else
+``~/.cache/nodnav/kernels/``); directories of versions not
 used for :data:`PRUNE_AGE_DAYS` days are removed when a new one is made.
 """
 
@@ -41,9 +42,15 @@ def source_digest(root: Path) -> str:
 
 
 def kernel_cache_root() -> Path:
-    """``$NODNAV_CACHE/kernels``, else ``~/.cache/nodnav/kernels`` (the roadmap cache's parent rule)."""
+    """``$NODNAV_CACHE/kernels`` (the roadmap cache's parent rule), else ``$NUMBA_CACHE_DIR/nodnav``
+    (numba's own setting, respected), else ``~/.cache/nodnav/kernels``."""
     env = os.environ.get("NODNAV_CACHE", "")
-    return (Path(env).expanduser() if env else Path.home() / ".cache" / "nodnav") / "kernels"
+    if env:
+        return Path(env).expanduser() / "kernels"
+    numba_dir = os.environ.get("NUMBA_CACHE_DIR", "")
+    if numba_dir:
+        return Path(numba_dir).expanduser() / "nodnav"
+    return Path.home() / ".cache" / "nodnav" / "kernels"
 
 
 def prune_kernel_dirs(root: Path, keep: Path, max_age_days: float = PRUNE_AGE_DAYS) -> list[Path]:

@@ -57,6 +57,8 @@ CASES = [
     ("wait-chain-at-the-right-mouth.yaml", (193,)),
     ("destination-behind-parked-robots.yaml", (1,)),
     ("destination-behind-parked-robots-in-the-room.yaml", (1,)),
+    ("occluded-mouth-robot-steps-out.yaml", (222,)),
+    ("occluded-mouth-slow-braker.yaml", (417,)),
 ]
 
 

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from nodnav.scenario.schema import ScenarioError, scenario_from_dict, scenario_to_dict
-from nodnav.sim.sensing import Sight, visibility
+from nodnav.sim.sensing import OcclusionLimit, Sight, slowed_reference, stopping_speed, visibility
 from nodnav.sim.simulator import Simulation, run_trial
 
 
@@ -152,3 +154,41 @@ def test_speed_limit_stops_within_half_the_range():
     # Reaction distance plus braking distance fill exactly half of what is left of the range.
     assert np.allclose(v * REACTION_TIME + v ** 2 / (2 * 0.8), half)
     assert np.array_equal(sight_speeds(_scenario(THROUGH_CORRIDOR)), _scenario(THROUGH_CORRIDOR).max_speeds)
+
+
+def test_stopping_speed_stops_within_half_the_room():
+    # v t + v^2 / (2 a) = d / 2, by hand: a = 1.5, t = 0.2, d = 2 -> v^2 / 3 + 0.2 v - 1 = 0.
+    v = stopping_speed(2.0, 1.5, 0.2)
+    assert v == pytest.approx((-0.2 + math.sqrt(0.04 + 4.0 / 3.0)) / (2.0 / 3.0))
+    assert v * 0.2 + v * v / 3.0 == pytest.approx(1.0)
+
+
+def test_slowed_reference_moves_along_the_path_at_the_cap():
+    times = np.array([0.25, 0.5, 0.75, 1.0])
+    ref = np.stack([times * 1.0, np.zeros(4)], axis=1)  # 1 m/s along x
+    slow = slowed_reference(np.zeros(2), ref, times, 0.5)
+    np.testing.assert_allclose(slow, np.stack([0.5 * times, np.zeros(4)], axis=1))
+    # A reference slower than the cap is left as it is.
+    assert slowed_reference(np.zeros(2), ref, times, 2.0) is ref
+
+
+def test_occlusion_limit_from_the_nearest_place_behind_the_mouth_by_hand():
+    # The paper's world; a robot below the left mouth (corner at (-3, -0.35)) cannot see into the
+    # corridor beyond the ray from it through the corner. A robot of r = 0.2 fits at |y| <= 0.15
+    # in the corridor; the nearest hidden place is where that ray meets y = -0.15:
+    # slope 0.65 / 1, x = -4 + 0.85 / 0.65, so d = |(-2.692, -0.15) - (-4, -1)| = 1.560 m.
+    robots = [((-4.0, -1.0), (5.0, 0.0)), ((5.0, 1.0), (-5.0, 0.0))]
+    raw = {"name": "mouth", "robot_defaults": {"max_speed": 5.0, "max_accel": 1.0},
+           "robots": [{"origin": list(o), "destination": list(d)} for o, d in robots],
+           "sensing": {"walls_block": True}}
+    s = scenario_from_dict(raw)
+    limit = OcclusionLimit(s)
+    x = -4.0 + 0.85 / 0.65
+    d = math.hypot(x + 4.0, -0.15 + 1.0) - 0.4  # less both bodies
+    a = 0.7 * 1.0 * math.cos(math.pi / 8)  # the braking tail's deceleration
+    v = limit.speed(0, np.array([-4.0, -1.0]), 5.0)
+    cell = 0.1 * math.sqrt(2.0)  # grid: the place found and the slack, each within a half diagonal
+    assert stopping_speed(d - cell, a) - 1e-9 <= v <= stopping_speed(d, a) + 1e-9
+    # With the paper's full sight there is no hidden place: only the robot's own limit.
+    open_sight = OcclusionLimit(scenario_from_dict({**raw, "sensing": {"range": 0.0, "walls_block": False}}))
+    assert open_sight.speed(0, np.array([-4.0, -1.0]), 5.0) == 5.0

@@ -359,6 +359,10 @@ class SensingParams:
     """With a range: each robot drives no faster than it can stop within half of what it sees
     (:func:`nodnav.sim.sensing.sight_speeds`), so two robots that meet head-on as they come into
     range stop apart; paper: unused (unlimited range)."""
+    occlusion_speed: bool = True
+    """With limited sight: each robot drives no faster than it can stop within half of the distance
+    to the nearest place it cannot see where another robot could stand
+    (:class:`nodnav.sim.sensing.OcclusionLimit`); false: no such limit (before); paper: unused."""
     drop_probability: float = field(default=0.0, metadata=accepted(0.0, 0.99))
     """Probability that an observation of another robot is lost at a control step (independent per
     observer, robot and step); paper: 0."""

@@ -22,6 +22,7 @@ from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
 from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
+from nodnav.sim.sensing import OcclusionLimit, slowed_reference
 from nodnav.sim.several import PassageAgent, PassageViews, several
 
 
@@ -139,6 +140,9 @@ class PlannedMethod:
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
             for r in scenario.robots]
         self.waits = WaitRelease(scenario)
+        # Limited sight: no faster than a robot can stop short of the places it cannot see.
+        sensing = scenario.sensing
+        self.occlusion = OcclusionLimit(scenario) if sensing.limited and sensing.occlusion_speed else None
         self.passages = None
         if several(scenario):
             def planner_for(world: World) -> Any:
@@ -230,6 +234,11 @@ class PlannedMethod:
             self.waits.check(i, t, execution, rows, view)
             reference, predictions = self._horizon(i, t, view)
             execution.advance()
+            if self.occlusion is not None:
+                limit = self.scenario.robots[i].max_speed
+                cap = self.occlusion.speed(i, view.positions[i], limit)
+                if cap < limit:
+                    reference = slowed_reference(view.positions[i], reference, self.sample_times, cap)
             radii = self.reactions.radii(i, view, self._other_radii[i])
             firm = self._firm
             if view.age is not None or view.sigma is not None:

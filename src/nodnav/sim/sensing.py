@@ -17,9 +17,11 @@ view's ages first.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
+from nodnav.control.braking import tail_decel
 from nodnav.geometry import segment_is_clear
 from nodnav.scenario.params import SensingParams
 from nodnav.scenario.schema import Scenario
@@ -174,3 +176,84 @@ class Tracker:
     def position_sigma(self) -> np.ndarray:
         """Standard deviation of each robot's estimated position along either axis ``(N,)`` (m)."""
         return np.sqrt(self.cov[:, 0, 0])
+
+
+#: Spacing (m) of the candidate places another robot could stand, for :class:`OcclusionLimit`.
+OCCLUSION_CELL = 0.1
+#: Least speed limit (m/s) :class:`OcclusionLimit` sets, so that a robot beside a corner still creeps
+#: forward and sees round it instead of standing still for ever.
+OCCLUSION_CREEP = 0.05
+
+
+def stopping_speed(room: float, decel: float, reaction: float = REACTION_TIME) -> float:
+    """The speed v (m/s) from which a robot, reacting after ``reaction`` t and braking at ``decel``
+    a, stops within half of ``room`` d (m): v t + v^2 / (2 a) = d / 2, v = a (sqrt(t^2 + d / a) - t)."""
+    d = max(room, 0.0)
+    return decel * (math.sqrt(reaction * reaction + d / decel) - reaction)
+
+
+class OcclusionLimit:
+    """Each robot's speed limit under limited sight from the places it cannot see (docs/sensing.md).
+
+    A robot keeps a speed from which it stops within half of ``d``: the distance from its body to
+    the body of a robot (the largest other one) standing at the nearest place it cannot see, out
+    of range or behind a wall, where the smallest other robot fits. Another robot hidden there
+    keeps the same rule, so the two stop within the gap between them. The places are the centres
+    of a grid of ``OCCLUSION_CELL``; ``d`` is lowered by the grid's half diagonal. Braking is at the
+    braking tail's deceleration (:func:`nodnav.control.braking.tail_decel`), below ``max_accel``.
+    """
+
+    def __init__(self, scenario: Scenario):
+        self.world = scenario.world
+        self.params = scenario.sensing
+        self.radii = scenario.radii.astype(float)
+        ctrl = scenario.controller
+        self.decel = np.array([tail_decel(r.max_accel, getattr(ctrl, "terminal_decel", 0.7),
+                                          getattr(ctrl, "accel_polygon_sides", 8)) for r in scenario.robots])
+        x0, y0, x1, y1 = (float(v) for v in self.world.bounds)
+        h = OCCLUSION_CELL
+        xs, ys = np.arange(x0 + h / 2, x1, h), np.arange(y0 + h / 2, y1, h)
+        grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+        n = scenario.n_robots
+        smallest = float(self.radii.min()) if n else 0.0
+        self.places = grid[self.world.is_free(grid, smallest)] if n > 1 else np.zeros((0, 2))
+        self.slack = h * math.sqrt(0.5)
+
+    def speed(self, i: int, position: np.ndarray, limit: float) -> float:
+        """Robot ``i``'s speed limit (m/s) at ``position``, at most ``limit``."""
+        if self.places.shape[0] == 0:
+            return limit
+        others = np.delete(self.radii, i)
+        body = float(self.radii[i] + others.max()) + self.slack
+        a = float(self.decel[i])
+        # Places farther than the room needed to stop from the limit do not lower it.
+        reach = 2.0 * (limit * REACTION_TIME + limit * limit / (2.0 * a)) + body
+        dist = np.linalg.norm(self.places - position, axis=1)
+        near = dist <= reach
+        cand, cdist = self.places[near], dist[near]
+        unseen = np.zeros(cand.shape[0], dtype=bool)
+        if self.params.range > 0.0:
+            unseen |= cdist > self.params.range
+        if self.params.walls_block:
+            check = np.flatnonzero(~unseen)
+            if check.size:
+                start = np.broadcast_to(position, (check.size, 2))
+                unseen[check] = ~segment_is_clear(self.world, start, cand[check], np.nextafter(0.0, 1.0))
+        if not unseen.any():
+            return limit
+        v = stopping_speed(float(cdist[unseen].min()) - body, a)
+        return float(min(limit, max(v, OCCLUSION_CREEP)))
+
+
+def slowed_reference(position: np.ndarray, reference: np.ndarray, times: np.ndarray, speed: float) -> np.ndarray:
+    """``reference`` ``(K, 2)`` at ``times`` ``(K,)`` after now, advanced along the same polyline
+    from ``position`` no faster than ``speed`` (m/s): the MPC tracks it, so the robot slows down."""
+    path = np.vstack([position, reference])
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    want = np.minimum(arc[1:], speed * np.asarray(times))
+    if np.all(want >= arc[1:] - 1e-12):
+        return reference
+    x = np.interp(want, arc, path[:, 0])
+    y = np.interp(want, arc, path[:, 1])
+    return np.stack([x, y], axis=1)

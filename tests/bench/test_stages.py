@@ -1,7 +1,5 @@
 """The stage breakdown of a trial's time: it partitions the wall time and moves where the work moves."""
 
-import time
-
 import numpy as np
 
 from nodnav.bench.stages import STAGES, StageClock, measure_stages
@@ -10,21 +8,37 @@ from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import run_trial
 
 
-def test_clock_charges_nested_calls_to_the_innermost_stage():
-    """Hand-made nesting with known sleeps: the outer stage keeps only its own time."""
+def test_clock_charges_nested_calls_to_the_innermost_stage(monkeypatch):
+    """Hand-made nesting on a clock that advances only when the work says so (0.02 s of the outer
+    stage's own, 0.03 s of the inner one's): the outer stage keeps only its own time, whatever
+    the machine's load."""
+    import types
+
+    from nodnav.bench import stages
+
+    now = [100.0]
+
+    def work(seconds: float) -> None:
+        now[0] += seconds
+
+    monkeypatch.setattr(stages, "time", types.SimpleNamespace(perf_counter=lambda: now[0],
+                                                              process_time=lambda: now[0]))
     clock = StageClock()
-    inner = clock.wrap("planning", lambda: time.sleep(0.03))
+    inner = clock.wrap("planning", lambda: work(0.03))
 
     def outer():
-        time.sleep(0.02)
+        work(0.02)
         inner()
 
     clock.start()
+    work(0.005)  # the root's own time, before the first stage
     clock.wrap("decision", outer)()
     clock.stop()
-    assert 0.02 <= clock.totals["decision"] < 0.03 + 0.01
-    assert 0.03 <= clock.totals["planning"] < 0.03 + 0.01
+    assert abs(clock.totals["decision"] - 0.02) < 1e-12
+    assert abs(clock.totals["planning"] - 0.03) < 1e-12
+    assert abs(clock.cpu["planning"] - 0.03) < 1e-12
     assert clock.calls["decision"] == clock.calls["planning"] == 1
+    assert abs(sum(clock.totals.values()) - 0.055) < 1e-12  # the root's 0.005 included: a partition
 
 
 def test_stages_partition_a_short_trial_and_leave_it_unchanged():

@@ -51,12 +51,14 @@ def test_timed_execution_reads_the_plan_by_the_clock():
 
 def _waits(patience: float):
     from types import SimpleNamespace
+    from typing import cast
 
+    from nodnav.scenario.schema import Scenario
     from nodnav.sim.execution import WaitRelease
 
     scenario = SimpleNamespace(n_robots=2, sim=SimpleNamespace(progress_epsilon=0.2),
                                execution=SimpleNamespace(wait_patience=patience))
-    return WaitRelease(scenario)  # type: ignore[arg-type]
+    return WaitRelease(cast(Scenario, scenario))  # only the fields WaitRelease reads
 
 
 def _held_follower(patience: float, leader_speed: float, steps: int) -> PlanExecution:

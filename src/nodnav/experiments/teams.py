@@ -53,6 +53,16 @@ def role_label(record: TrialRecord) -> str:
     return ", ".join(parts) if parts else f"all {record.method}"
 
 
+def role_order(record: TrialRecord) -> tuple:
+    """Sort key of :func:`role_label`: every robot's method first, then by the robots given
+    another method (robot 1 first, the last robot after every numbered one)."""
+    robots = record.config["scenario"]["robots"]
+    n = len(robots)
+    where = tuple(10**6 if i == n - 1 and i > 0 else i for i, r in enumerate(robots)
+                  if r.get("method") and r["method"] != record.method)
+    return (len(where), where, role_label(record))
+
+
 @dataclass(frozen=True)
 class TeamRow:
     """The figures of one group of trials (one role assignment)."""
@@ -88,10 +98,11 @@ def robot_delays(record: TrialRecord, cache: dict) -> list[float | None]:
 
 
 def team_rows(records: list[TrialRecord], by_scenario: bool = False) -> list[TeamRow]:
-    """One :class:`TeamRow` per role assignment among ``records`` (errors left out), in first-seen
-    order; per scenario and role assignment with ``by_scenario`` (labelled ``SCENARIO, ROLES``)."""
+    """One :class:`TeamRow` per role assignment among ``records`` (errors left out), in the order of
+    :func:`role_order` (not the store's, which ties break by trial key); per scenario and role
+    assignment with ``by_scenario`` (labelled ``SCENARIO, ROLES``)."""
     groups: dict[str, list[TrialRecord]] = {}
-    for r in records:
+    for r in sorted(records, key=role_order):
         if r.outcome != "error":
             label = f"{r.scenario}, {role_label(r)}" if by_scenario else role_label(r)
             groups.setdefault(label, []).append(r)

@@ -23,7 +23,7 @@ import numpy as np
 
 from nodnav.control.braking import tail_decel
 from nodnav.geometry import segment_is_clear
-from nodnav.scenario.params import SensingParams
+from nodnav.scenario.params import MPCParams, SensingParams
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 
@@ -208,8 +208,10 @@ class OcclusionLimit:
         self.params = scenario.sensing
         self.radii = scenario.radii.astype(float)
         ctrl = scenario.controller
-        self.decel = np.array([tail_decel(r.max_accel, getattr(ctrl, "terminal_decel", 0.7),
-                                          getattr(ctrl, "accel_polygon_sides", 8)) for r in scenario.robots])
+        # The braking tail's deceleration; a controller of another kind brakes as the MPC's defaults assume.
+        mpc = ctrl if isinstance(ctrl, MPCParams) else MPCParams()
+        self.decel = np.array([tail_decel(r.max_accel, mpc.terminal_decel, mpc.accel_polygon_sides)
+                               for r in scenario.robots])
         x0, y0, x1, y1 = (float(v) for v in self.world.bounds)
         h = OCCLUSION_CELL
         xs, ys = np.arange(x0 + h / 2, x1, h), np.arange(y0 + h / 2, y1, h)

@@ -95,6 +95,19 @@ def _bucket_along(ax, ay, bx, by, f, gx, gy, cell, nx, ny):
 
 
 @compiled
+def _nearest_in_bucket(k, ax, ay, bx, by, walls, starts, items, seen, stamp, nearest):
+    """``nearest`` lowered to the squared distance from the segment of every box of bucket ``k``
+    not yet examined under ``stamp`` (``seen`` records them)."""
+    for q in range(starts[k], starts[k + 1]):
+        w = items[q]
+        if seen[w] == stamp:
+            continue
+        seen[w] = stamp
+        nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1], walls[w, 2], walls[w, 3]))
+    return nearest
+
+
+@compiled
 def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny, starts, items):
     """:func:`nodnav.geometry.segment_clearance`'s loop through a :class:`WallGrid`.
 
@@ -117,13 +130,7 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
             n_samples = _samples_along(ax, ay, bx, by, cell)
             for t in range(n_samples + 1):
                 k = _bucket_along(ax, ay, bx, by, t / n_samples, gx, gy, cell, nx, ny)
-                for q in range(starts[k], starts[k + 1]):
-                    w = items[q]
-                    if seen[w] == stamp:
-                        continue
-                    seen[w] = stamp
-                    nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1],
-                                                              walls[w, 2], walls[w, 3]))
+                nearest = _nearest_in_bucket(k, ax, ay, bx, by, walls, starts, items, seen, stamp, nearest)
                 if nearest == 0.0:
                     break
             reach = cell
@@ -142,14 +149,8 @@ def segment_clearance_indexed(a, b, walls, bounds, pieces, gx, gy, cell, nx, ny,
                                 ax, ay, bx, by, gx + i * cell, gy + j * cell, gx + (i + 1) * cell,
                                 gy + (j + 1) * cell) > (reach + 1e-6) * (reach + 1e-6):
                             continue
-                        k = j * nx + i
-                        for q in range(starts[k], starts[k + 1]):
-                            w = items[q]
-                            if seen[w] == stamp:
-                                continue
-                            seen[w] = stamp
-                            nearest = min(nearest, segment_box_d2_one(ax, ay, bx, by, walls[w, 0], walls[w, 1],
-                                                                      walls[w, 2], walls[w, 3]))
+                        nearest = _nearest_in_bucket(j * nx + i, ax, ay, bx, by, walls, starts, items, seen, stamp,
+                                                     nearest)
                 if nearest <= reach * reach or whole:
                     break
                 reach *= 2.0

@@ -30,15 +30,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from nodnav.scenario.family_fields import (
+    ROBOT_KEYS,
     SETTING_KEYS,
     FamilyError,
     Range,
     _check_keys,
-    _count,
     _mapping,
     _range,
     _real,
     _shown,
+    check_settings_load,
+    robot_ranges,
 )
 
 #: Most single-file passages in a drawn floor plan (the issue's 1-3 per route).
@@ -99,7 +101,6 @@ class BuildingFamily:
 
 _BUILDING_KEYS = ("doors", "crossings", "depth", "height", "corridors", "door_length", "corridor_length", "fit",
                   "tilt", "turn", "furniture", "furniture_size")
-_ROBOT_KEYS = ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel", "mixed_accels")
 
 
 def _small_count(value: Any, where: str, lo: int, hi: int) -> tuple[int, int]:
@@ -118,7 +119,7 @@ def building_family_from_dict(data: dict, source: str, name: str, description: s
     b = _mapping(data.get("building"), w + "building")
     _check_keys(b, _BUILDING_KEYS, w + "building")
     robots = _mapping(data.get("robots"), w + "robots")
-    _check_keys(robots, _ROBOT_KEYS, w + "robots")
+    _check_keys(robots, ROBOT_KEYS, w + "robots")
     kw: dict[str, Any] = {}
     parse = {
         "doors": lambda v, k: _small_count(v, k, 1, MAX_DOORS),
@@ -137,18 +138,7 @@ def building_family_from_dict(data: dict, source: str, name: str, description: s
     for key, fn in parse.items():
         if key in b:
             kw[key] = fn(b[key], f"{w}building.{key}")
-    robot_parse = {
-        "count": lambda v, k: _count(v, k),
-        "radius": lambda v, k: _range(v, k, 0.08, 1.0, " (m)"),
-        "mixed_radii": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
-        "max_speed": lambda v, k: _range(v, k, 0.01, 5.0, " (m/s)"),
-        "mixed_speeds": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
-        "max_accel": lambda v, k: _range(v, k, 0.1, 20.0, " (m/s^2)"),
-        "mixed_accels": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
-    }
-    for key, fn in robot_parse.items():
-        if key in robots:
-            kw[key] = fn(robots[key], f"{w}robots.{key}")
+    kw.update(robot_ranges(robots, w + "robots", radius_hi=1.0))
     settings = _mapping(data.get("scenario"), w + "scenario")
     _check_keys(settings, SETTING_KEYS, w + "scenario")
     family = BuildingFamily(name=name, source=source, description=description, settings=dict(settings), **kw)
@@ -161,13 +151,5 @@ def building_family_from_dict(data: dict, source: str, name: str, description: s
 
 def _check_settings(f: BuildingFamily, w: str) -> None:
     """The settings must load: tried on a plain scenario with the most robots the family draws."""
-    from nodnav.scenario.fields import ScenarioError
-    from nodnav.scenario.schema import scenario_from_dict
-
     robots = [{"origin": [-6.0, 2.0 - 0.5 * k], "destination": [6.0, 2.0 - 0.5 * k]} for k in range(f.count[1])]
-    try:
-        scenario_from_dict({**f.settings, "name": "check", "robots": robots}, "check")
-    except ScenarioError as exc:
-        raise FamilyError(f"{w}scenario.{exc}") from None
-    except (ValueError, OverflowError, RecursionError, TypeError) as exc:  # what the scenario loader let through
-        raise FamilyError(f"{w}scenario: settings the scenario loader cannot use ({type(exc).__name__})") from None
+    check_settings_load(f.settings, robots, w)

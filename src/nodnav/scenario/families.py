@@ -68,20 +68,20 @@ from nodnav.errors import nearest_hint
 from nodnav.scenario.building_family import BuildingFamily, building_family_from_dict
 from nodnav.scenario.family_fields import (
     MAX_ROBOTS,
+    ROBOT_KEYS,
     SETTING_KEYS,
     FamilyError,
     Range,
     _check_keys,
-    _count,
     _mapping,
     _range,
     _real,
     _shown,
     _weights,
+    check_settings_load,
+    robot_ranges,
 )
-from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.files import yaml_error_message
-from nodnav.scenario.schema import scenario_from_dict
 from nodnav.scenario.validity import CLEARANCE
 
 TRAFFIC = ("head-on", "one-sided", "mixed")
@@ -159,8 +159,7 @@ class Family:
 _SECTIONS = {
     "corridor": ("length", "fit", "width"),
     "rooms": ("depth", "height", "offset", "grow"),
-    "robots": ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel",
-               "mixed_accels"),
+    "robots": ROBOT_KEYS,
     "inside": ("probability", "max", "order", "bays"),
     "starts": ("formation", "gap", "spacing"),
     "destinations": ("mouth", "axis"),
@@ -208,16 +207,7 @@ def family_from_dict(data: Any, source: str = "family") -> Family | BuildingFami
         if not isinstance(rooms["grow"], bool):
             raise FamilyError(f"{w}rooms.grow: expected true or false, got {_shown(rooms['grow'])}")
         kw["grow"] = rooms["grow"]
-    put("count", robots, "count", lambda v: _count(v, w + "robots.count"))
-    put("radius", robots, "radius", lambda v: _range(v, w + "robots.radius", 0.08, 2.0, " (m)"))
-    put("mixed_radii", robots, "mixed_radii", lambda v: _real(v, w + "robots.mixed_radii", 0.0, 1.0,
-                                                              " (a probability)"))
-    put("max_speed", robots, "max_speed", lambda v: _range(v, w + "robots.max_speed", 0.01, 5.0, " (m/s)"))
-    put("mixed_speeds", robots, "mixed_speeds", lambda v: _real(v, w + "robots.mixed_speeds", 0.0, 1.0,
-                                                                " (a probability)"))
-    put("max_accel", robots, "max_accel", lambda v: _range(v, w + "robots.max_accel", 0.1, 20.0, " (m/s^2)"))
-    put("mixed_accels", robots, "mixed_accels", lambda v: _real(v, w + "robots.mixed_accels", 0.0, 1.0,
-                                                                " (a probability)"))
+    kw.update(robot_ranges(robots, w + "robots", radius_hi=2.0))
     if "traffic" in data:
         kw["traffic"] = _weights(data["traffic"], w + "traffic", TRAFFIC)
     put("inside_probability", inside, "probability", lambda v: _real(v, w + "inside.probability", 0.0, 1.0,
@@ -251,14 +241,8 @@ def _check_consistent(f: Family, w: str) -> None:
                               f"[{f.radius.lo:g}, {f.radius.hi:g}] m; keep it within [{lo:.3f}, {hi:.3f}] m "
                               "(2 r_max + 0.1 to 4 r_min - 0.05) or use 'fit'")
     # The settings, tried on a plain scenario with the fewest robots the family draws.
-    n = f.count[0]
-    robots = [{"origin": [-5.0, 2.0 - k], "destination": [5.0, 2.0 - k]} for k in range(n)]
-    try:
-        scenario_from_dict({**f.settings, "name": "check", "robots": robots}, "check")
-    except ScenarioError as exc:
-        raise FamilyError(f"{w}scenario.{exc}") from None
-    except (ValueError, OverflowError, RecursionError, TypeError) as exc:  # what the scenario loader let through
-        raise FamilyError(f"{w}scenario: settings the scenario loader cannot use ({type(exc).__name__})") from None
+    robots = [{"origin": [-5.0, 2.0 - k], "destination": [5.0, 2.0 - k]} for k in range(f.count[0])]
+    check_settings_load(f.settings, robots, w)
 
 
 def builtin_families() -> list[str]:

@@ -13,6 +13,7 @@ from typing import Any
 
 from nodnav.errors import nearest_hint
 from nodnav.scenario.fields import ScenarioError
+from nodnav.scenario.schema import scenario_from_dict
 
 MAX_ROBOTS = 8
 """Most robots a family may draw (the scaling issue's largest scenarios)."""
@@ -98,3 +99,33 @@ def _check_keys(data: dict, valid, where: str) -> None:
     for key in data:
         if key not in valid:
             raise FamilyError(f"{where}: unknown key '{key}'{nearest_hint(str(key), valid)}")
+
+
+#: The keys of a family's ``robots`` section, shared by both kinds of family.
+ROBOT_KEYS = ("count", "radius", "mixed_radii", "max_speed", "mixed_speeds", "max_accel", "mixed_accels")
+
+
+def robot_ranges(robots: dict, where: str, radius_hi: float) -> dict[str, Any]:
+    """The values given in a family's ``robots`` section (``where``: its place in the file,
+    ``"FILE: robots"``), checked; radii up to ``radius_hi`` metres."""
+    parse = {
+        "count": lambda v, k: _count(v, k),
+        "radius": lambda v, k: _range(v, k, 0.08, radius_hi, " (m)"),
+        "mixed_radii": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
+        "max_speed": lambda v, k: _range(v, k, 0.01, 5.0, " (m/s)"),
+        "mixed_speeds": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
+        "max_accel": lambda v, k: _range(v, k, 0.1, 20.0, " (m/s^2)"),
+        "mixed_accels": lambda v, k: _real(v, k, 0.0, 1.0, " (a probability)"),
+    }
+    return {key: fn(robots[key], f"{where}.{key}") for key, fn in parse.items() if key in robots}
+
+
+def check_settings_load(settings: dict, robots: list[dict], where: str) -> None:
+    """A family's ``scenario`` settings must load: tried on a plain scenario with ``robots``
+    (``where``: the file's name and ``": "``)."""
+    try:
+        scenario_from_dict({**settings, "name": "check", "robots": robots}, "check")
+    except ScenarioError as exc:
+        raise FamilyError(f"{where}scenario.{exc}") from None
+    except (ValueError, OverflowError, RecursionError, TypeError) as exc:  # what the scenario loader let through
+        raise FamilyError(f"{where}scenario: settings the scenario loader cannot use ({type(exc).__name__})") from None

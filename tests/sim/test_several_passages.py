@@ -104,6 +104,16 @@ def test_game_membership_follows_the_next_passage_on_each_route():
     assert views.current(0, views.advance(stage, positions, np.ones(4, dtype=bool))) == -1
 
 
+def test_only_robots_with_no_passage_left_are_settled():
+    # Robot 1 crosses corridor 1 then corridor 2; robot 2 stays in the middle room (no passage).
+    s = three_rooms([{"origin": [-7.0, 0.0], "destination": [7.0, 0.0], "radius": 0.2},
+                     {"origin": [0.0, 1.0], "destination": [0.0, -1.0], "radius": 0.2}])
+    views = PassageViews(s, lambda world: make_planner(s.planner, world))
+    assert views.routes[0].passages == (0, 1) and views.routes[1].passages == ()
+    for left_behind, settled in ((0, False), (1, False), (2, True)):  # through neither, one, both
+        assert views.settled(np.array([left_behind, 0])).tolist() == [settled, True]
+
+
 def test_a_robot_plays_only_with_the_robots_of_its_next_passage():
     sim = Simulation(load_scenario(str(EXAMPLE)), "nod", 1)
     sim.step()

@@ -248,6 +248,10 @@ class NODAgent:
         self.eligible: np.ndarray | None = None
         """With several passages, the robots that may be game players (whose next passage is this
         robot's, :class:`~nodnav.sim.several.PassageAgent`); None: every robot."""
+        self.settled: np.ndarray | None = None
+        """With several passages, the robots with no passage left on their route (set by
+        :class:`~nodnav.sim.several.PassageAgent`): only they may count as done with this one
+        (``crossed: planned``); None (one passage): every robot past the corridor."""
         self.start_positions = scenario.origins
         """Where the robots are when this robot starts playing (eqs. (10)-(11)'s initial opinions):
         their origins, or where it sees them when it reaches a later passage of several."""
@@ -371,8 +375,13 @@ class NODAgent:
         if self.params.crossed != "planned":
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
+        # With several passages only robots with no passage left are done: one that has crossed
+        # this passage on its way to another is moving on (its destination in this view is a
+        # local goal it drives through), not parked, and planning it as parked at the front of
+        # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
-        return entered + tuple(packed_crossed(world, view.positions, s.destinations, s.radii, view.known,
+        done = view.known if self.settled is None else view.known & self.settled
+        return entered + tuple(packed_crossed(world, view.positions, s.destinations, s.radii, done,
                                               [self.index, *players, *entered], s.sim.goal_tolerance,
                                               s.planner.margin, self._graphs))
 

@@ -271,6 +271,11 @@ class PassageViews:
         route crosses none excepted)."""
         return np.array([0 < len(route.passages) <= stage[j] for j, route in enumerate(self.routes)], dtype=bool)
 
+    def settled(self, stage: np.ndarray) -> np.ndarray:
+        """Which robots have no passage left on their route ``(N_r,)``: those that have left
+        every passage behind, and those whose route crosses none."""
+        return np.array([len(route.passages) <= stage[j] for j, route in enumerate(self.routes)], dtype=bool)
+
     def finished_scenario(self, i: int, k: int) -> Scenario:
         """Passage ``k``'s one-passage scenario with robot ``i`` going to its own destination: its
         view once it has left its last passage ``k`` behind."""
@@ -354,6 +359,8 @@ class PassageAgent:
                 decider.start_positions = view.positions.copy()
         self.playing = key
         decider.eligible = self.views.eligible(self.index, self.stage, self.arrived)
+        if hasattr(decider, "settled"):  # NOD's crossed rule: only robots with no passage left are done
+            decider.settled = self.views.settled(self.stage)
         if hasattr(decider, "rank_from"):  # closest-first ranks by each robot's own next passage
             decider.rank_from(self.views.next_distances(view.positions, self.stage), self.stage)
         # The entries into this passage of the robots whose next passage it is: a robot met from

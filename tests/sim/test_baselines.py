@@ -22,6 +22,7 @@ from nodnav.sim.baselines import (
     wall_polygons,
 )
 from nodnav.sim.methods import METHODS, make_method
+from nodnav.sim.sensing import OcclusionLimit
 from nodnav.sim.simulator import Simulation, run_trial, trial_generators
 
 needs_rvo2 = pytest.mark.skipif(importlib.util.find_spec("pyrvo") is None,
@@ -320,6 +321,25 @@ def test_orca_step_moves_at_the_returned_velocity():
         assert np.allclose(res.next_velocity, res.velocity)
         # Alone in a room, heading for the corridor: at full speed towards its next waypoint.
         assert np.linalg.norm(res.velocity) == pytest.approx(1.0, abs=1e-5)
+
+
+@needs_rvo2
+def test_orca_keeps_the_occlusion_speed_limit_with_limited_sight():
+    # A robot below the paper's left mouth cannot see into the corridor (walls block sight): the
+    # place hidden nearest it is 1.56 m away (tests/sim/test_sensing.py works it out by hand), so
+    # its speed limit is far below its own 5 m/s; with full sight it may go at 5 m/s.
+    robots = [{"origin": [-4.0, -1.0], "destination": [5.0, 0.0]}, {"origin": [5.0, 1.0], "destination": [-5.0, 0.0]}]
+    raw = {"name": "mouth", "robot_defaults": {"max_speed": 5.0, "max_accel": 1.0}, "robots": robots}
+    speeds, caps = [], []
+    for sensing in ({"walls_block": True}, {}):
+        s = scenario_from_dict({**raw, "sensing": sensing})
+        sim = Simulation(s, "orca", seed=1)
+        sim.step()
+        views = sim.views()
+        speeds.append(float(np.linalg.norm(sim.method.act(sim.t, views)[0].velocity)))
+        caps.append(OcclusionLimit(s).speed(0, views[0].positions[0], 5.0))
+    assert caps[1] == 5.0 and caps[0] < 2.0  # stopping within half of ~1.2 m at 0.65 m/s^2
+    assert 0.0 < speeds[0] <= caps[0] + 1e-6 < speeds[1]
 
 
 @needs_rvo2

@@ -63,6 +63,7 @@ from nodnav.sim.metrics import arrival_times
 from nodnav.sim.order_plans import NO_OPINION, closest_first_order, plan_for_order
 from nodnav.sim.passage_baselines import ClosestFirstPassage
 from nodnav.sim.several import PassageAgent
+from nodnav.sim.sensing import OcclusionLimit
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
 #: beyond any neighbour distance, so that it constrains nothing.
@@ -401,6 +402,10 @@ class OrcaMethod:
         self.graphs = {r: VisibilityGraph(scenario.world, r, params.orca_route_margin)
                        for r in set(scenario.radii.tolist())}
         self.decisions: dict[int, Decision] = {}
+        sensing = scenario.sensing
+        self.occlusion = OcclusionLimit(scenario) if sensing.limited and sensing.occlusion_speed else None
+        """With limited sight, each robot's speed limit from the places it cannot see, as the
+        planned methods get it (docs/sensing.md): RVO2's own speed limit for that robot's step."""
 
     def route(self, i: int, position: np.ndarray) -> np.ndarray:
         """Robot ``i``'s shortest route ``(V, 2)`` from ``position`` to its destination; the straight
@@ -446,8 +451,11 @@ class OrcaMethod:
                 self.rvo.set_agent_pref_velocity(k, tuple(map(float, view.velocities[k])))
             route = self.route(i, p)
             remaining = float(np.linalg.norm(np.diff(np.vstack([p, route]), axis=0), axis=1).sum())
-            v_pref = preferred_velocity(p, next_waypoint(route, p), remaining, float(self.scenario.max_speeds[i]),
-                                        self.dt)
+            speed = float(self.scenario.max_speeds[i])
+            if self.occlusion is not None:  # RVO2 bounds the new velocity by the agent's max speed
+                speed = self.occlusion.speed(i, p, speed)
+                self.rvo.set_agent_max_speed(i, speed)
+            v_pref = preferred_velocity(p, next_waypoint(route, p), remaining, speed, self.dt)
             self.rvo.set_agent_pref_velocity(i, tuple(map(float, v_pref)))
             self.rvo.do_step()
             v = np.array(self.rvo.get_agent_velocity(i).to_tuple(), dtype=float)

@@ -62,8 +62,8 @@ from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
 from nodnav.sim.order_plans import NO_OPINION, closest_first_order, plan_for_order
 from nodnav.sim.passage_baselines import ClosestFirstPassage
-from nodnav.sim.several import PassageAgent
 from nodnav.sim.sensing import OcclusionLimit
+from nodnav.sim.several import PassageAgent
 
 #: Where ORCA puts a robot the observer does not know of (limited sight), from the observer (m):
 #: beyond any neighbour distance, so that it constrains nothing.

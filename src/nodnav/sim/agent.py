@@ -133,11 +133,18 @@ class PlanCache:
         self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
+        self.graphs: dict = {}
+        """Visibility graphs by (world, radius), kept across rounds and shared by the agents that
+        share this cache: each graph remembers its answers keyed by the exact query, so an agent
+        asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
+        same path without searching again."""
+        self._crossed: dict[tuple, tuple[int, ...]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
         self._states.clear()
+        self._crossed.clear()
 
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
@@ -151,6 +158,17 @@ class PlanCache:
         else:
             self.hits += 1
         return result
+
+    def packed_crossed(self, *args) -> tuple[int, ...]:
+        """:func:`~nodnav.sim.parked.packed_crossed` of ``args`` (without its ``graphs``: this
+        cache's), computed at most once per round: robots that see the same and plan the same
+        robots (every game player of a shared game) ask it with equal arguments. The key is
+        every argument (arrays by their bytes), so an argument added to the call is keyed too."""
+        key = tuple(_hashable(a) for a in args)
+        hit = self._crossed.get(key)
+        if hit is None:
+            hit = self._crossed[key] = tuple(packed_crossed(*args, graphs=self.graphs))
+        return hit
 
     def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
         """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
@@ -166,6 +184,15 @@ class PlanCache:
             states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
             hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
         return hit[1]
+
+
+def _hashable(value):
+    """``value`` as part of a memo's key: arrays by their dtype, shape and bytes, lists as tuples."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, list):
+        return tuple(_hashable(v) for v in value)
+    return value
 
 
 def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
@@ -265,7 +292,7 @@ class NODAgent:
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
-        self._graphs: dict = {}  # visibility graphs for clearing the way, by radius
+        self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
         """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
@@ -372,9 +399,10 @@ class NODAgent:
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
         s = self.scenario
-        return entered + tuple(packed_crossed(world, view.positions, s.destinations, s.radii, view.known,
-                                              [self.index, *players, *entered], s.sim.goal_tolerance,
-                                              s.planner.margin, self._graphs))
+        # Game players of one game ask the same, so the plan cache answers once per round.
+        return entered + self.plans.packed_crossed(world, view.positions, s.destinations, s.radii, view.known,
+                                                   sorted([self.index, *players, *entered]), s.sim.goal_tolerance,
+                                                   s.planner.margin)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``

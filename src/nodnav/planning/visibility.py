@@ -247,7 +247,11 @@ class VisibilityGraph:
         """
         start = np.asarray(start, dtype=float).reshape(2)
         goal = np.asarray(goal, dtype=float).reshape(2)
-        path = self.shortest_paths(start[None], goal[None])[0]
+        key = (start.tobytes(), goal.tobytes())  # shortest_paths for one pair, without its lists
+        path = self._plain.get(key)
+        if path is None:
+            path = self._walls_only(start[None], goal[None])[0]
+            remember(self._plain, key, path)
         if not path.success or discs is None or not len(discs):
             return path
         centres = np.asarray(discs, dtype=float).reshape(-1, 2)

@@ -29,7 +29,7 @@ from nodnav.decision.strategies import passing_orders, precedence_mask, project_
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
+from nodnav.scenario.world import LEFT, RIGHT, World, distance_to_go
 from nodnav.sim.parked import packed_crossed
 
 
@@ -159,15 +159,19 @@ class PlanCache:
             self.hits += 1
         return result
 
-    def packed_crossed(self, *args) -> tuple[int, ...]:
-        """:func:`~nodnav.sim.parked.packed_crossed` of ``args`` (without its ``graphs``: this
-        cache's), computed at most once per round: robots that see the same and plan the same
-        robots (every game player of a shared game) ask it with equal arguments. The key is
-        every argument (arrays by their bytes), so an argument added to the call is keyed too."""
+    def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
+                       known: np.ndarray, planning: list[int], goal_tolerance: float,
+                       margin: float) -> tuple[int, ...]:
+        """:func:`~nodnav.sim.parked.packed_crossed` with this cache's graphs, computed at most
+        once per round for the same arguments: robots that see the same and plan the same robots
+        (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
+        their bytes, ``planning`` as a set: only membership counts)."""
+        args = (world, positions, destinations, radii, known, sorted(planning), goal_tolerance, margin)
         key = tuple(_hashable(a) for a in args)
         hit = self._crossed.get(key)
         if hit is None:
-            hit = self._crossed[key] = tuple(packed_crossed(*args, graphs=self.graphs))
+            hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
+                                                            list(planning), goal_tolerance, margin, self.graphs))
         return hit
 
     def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
@@ -401,7 +405,7 @@ class NODAgent:
         s = self.scenario
         # Game players of one game ask the same, so the plan cache answers once per round.
         return entered + self.plans.packed_crossed(world, view.positions, s.destinations, s.radii, view.known,
-                                                   sorted([self.index, *players, *entered]), s.sim.goal_tolerance,
+                                                   [self.index, *players, *entered], s.sim.goal_tolerance,
                                                    s.planner.margin)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:

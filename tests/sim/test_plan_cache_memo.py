@@ -77,3 +77,25 @@ def test_the_agents_of_a_trial_share_their_visibility_graphs():
     method = make_method("nod", scenario, [np.random.default_rng(k) for k in range(scenario.n_robots)])
     graphs = {id(a._graphs) for a in method.agents}
     assert graphs == {id(method.plans.graphs)}
+
+
+def test_the_stacked_states_of_a_round_are_each_plans_states_once():
+    from nodnav.planning.base import JointTrajectory, PlanResult
+
+    cache = PlanCache(PrioritizedPlanner(WORLD))
+    times = np.array([0.0, 1.0, 2.0])
+    # Two plans of two robots moving at constant velocity: at time t robot k of plan g stands at
+    # (g + k + t, 0) with velocity (1, 0).
+    plans = []
+    for g in range(2):
+        t = np.array([0.0, 4.0])
+        positions = np.array([[[g + k + s, 0.0] for k in range(2)] for s in t])
+        plans.append(PlanResult(True, "", 1.0, JointTrajectory.from_positions(t, positions), (0, 1), (0, 1), 0.0))
+    stacked = cache.stacked_states(plans, times)
+    assert stacked.shape == (2, 2, 3, 4)
+    assert np.allclose(stacked[1, 0, :, 0], [1.0, 2.0, 3.0]) and np.allclose(stacked[:, :, :, 2], 1.0)
+    for g, plan in enumerate(plans):
+        assert np.array_equal(stacked[g], cache.states_at(plan, times))
+    assert cache.stacked_states(list(plans), times.copy()) is stacked  # asked again: the same array
+    cache.clear()
+    assert cache.stacked_states(plans, times) is not stacked

@@ -139,12 +139,14 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
+        self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
         self._states.clear()
         self._crossed.clear()
+        self._stacks.clear()
 
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
@@ -173,6 +175,19 @@ class PlanCache:
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
                                                             list(planning), goal_tolerance, margin, self.graphs))
         return hit
+
+    def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
+        """:meth:`states_at` of every plan of ``plans`` stacked, ``(G, n, M, 4)``, once per round
+        for the same plans and times: every game player of a shared game reads the whole list
+        of the round before, each keeping its own players' columns. Plans of unequal robot
+        counts cannot be stacked: their states are stacked by the caller per column."""
+        key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
+        hit = self._stacks.get(key)
+        if hit is None:
+            states = [self.states_at(p, times) for p in plans]
+            stacked = np.stack(states) if len({a.shape for a in states}) == 1 else np.zeros(0)
+            hit = self._stacks[key] = (list(plans), stacked)  # holding the plans keeps their ids unique
+        return hit[1]
 
     def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
         """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
@@ -337,7 +352,9 @@ class NODAgent:
         social = np.zeros(len(plans))
         if players and self.social:
             columns = [planning.index(k) for k in players]
-            planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
+            stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
+            planned = (stacked[:, columns] if stacked.ndim == 4 else
+                       np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans]))  # (G, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
             if self.params.estimation == "reachable":

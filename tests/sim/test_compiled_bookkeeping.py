@@ -135,3 +135,25 @@ def test_plan_progress_equals_the_plain_computation():
         credited += got.sum()
     assert compiled_progress.credited.tobytes() == plain.credited.tobytes()
     assert credited > 10
+
+
+def test_moved_beyond_equals_the_plain_computation_and_a_hand_count():
+    from nodnav.sim.execution import moved_beyond, moved_beyond_plain
+
+    # By hand: (3, 4) from the anchor is 5 m away, beyond 4.9 m but not beyond 5 m; robot 2 has not moved.
+    anchor = np.array([[0.0, 0.0], [1.0, 1.0], [2.0, -2.0]])
+    positions = np.array([[3.0, 4.0], [1.0, 1.0 + 4.95], [2.0, -2.0]])
+    rows = np.array([0, 1, 2], dtype=np.int64)
+    assert moved_beyond(positions, anchor, rows, 4.9).tolist() == [True, True, False]
+    assert moved_beyond(positions, anchor, rows, 5.0).tolist() == [False, False, False]
+    # Random walks, a subset of rows in any order, thresholds right at the distances: the same
+    # verdict as norm's, bit for bit (the same square root of the same sum).
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        anchor = rng.normal(0.0, 5.0, size=(8, 2))
+        positions = anchor + rng.normal(0.0, 0.05, size=(8, 2)) * (rng.random((8, 1)) < 0.7)
+        rows = rng.permutation(8)[:rng.integers(1, 9)].astype(np.int64)
+        distances = np.linalg.norm(positions[rows] - anchor[rows], axis=1)
+        for reach in (0.02, float(distances[0]), float(np.nextafter(distances[0], 0.0))):
+            assert np.array_equal(moved_beyond(positions, anchor, rows, reach),
+                                  moved_beyond_plain(positions, anchor, rows, reach))

@@ -247,7 +247,11 @@ class VisibilityGraph:
         """
         start = np.asarray(start, dtype=float).reshape(2)
         goal = np.asarray(goal, dtype=float).reshape(2)
-        path = self.shortest_paths(start[None], goal[None])[0]
+        pair = (start.tobytes(), goal.tobytes())  # shortest_paths for one pair, without its lists
+        path = self._plain.get(pair)
+        if path is None:
+            path = self._walls_only(start[None], goal[None])[0]
+            remember(self._plain, pair, path)
         if not path.success or discs is None or not len(discs):
             return path
         centres = np.asarray(discs, dtype=float).reshape(-1, 2)
@@ -413,7 +417,14 @@ def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_st
     order minimising ``d_start[q, first] + dist[first, last] + d_goal[q, last]``, and that least
     sum. Only the vertices seen from the start and from the goal are summed (the rest are
     ``inf``): the same pair and value as the whole ``(V, V)`` table, at a fraction of its cost
-    on a map's graph of a thousand vertices."""
+    on a map's graph of a thousand vertices. One compiled loop (:func:`_best_via_kernel`);
+    :func:`_best_via_plain` is the NumPy version it is tested against."""
+    return _best_via_kernel(d_start, dist, d_goal, from_start, to_goal)
+
+
+def _best_via_plain(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,
+                    to_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_best_via` with NumPy: the sums of the seen pairs as a table, its first least entry."""
     m, nv = d_start.shape
     best = np.zeros(m, dtype=np.int64)
     cost = np.full(m, np.inf)
@@ -424,6 +435,30 @@ def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_st
         total = d_start[q, fs][:, None] + dist[np.ix_(fs, tg)] + d_goal[q, tg][None, :]
         k = int(total.argmin())
         best[q], cost[q] = fs[k // len(tg)] * nv + tg[k % len(tg)], total.flat[k]
+    return best, cost
+
+
+@_compiled
+def _best_via_kernel(d_start, dist, d_goal, from_start, to_goal):
+    """:func:`_best_via_plain` as loops: the same sums (start leg plus the graph's distance, then
+    the goal leg), the first least in the same row-major order (a strictly smaller sum replaces
+    it, as ``argmin`` keeps the first of equal ones)."""
+    m, nv = d_start.shape
+    best = np.zeros(m, dtype=np.int64)
+    cost = np.full(m, np.inf)
+    for q in range(m):
+        found = False
+        for a in range(nv):
+            if not from_start[q, a]:
+                continue
+            for b in range(nv):
+                if not to_goal[q, b]:
+                    continue
+                total = d_start[q, a] + dist[a, b] + d_goal[q, b]
+                if not found or total < cost[q]:
+                    best[q] = a * nv + b
+                    cost[q] = total
+                    found = True
     return best, cost
 
 

@@ -29,7 +29,7 @@ from nodnav.decision.strategies import passing_orders, precedence_mask, project_
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
+from nodnav.scenario.world import LEFT, RIGHT, World, distance_to_go
 from nodnav.sim.parked import packed_crossed
 
 
@@ -133,11 +133,20 @@ class PlanCache:
         self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
+        self.graphs: dict = {}
+        """Visibility graphs by (world, radius), kept across rounds and shared by the agents that
+        share this cache: each graph remembers its answers keyed by the exact query, so an agent
+        asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
+        same path without searching again."""
+        self._crossed: dict[tuple, tuple[int, ...]] = {}
+        self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
         self._states.clear()
+        self._crossed.clear()
+        self._stacks.clear()
 
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
@@ -151,6 +160,34 @@ class PlanCache:
         else:
             self.hits += 1
         return result
+
+    def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
+                       known: np.ndarray, planning: list[int], goal_tolerance: float,
+                       margin: float) -> tuple[int, ...]:
+        """:func:`~nodnav.sim.parked.packed_crossed` with this cache's graphs, computed at most
+        once per round for the same arguments: robots that see the same and plan the same robots
+        (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
+        their bytes, ``planning`` as a set: only membership counts)."""
+        args = (world, positions, destinations, radii, known, sorted(planning), goal_tolerance, margin)
+        key = tuple(_hashable(a) for a in args)
+        hit = self._crossed.get(key)
+        if hit is None:
+            hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
+                                                            list(planning), goal_tolerance, margin, self.graphs))
+        return hit
+
+    def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
+        """:meth:`states_at` of every plan of ``plans`` stacked, ``(G, n, M, 4)``, once per round
+        for the same plans and times: every game player of a shared game reads the whole list
+        of the round before, each keeping its own players' columns. Plans of unequal robot
+        counts cannot be stacked: their states are stacked by the caller per column."""
+        key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
+        hit = self._stacks.get(key)
+        if hit is None:
+            states = [self.states_at(p, times) for p in plans]
+            stacked = np.stack(states) if len({a.shape for a in states}) == 1 else np.zeros(0)
+            hit = self._stacks[key] = (list(plans), stacked)  # holding the plans keeps their ids unique
+        return hit[1]
 
     def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
         """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
@@ -166,6 +203,15 @@ class PlanCache:
             states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
             hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
         return hit[1]
+
+
+def _hashable(value):
+    """``value`` as part of a memo's key: arrays by their dtype, shape and bytes, lists as tuples."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, list):
+        return tuple(_hashable(v) for v in value)
+    return value
 
 
 def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
@@ -269,7 +315,7 @@ class NODAgent:
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
-        self._graphs: dict = {}  # visibility graphs for clearing the way, by radius
+        self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
         """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
@@ -310,7 +356,9 @@ class NODAgent:
         social = np.zeros(len(plans))
         if players and self.social:
             columns = [planning.index(k) for k in players]
-            planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
+            stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
+            planned = (stacked[:, columns] if stacked.ndim == 4 else
+                       np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans]))  # (G, N_k, M, 4)
             observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
             if self.params.estimation == "reachable":
@@ -381,9 +429,10 @@ class NODAgent:
         # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
         done = view.known if self.settled is None else view.known & self.settled
-        return entered + tuple(packed_crossed(world, view.positions, s.destinations, s.radii, done,
-                                              [self.index, *players, *entered], s.sim.goal_tolerance,
-                                              s.planner.margin, self._graphs))
+        # Game players of one game ask the same, so the plan cache answers once per round.
+        return entered + self.plans.packed_crossed(world, view.positions, s.destinations, s.radii, done,
+                                                   [self.index, *players, *entered], s.sim.goal_tolerance,
+                                                   s.planner.margin)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``

@@ -126,6 +126,25 @@ class PlanExecution:
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
 
 
+def moved_beyond_plain(positions: np.ndarray, anchor: np.ndarray, rows: np.ndarray, reach: float) -> np.ndarray:
+    """Which robots ``rows`` stand farther than ``reach`` from where they stood at ``anchor``
+    (``(N, 2)`` both): the NumPy reference of :func:`moved_beyond`."""
+    return np.linalg.norm(positions[rows] - anchor[rows], axis=1) > reach
+
+
+@compiled
+def moved_beyond(positions, anchor, rows, reach):
+    """:func:`moved_beyond_plain` as one loop: the same operations (differences, squares, their
+    sum, its square root), without the temporaries and ``norm``'s dispatch per robot and step."""
+    out = np.zeros(len(rows), dtype=np.bool_)
+    for j in range(len(rows)):
+        r = rows[j]
+        dx = positions[r, 0] - anchor[r, 0]
+        dy = positions[r, 1] - anchor[r, 1]
+        out[j] = np.sqrt(dx * dx + dy * dy) > reach
+    return out
+
+
 @compiled
 def _read_kernel(times, positions, t0, clocks, offsets, limits):
     """:meth:`PlanExecution.read_plain` as one loop: robot ``r``'s own column of the plan at
@@ -353,7 +372,7 @@ class WaitRelease:
             anchor = self.anchors[i] = view.positions.copy()
             self.since[i] = t
         blockers = execution.blockers()
-        moved = np.linalg.norm(view.positions[rows] - anchor[rows], axis=1) > self.reach
+        moved = moved_beyond(view.positions, anchor, rows, self.reach)
         if t >= self.released_until[i] - 1e-9:
             if moved.any() or not len(blockers):  # not held, or somebody of the plan got somewhere
                 self.anchors[i] = view.positions.copy()

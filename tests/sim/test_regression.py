@@ -59,6 +59,7 @@ CASES = [
     ("destination-behind-parked-robots-in-the-room.yaml", (1,)),
     ("occluded-mouth-robot-steps-out.yaml", (222,)),
     ("occluded-mouth-slow-braker.yaml", (417,)),
+    ("press-and-back-off-in-turn.yaml", (5, 24)),
 ]
 
 

@@ -60,6 +60,7 @@ CASES = [
     ("occluded-mouth-robot-steps-out.yaml", (222,)),
     ("occluded-mouth-slow-braker.yaml", (417,)),
     ("crossed-rule-with-another-passage-ahead.yaml", (473,)),
+    ("press-and-back-off-in-turn.yaml", (5, 24)),
 ]
 
 

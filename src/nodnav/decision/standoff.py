@@ -12,6 +12,13 @@ period, although the robot's selected plan had one of them progress, the two are
 wants to go and neither gives way. Once that has lasted ``patience``, the lower-numbered robot of
 the pair goes first. Both robots of a standoff see it alike, so both apply the convention; a
 robot whose plan has both of them wait (for a third robot) is never in a standoff.
+
+Progress over a period is judged against the best each robot reached over the patience
+(:func:`progress_beyond_best`, ``opinion.standoff_progress: best``): two robots that both press and
+both back off in turn, each period, each a few decimetres (the alternation of Fig. 2c, carried out
+by the motion), get nowhere, although every other period each came closer than at the start of
+that period. Judged period by period (``period``, as before) they "progressed" every other period
+and the standoff was never seen (docs/sight-standoffs.md).
 """
 
 from __future__ import annotations
@@ -21,6 +28,17 @@ import numpy as np
 #: A robot that came less than this closer to its destination over a period (m) made no progress;
 #: one whose plan took it more than twice as far wanted to.
 STALL_DISTANCE = 0.1
+
+
+def progress_beyond_best(to_go_now: np.ndarray, to_go_before: np.ndarray) -> np.ndarray:
+    """How much closer to its destination each robot is now than the closest it was over the span
+    before (m; negative: farther). ``to_go_now`` ``(n,)`` is each robot's distance to go now,
+    ``to_go_before`` ``(S, n)`` its distances to go at S earlier times (the start of the last period
+    among them). With the start of the last period alone this is the progress over the period; a
+    robot that backs off and comes back to where it was has made none.
+    """
+    before = np.atleast_2d(np.asarray(to_go_before, dtype=float))
+    return before.min(axis=0) - np.asarray(to_go_now, dtype=float)
 
 
 def standoff_partner(own_progress: float, players_progress: np.ndarray, own_planned: float,

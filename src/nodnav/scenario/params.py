@@ -52,6 +52,10 @@ class OpinionParams:
     standoff_patience: float = field(default=2.0, metadata=accepted(0.0, 600.0))
     """After how long a standoff with a game player (neither progressing, although the robot's
     plan has one of them progress) the lower-numbered robot of the two goes first (s); 0 never (the paper)."""
+    standoff_progress: Literal["period", "best"] = "best"
+    """How a standoff judges a robot's progress over a period: ``best`` (beyond the closest to its
+    destination it came over the last ``standoff_patience``, so that pressing and backing off in
+    turn is no progress) or ``period`` (over the period alone, as before; docs/sight-standoffs.md)."""
     estimation: Literal["paper", "reachable", "mismatch"] = "mismatch"
     """How eq. (4) reads a plan: ``paper`` (the planned states as they are) or ``reachable`` (the
     planned motion as the observed robot can carry it out from its observed state at the start of

@@ -24,7 +24,7 @@ from nodnav.decision.games import carry_opinions, class_size, game_bias, game_or
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
-from nodnav.decision.standoff import standoff_partner
+from nodnav.decision.standoff import progress_beyond_best, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
@@ -312,6 +312,9 @@ class NODAgent:
         """The order (index among the game's) selected at the last decision."""
         self.standoff_periods = 0
         """For how many periods in a row the robot has been in a standoff (:mod:`nodnav.decision.standoff`)."""
+        self._to_go_seen: list[np.ndarray] = []
+        """Every robot's distance to go as this robot saw it at its last decisions (newest last),
+        over the standoff patience (``opinion.standoff_progress: best``)."""
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
@@ -443,7 +446,10 @@ class NODAgent:
             planning, _, _, plans = self.previous
             plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
-            progress = -np.diff(self._to_go(ends), axis=1)[:, 0]
+            to_go = self._to_go(ends)
+            progress = -np.diff(to_go, axis=1)[:, 0]
+            if self.params.standoff_progress == "best":  # beyond the best over the patience
+                progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
             planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
@@ -455,6 +461,9 @@ class NODAgent:
                                      players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
                                      players_arrived=arrived)
             partner = players[found] if found >= 0 else -1
+        if patience > 0 and self.params.standoff_progress == "best":
+            span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
+            self._to_go_seen = [*self._to_go_seen, self._to_go(view.positions[:, None])[:, 0]][-span:]
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
 

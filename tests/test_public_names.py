@@ -49,3 +49,16 @@ def test_an_unknown_name_is_an_attribute_error():
         nodnav.run_trail  # noqa: B018
     with pytest.raises(ImportError):
         exec("from nodnav import run_trail", {})
+
+
+def test_running_a_trial_through_the_api_does_not_load_the_plotting_library(tmp_path):
+    """``from nodnav import run_trial`` loads no matplotlib (the report's modules need it, the
+    closed loop does not: 0.3 s and 45,000 objects per process, docs/performance-6.md),
+    and ``nodnav.build_report`` still builds reports (loading it then)."""
+    code = ("import sys; from nodnav import load_scenario, run_trial; "
+            "assert 'matplotlib' not in sys.modules, 'matplotlib loaded'; "
+            "import nodnav; r = nodnav.build_report(sys.argv[1], sys.argv[2]); "
+            "assert not r.success and 'no such results database' in r.reason, r.reason")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "none.sqlite"), str(tmp_path / "out")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -7,18 +7,19 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from nodnav.experiments.study import SweepSpec, study_from_dict
 from nodnav.experiments.sweep import SweepSummary
 from nodnav.experiments.sweep import run_sweep as _run_sweep
 from nodnav.planning.base import Planner
-from nodnav.reporting.report import ReportResult
-from nodnav.reporting.report import build_report as _build_report
 from nodnav.scenario.loading import load_scenario as _load_scenario
 from nodnav.scenario.schema import Scenario, scenario_from_dict
 from nodnav.sim.simulator import TrialResult
 from nodnav.sim.simulator import run_trial as _run_trial
+
+if TYPE_CHECKING:  # the report's modules import matplotlib: loaded when a report is built
+    from nodnav.reporting.report import ReportResult
 
 
 def load_scenario(spec: str | Path, overrides: Mapping[str, Any] | None = None) -> Scenario:
@@ -152,4 +153,6 @@ def build_report(db: str | Path, out: str | Path, *, heatmap_grid: int = 41, rer
     ReportResult
         Whether ``report.md`` was written, where, and what it holds.
     """
+    from nodnav.reporting.report import build_report as _build_report
+
     return _build_report(db, out, command=command, heatmap_grid=heatmap_grid, rerun_snapshots=rerun_snapshots)

@@ -13,7 +13,8 @@ import pytest
 
 from nodnav.planning.base import JointTrajectory, PlanResult
 from nodnav.scenario.loading import load_scenario
-from nodnav.sim.agent import NODAgent, PlanCache, RobotView
+from nodnav.sim.agent import NODAgent, RobotView
+from nodnav.sim.plan_cache import PlanCache
 
 SPEED = 0.5  # m/s, robot 2 under S2
 DT = 0.1     # s, the window's sampling (the scenario's control step)

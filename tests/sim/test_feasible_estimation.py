@@ -11,7 +11,8 @@ import pytest
 
 from nodnav.planning import make_planner
 from nodnav.scenario.loading import load_scenario
-from nodnav.sim.agent import NODAgent, PlanCache, RobotView
+from nodnav.sim.agent import NODAgent, RobotView
+from nodnav.sim.plan_cache import PlanCache
 
 ACCEL = 0.3  # m/s^2, both robots
 

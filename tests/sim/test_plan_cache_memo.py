@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-import nodnav.sim.agent as agent_module
+import nodnav.sim.plan_cache as plan_cache_module
 from nodnav import load_scenario
 from nodnav.planning.prioritized import PrioritizedPlanner
-from nodnav.sim.agent import PlanCache
 from nodnav.sim.methods import make_method
+from nodnav.sim.plan_cache import PlanCache
 
 WORLD = load_scenario(Path(__file__).parent / "regression" / "destination-behind-parked-robots.yaml").world
 R, MARGIN, TOL = 0.351, 0.05, 0.15
@@ -30,13 +30,13 @@ def robots():
 
 def counting(monkeypatch):
     calls = []
-    original = agent_module.packed_crossed
+    original = plan_cache_module.packed_crossed
 
     def wrapped(*args, **kwargs):
         calls.append(args)
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(agent_module, "packed_crossed", wrapped)
+    monkeypatch.setattr(plan_cache_module, "packed_crossed", wrapped)
     return calls
 
 

@@ -9,7 +9,7 @@ per cell, one cell at a time, single-threaded: one core. Per cell it measures
 * **CPU time per decision**: :func:`time.process_time` around :meth:`Method.decide`, the decision
   round of every robot (opinions, game players, planning; not the MPC or the physics);
 * **plan queries per decision**: the plan cache's counters
-  (:class:`~nodnav.sim.agent.PlanCache`): *requests*, what the robots asked for, and *planner
+  (:class:`~nodnav.sim.plan_cache.PlanCache`): *requests*, what the robots asked for, and *planner
   calls*, what the planner computed (robots posing the same joint query share one call). Each
   robot asks for every order of its game, ``(k+1)!``, every decision, so requests are exactly
   ``N_r (k+1)!``; planner calls are ``(k+1)!`` per distinct joint query set, between ``(k+1)!``

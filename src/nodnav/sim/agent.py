@@ -26,11 +26,11 @@ from nodnav.decision.opinion import opinion_update, selection_probabilities, ste
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
 from nodnav.decision.standoff import progress_beyond_best, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
-from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, crossing_directions, relabel
+from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import LEFT, RIGHT, World, distance_to_go
-from nodnav.sim.parked import packed_crossed
+from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
+from nodnav.sim.plan_cache import PlanCache, state_key
 
 
 @dataclass(frozen=True)
@@ -110,108 +110,6 @@ class Decision:
     def own_trajectory(self) -> JointTrajectory:
         """The agent's own reference path."""
         return self.plan.trajectory.subset([0])
-
-
-def state_key(request: PlanRequest) -> tuple[bytes | None, ...]:
-    """The part of a plan cache's key that requests sharing their state arrays share
-    (:func:`joint_requests`): the bytes of those arrays."""
-    return (request.positions.tobytes(), request.velocities.tobytes(), request.destinations.tobytes(),
-            request.radii.tobytes(), request.max_speeds.tobytes(),
-            None if request.max_accels is None else request.max_accels.tobytes())
-
-
-class PlanCache:
-    """Plans already computed in this decision round, shared by agents that pose the same query.
-
-    The key is everything the planner reads, so a hit returns exactly what the agent would have
-    computed alone; the simulator clears the cache at every decision time.
-    """
-
-    def __init__(self, planner: Planner):
-        self.planner = planner
-        self._plans: dict[tuple, PlanResult] = {}
-        self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
-        self.hits = 0
-        self.misses = 0
-        self.graphs: dict = {}
-        """Visibility graphs by (world, radius), kept across rounds and shared by the agents that
-        share this cache: each graph remembers its answers keyed by the exact query, so an agent
-        asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
-        same path without searching again."""
-        self._crossed: dict[tuple, tuple[int, ...]] = {}
-        self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
-
-    def clear(self) -> None:
-        """Forget every plan and evaluation (called when the state of the world has moved on)."""
-        self._plans.clear()
-        self._states.clear()
-        self._crossed.clear()
-        self._stacks.clear()
-
-    def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
-        """The planner's answer to ``request``, computed at most once per round; ``state`` is
-        :func:`state_key` of the request if the caller has it already."""
-        key = (request.order, request.entered, request.t0, *(state_key(request) if state is None else state))
-        result = self._plans.get(key)
-        if result is None:
-            self.misses += 1
-            result = self.planner.plan(request)
-            self._plans[key] = result
-        else:
-            self.hits += 1
-        return result
-
-    def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
-                       known: np.ndarray, planning: list[int], goal_tolerance: float,
-                       margin: float) -> tuple[int, ...]:
-        """:func:`~nodnav.sim.parked.packed_crossed` with this cache's graphs, computed at most
-        once per round for the same arguments: robots that see the same and plan the same robots
-        (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
-        their bytes, ``planning`` as a set: only membership counts)."""
-        args = (world, positions, destinations, radii, known, sorted(planning), goal_tolerance, margin)
-        key = tuple(_hashable(a) for a in args)
-        hit = self._crossed.get(key)
-        if hit is None:
-            hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
-                                                            list(planning), goal_tolerance, margin, self.graphs))
-        return hit
-
-    def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
-        """:meth:`states_at` of every plan of ``plans`` stacked, ``(G, n, M, 4)``, once per round
-        for the same plans and times: every game player of a shared game reads the whole list
-        of the round before, each keeping its own players' columns. Plans of unequal robot
-        counts cannot be stacked: their states are stacked by the caller per column."""
-        key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
-        hit = self._stacks.get(key)
-        if hit is None:
-            states = [self.states_at(p, times) for p in plans]
-            stacked = np.stack(states) if len({a.shape for a in states}) == 1 else np.zeros(0)
-            hit = self._stacks[key] = (list(plans), stacked)  # holding the plans keeps their ids unique
-        return hit[1]
-
-    def states_at(self, result: PlanResult, times: np.ndarray) -> np.ndarray:
-        """Planned states (px, py, vx, vy) of every robot of ``result`` at ``times``, ``(n, M, 4)``.
-
-        Every robot of a round evaluates the plans of the round before against the same window,
-        and orders a planner repairs to the same one share a trajectory, so each trajectory is
-        evaluated once per round whoever asks.
-        """
-        traj = result.trajectory
-        key = (id(traj), times.tobytes())
-        hit = self._states.get(key)
-        if hit is None:
-            states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
-            hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
-        return hit[1]
-
-
-def _hashable(value):
-    """``value`` as part of a memo's key: arrays by their dtype, shape and bytes, lists as tuples."""
-    if isinstance(value, np.ndarray):
-        return (value.dtype.str, value.shape, value.tobytes())
-    if isinstance(value, list):
-        return tuple(_hashable(v) for v in value)
-    return value
 
 
 def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:

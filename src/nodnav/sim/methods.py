@@ -20,8 +20,9 @@ from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import Decision, NODAgent, PlanCache, RobotView
+from nodnav.sim.agent import Decision, NODAgent, RobotView
 from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
+from nodnav.sim.plan_cache import PlanCache
 from nodnav.sim.sensing import OcclusionLimit, slowed_reference
 from nodnav.sim.several import PassageAgent, PassageViews, several
 

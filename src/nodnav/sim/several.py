@@ -31,7 +31,8 @@ from nodnav.planning.base import Planner, PlanRequest
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World
-from nodnav.sim.agent import Decision, PlanCache, RobotView, approach_sides
+from nodnav.sim.agent import Decision, RobotView, approach_sides
+from nodnav.sim.plan_cache import PlanCache
 
 #: Spacing of the samples along a route at which passages are looked for (m).
 ROUTE_STEP = 0.02

@@ -175,6 +175,14 @@ class MPCProblem:
     ``row @ z >= lower``, in metres: derivative rows are scaled by the knot span (``h``, ``h^2``).
     Order: box rows, speed polygon, acceleration polygon (all static), then one group of
     ``n_end + n_term`` rows per wall and per other robot (normals written at every step).
+
+    The solver sees whitened variables ``y = R z`` per coordinate, with ``R^T R = 2 P`` (the
+    Cholesky factor of the cost's Hessian on ``z``): the QP's Hessian is then the identity, for
+    which DAQP skips its own factorisation and the product of every row with ``R^{-1}`` (about
+    half of its time on these QPs, docs/performance-7-control.md). The rows, the gradient and
+    :attr:`free_map` (``z -> c`` deviation, ``nullspace @ R^{-1}``) are built in ``y`` once here,
+    so a step costs nothing extra; every row still means the same functional in metres, so the
+    solver's primal tolerance keeps its meaning.
     """
 
     def __init__(self, setup: MPCSetup, n_others: int, sample_times: np.ndarray):
@@ -234,7 +242,11 @@ class MPCProblem:
                     + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
                     + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
         phi = np.vstack([self.b_ends, d1, d2, phi_term])
-        phi_t = phi @ setup.nullspace
+        # The QP's variables are whitened (see the class docstring): z = unwhiten @ y per coordinate.
+        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
+        unwhiten = np.linalg.inv(np.linalg.cholesky(2.0 * p_half).T)
+        self.free_map = setup.nullspace @ unwhiten
+        phi_t = phi @ self.free_map
         phi_line = phi @ setup.greville  # each functional on the line tau -> tau
         f_vel = n_end + np.arange(len(d1))
         f_acc = n_end + len(d1) + np.arange(len(d2))
@@ -277,7 +289,7 @@ class MPCProblem:
         self.n_rows = self.n_separation + self.n_tail
         phi_tail = np.vstack([bspline.basis_derivative([horizon], knots, DEGREE, 0),
                               bspline.basis_derivative([horizon], knots, DEGREE, 1)])
-        self.tail_phi = np.ascontiguousarray(phi_tail @ setup.nullspace)
+        self.tail_phi = np.ascontiguousarray(phi_tail @ self.free_map)
         self.tail_line = phi_tail @ setup.greville
         self.b_tail = phi_tail
         self.tail_decel = tail_decel(robot.max_accel, s.terminal_decel, s.accel_polygon_sides)
@@ -293,17 +305,16 @@ class MPCProblem:
         self.slack_of_row = np.concatenate([np.arange(n_end), np.full(n_term, n_end)])
         self.slack_weights = np.append(horizon / self.ends, 1.0) * s.evasive_penalty
 
-        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant.
-        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
-        q_line = setup.nullspace.T @ setup.cost_hessian @ setup.greville
+        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant; in the
+        # whitened variables y^T y / 2 + (unwhiten^T ...)^T y.
+        q_line = unwhiten.T @ setup.nullspace.T @ setup.cost_hessian @ setup.greville
         # Cross term integral N(tau) p_ref(tau) dtau = ref_weights @ reference (exact quadrature).
         inner_knots = knots[(knots > 0) & (knots < horizon)]
         nodes, weights = bspline.gauss_legendre(
             np.concatenate([[0.0, horizon], inner_knots, sample_times[sample_times < horizon]]), 4)
-        ref_weights = setup.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
+        ref_weights = unwhiten.T @ setup.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
             weights[:, None] * interpolation_matrix(sample_times, nodes))
-        zero = np.zeros_like(p_half)
-        self.hessian = np.block([[2.0 * p_half, zero], [zero, 2.0 * p_half]])
+        self.hessian = np.eye(2 * self.nz)
         self.q_line, self.ref_weights = q_line, ref_weights
 
         # The evasive QP (:func:`~nodnav.control.evasive.elastic_plan`) with every other robot softened, variables
@@ -348,7 +359,7 @@ class MPCProblem:
 
     def control_points(self, data: StepData, z: np.ndarray) -> np.ndarray:
         """Control points ``(n, 2)`` of the curve with free control points ``z`` (line plus deviation)."""
-        return data.p0 + self.setup.greville[:, None] * data.v0 + self.setup.nullspace @ z.reshape(2, -1).T
+        return data.p0 + self.setup.greville[:, None] * data.v0 + self.free_map @ z.reshape(2, -1).T
 
     def write_separation(self, data: StepData, lin: np.ndarray, cold: bool, need: np.ndarray,
                          keep_arrangement: np.ndarray | None = None) -> np.ndarray:

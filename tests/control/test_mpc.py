@@ -571,8 +571,10 @@ def test_whitened_qp_has_the_plain_qps_cost_and_minimiser():
         plain_h = np.kron(np.eye(2), 2.0 * p_half)
         # The plain gradient from the cost's definition: 2 (v0_d q - W ref_d) with q, W on z.
         inner = setup.knots[(setup.knots > 0) & (setup.knots < setup.horizon)]
-        nodes, weights = bspline.gauss_legendre(np.concatenate([[0.0, setup.horizon], inner, TIMES[TIMES < setup.horizon]]), 4)
-        w_ref = setup.nullspace.T @ bspline.basis(nodes, setup.knots, 3).T @ (weights[:, None] * interpolation_matrix(TIMES, nodes))
+        breaks = np.concatenate([[0.0, setup.horizon], inner, TIMES[TIMES < setup.horizon]])
+        nodes, weights = bspline.gauss_legendre(breaks, 4)
+        w_ref = setup.nullspace.T @ bspline.basis(nodes, setup.knots, 3).T @ (
+            weights[:, None] * interpolation_matrix(TIMES, nodes))
         q = setup.nullspace.T @ setup.cost_hessian @ setup.greville
         plain_g = (2.0 * (q[:, None] * v0 - w_ref @ data.ref_local)).T.ravel()
         plain = solve_qp(plain_h, plain_g, prob.rows @ big_r, lower, PARAMS.qp_tolerance)

@@ -44,7 +44,7 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
-from nodnav.control.mpc_rows import group_state
+from nodnav.control.mpc_rows import all_finite, step_state
 from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -116,7 +116,6 @@ class BSplineMPC:
         self.obstacles = self.setup.obstacles
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        self._wall_clearances: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
@@ -335,8 +334,7 @@ class BSplineMPC:
             if times[0] <= 0 or times[-1] > self.horizon + 1e-9 or (k > 1 and np.diff(times).min() <= 0):
                 raise ValueError(f"sample_times must increase within (0, {self.horizon}], got {times}")
             self._valid_times = stamp
-        # A sum is finite only if every term is (NaN and infinities propagate).
-        if not np.isfinite(p0.sum() + v0.sum() + ref.sum() + others.sum() + radii.sum()):
+        if not all_finite(p0, v0, ref, others, radii):
             raise ValueError("request contains non-finite values")
         firm = np.zeros(len(radii), dtype=bool) if request.firm is None else np.asarray(request.firm, dtype=bool)
         if firm.shape != radii.shape:
@@ -399,9 +397,9 @@ class BSplineMPC:
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         # The robot's own displacement over an interval: at most its reachable speed times it.
         speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
-        full, contact = self._clearances(m_w, other_radii)
-        x_now, away, dist_now, need, delta_sq, far = group_state(
-            pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, full, prob.eps[0], self._reach)
+        x_now, away, dist_now, need, delta_sq, far, full, contact, wall_need = step_state(
+            pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, r, other_radii,
+            self.params.safety_margin, prob.eps[0], self._reach)
         gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
         need_box = np.minimum(r, gap - prob.eps[0])
         weight, reach = 0.0, 0.0
@@ -418,18 +416,8 @@ class BSplineMPC:
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
             static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
-            box_low=box_low, box_high=box_high,
+            box_low=box_low, box_high=box_high, need_clear=min(wall_need, float(need_box.min())),
         )
-
-    def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Clearance wanted from each group, and the distance under which it is in contact."""
-        # The radii change from step to step (reaction margins): the walls' part is kept.
-        walls = self._wall_clearances.get(n_walls)
-        if walls is None:
-            walls = self._wall_clearances[n_walls] = (np.full(n_walls, self.robot.radius), np.full(n_walls, 1e-12))
-        r = self.robot.radius
-        return (np.concatenate([walls[0], r + other_radii + self.params.safety_margin]),
-                np.concatenate([walls[1], r + other_radii]))
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

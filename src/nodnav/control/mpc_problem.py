@@ -26,20 +26,19 @@ constraint rows, the Hessians and the map from the reference to the cost's gradi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
-from nodnav.control.braking import tail_clearance, tail_decel, tail_rows
+from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
-    plan_extremes,
+    plan_check,
     polygon_normals,
-    separation_rows,
+    step_rows,
     stopping_rows,
 )
 from nodnav.control.qp import SolverEffort
@@ -331,6 +330,7 @@ class MPCProblem:
                            (len(self.slack_weights) * np.arange(n_others)[:, None] + self.slack_of_row).ravel()] = 1.0
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
+        self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
@@ -378,34 +378,19 @@ class MPCProblem:
         Last come the terminal rows of :func:`~nodnav.control.mpc_rows.stopping_rows`, along the
         last end's normal (``x`` the other robot or the wall's nearest point, ``v_x`` its
         velocity, zero for a wall). Bounds are moved to the QP's coordinates (centred on ``p0``,
-        relative to the line ``v0 tau``). The loops run compiled
-        (:func:`~nodnav.control.mpc_rows.separation_rows`): a few hundred scalar rows are cheaper
-        there than as dozens of small array operations.
+        relative to the line ``v0 tau``). Then the braking tail's rows
+        (:func:`~nodnav.control.braking.tail_rows`; ``-inf`` with ``settings.braking_tail`` off).
+        The loops run compiled, all in one call (:func:`~nodnav.control.mpc_rows.step_rows`): a
+        few hundred scalar rows are cheaper there than as dozens of small array operations.
         """
         lower = np.empty(self.n_rows)
-        lower[:self.n_static] = data.static_lower
-        marked = np.zeros(self.n_groups, dtype=bool) if keep_arrangement is None else keep_arrangement
-        separation_rows(lin, data.x_now, self.setup.obstacles, self.setup.pieces, self.n_walls, data.p0, data.v0,
-                        data.contact,
-                        np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
-                        self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
-                        self.dyn_line, self.rows, lower, self.n_static)
-        self.write_tail(data, lin, cold, np.asarray(need, dtype=float), lower)
+        marked = self.no_group_marked if keep_arrangement is None else keep_arrangement
+        step_rows(lin, cold, np.asarray(need, dtype=float), marked, data.x_now, data.away, data.dist_now, data.contact,
+                  data.delta_sq, data.far, data.velocities, data.p0, data.v0, data.static_lower, self.setup.obstacles,
+                  self.setup.pieces, self.eps_end, self.group_point, self.group_wv, self.term_offset, self.dyn_phi,
+                  self.dyn_line, data.tail_weight, data.tail_reach, data.box_low, data.box_high, self.intervals[-1],
+                  self.tail_phi, self.tail_line, self.tol, self.rows, lower)
         return lower
-
-    def write_tail(self, data: "StepData", lin: np.ndarray, cold: bool, need: np.ndarray, lower: np.ndarray) -> None:
-        """Write the braking tail's rows (:func:`~nodnav.control.braking.tail_rows`) and their
-        bounds, linearised about the tail of ``lin`` (its last end, with the velocity of its last
-        interval); with ``settings.braking_tail`` off they constrain nothing."""
-        i0 = self.n_separation
-        if data.tail_weight <= 0.0:
-            lower[i0:] = -np.inf
-            return
-        lin_v = (lin[-1] - lin[-2]) / self.intervals[-1] if len(lin) > 1 else data.v0
-        tail_rows(lin[-1], lin_v, data.tail_weight, data.p0, data.v0, data.x_now[:self.n_walls, -1],
-                  data.away[:self.n_walls], data.dist_now[:self.n_walls], need[:self.n_walls], data.tail_reach,
-                  self.setup.obstacles, self.setup.pieces, data.box_low, data.box_high, self.tail_phi, self.tail_line,
-                  self.tol, cold, self.rows, lower, i0)
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:
         """Empty if the plan ``c``'s straight braking tail keeps ``need_clear`` from every wall and
@@ -426,19 +411,17 @@ class MPCProblem:
         points whose hulls hold them), else what it violates."""
         setup = self.setup
         tol = setup.settings.check_tolerance
-        clear, closest, speed, accel = plan_extremes(self.b_check_rates @ c, len(self.check_times), setup.n_speed,
-                                                      setup.obstacles, setup.pieces, setup.world_bounds,
-                                                      data.pred_check)
+        tail_end = self.b_tail @ c
+        clear, short, j, speed, accel, tail = plan_check(
+            self.b_check_rates @ c, len(self.check_times), setup.n_speed, setup.obstacles, setup.pieces,
+            setup.world_bounds, data.pred_check, data.need[self.n_walls:], tail_end,
+            self.tail_decel if data.tail_weight > 0.0 else 0.0)
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
-        if separation and self.n_others:
-            short = data.need[self.n_walls:] - closest
-            j = int(np.argmax(short))
-            if short[j] > tol:
-                return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
-        tail = self.tail_violation(data, c)
-        if tail:
-            return tail
+        if separation and self.n_others and short > tol:
+            return f"plan comes {1e3 * short:.2f} mm too close to robot {j}"
+        if data.tail_weight > 0.0 and data.need_clear - tail > tol:
+            return f"plan's braking tail comes {1e3 * (data.need_clear - tail):.2f} mm too close to a wall"
         if speed > setup.robot.max_speed + tol:
             return f"plan exceeds the speed limit ({speed:.4f} m/s)"
         if accel > setup.robot.max_accel + tol:
@@ -502,8 +485,6 @@ class StepData:
     """Lowest allowed position ``(2,)``: the bounds' corner plus the clearance kept from them (m)."""
     box_high: np.ndarray | None = None
     """Highest allowed position ``(2,)`` (m)."""
+    need_clear: float = 0.0
+    """The smallest clearance the plan has to keep from any wall or bound (m)."""
 
-    @cached_property
-    def need_clear(self) -> float:
-        """The smallest clearance the plan has to keep from any wall or bound (m)."""
-        return float(min(self.need[:self.n_walls].min(initial=np.inf), self.need_box.min()))

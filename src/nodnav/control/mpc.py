@@ -116,7 +116,6 @@ class BSplineMPC:
         self.obstacles = self.setup.obstacles
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         # A map's world: the rows hold only the walls within reach (:meth:`_local_walls`).
@@ -396,12 +395,10 @@ class BSplineMPC:
         r = robot.radius
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         # The robot's own displacement over an interval: at most its reachable speed times it.
-        speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
-        x_now, away, dist_now, need, delta_sq, far, full, contact, wall_need = step_state(
-            pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, r, other_radii,
-            self.params.safety_margin, prob.eps[0], self._reach)
-        gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
-        need_box = np.minimum(r, gap - prob.eps[0])
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear = (
+            step_state(pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends,
+                       prob.intervals, self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii,
+                       self.params.safety_margin, prob.eps[0], self._reach))
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
@@ -410,13 +407,12 @@ class BSplineMPC:
             weight = top / (2.0 * prob.tail_decel)
             reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
                      + weight * top + 0.1)
-        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return StepData(
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
             static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
-            box_low=box_low, box_high=box_high, need_clear=min(wall_need, float(need_box.min())),
+            box_low=box_low, box_high=box_high, need_clear=need_clear,
         )
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:

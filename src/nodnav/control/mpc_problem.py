@@ -435,7 +435,7 @@ class MPCProblem:
         return self.conflicting_others(support) if support.size else None
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class StepData:
     """The request's data for one step, with the requirements derived from the current state.
 

@@ -263,11 +263,16 @@ def all_finite(p0, v0, ref, others, radii):
 
 
 @compiled
-def step_state(pred, n_end, p0, speed, intervals, boxes, pieces, radius, other_radii, margin, eps0, reach):
-    """:func:`group_state` with the clearances it needs: ``full`` (``radius`` from a wall,
-    ``radius + r_j + margin`` from another robot) and ``contact`` (``1e-12`` from a wall,
-    ``radius + r_j`` from a robot). Returns ``x_now, away, dist_now, need, delta_sq, far, full,
-    contact`` and the smallest ``need`` of a wall (``inf`` without walls)."""
+def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
+               other_radii, margin, eps0, reach):
+    """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
+    (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
+    (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
+    interval end (``min(max_speed, now + max_accel * ends)``), and the box: the distances ``gap``
+    to the ``bounds`` ``(x0, y0, x1, y1)``, the clearance kept from each (``min(radius, gap -
+    eps0)``) and the allowed corners. Returns ``x_now, away, dist_now, need, delta_sq, far,
+    full, contact, gap, need_box, box_low, box_high`` and the smallest clearance to keep from
+    any wall or bound."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
     full = np.empty(n_groups)
@@ -277,12 +282,29 @@ def step_state(pred, n_end, p0, speed, intervals, boxes, pieces, radius, other_r
     for j in range(other_radii.shape[0]):
         full[n_walls + j] = radius + other_radii[j] + margin
         contact[n_walls + j] = radius + other_radii[j]
+    speed = np.empty(ends.shape[0])
+    for e in range(ends.shape[0]):
+        speed[e] = min(max_speed, now + max_accel * ends[e])
     x_now, away, dist_now, need, delta_sq, far = group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full,
                                                              eps0, reach)
-    wall_need = np.inf
+    gap = np.empty(4)
+    need_box = np.empty(4)
+    box_low = np.empty(2)
+    box_high = np.empty(2)
+    for d in range(2):
+        gap[d] = p0[d] - bounds[d]
+        gap[2 + d] = bounds[2 + d] - p0[d]
+    need_clear = np.inf
+    for d in range(4):
+        need_box[d] = min(radius, gap[d] - eps0)
     for g in range(n_walls):
-        wall_need = min(wall_need, need[g])
-    return x_now, away, dist_now, need, delta_sq, far, full, contact, wall_need
+        need_clear = min(need_clear, need[g])
+    for d in range(4):
+        need_clear = min(need_clear, need_box[d])
+    for d in range(2):
+        box_low[d] = bounds[d] + need_box[d]
+        box_high[d] = bounds[2 + d] - need_box[2 + d]
+    return x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear
 
 
 @compiled

@@ -179,7 +179,7 @@ class BSplineMPC:
         effort = SolverEffort()
         committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
-        clearance0 = float(min(data.dist_now[:m_w].min(initial=np.inf), data.gap_box.min()))
+        clearance0 = data.clearance_now
         if clearance0 < r - self.settings.contact_tolerance:
             return self._brake(request, prob, start, effort,
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
@@ -187,9 +187,9 @@ class BSplineMPC:
         warm = self._warm_start(committed)
         cold = warm is None
         lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
-        dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
-        overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
-        if overlapping.size:
+        if data.overlap:
+            dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
+            overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
             j = int(overlapping[0])
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
@@ -395,10 +395,11 @@ class BSplineMPC:
         r = robot.radius
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         # The robot's own displacement over an interval: at most its reachable speed times it.
-        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear = (
+        (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
+         clear_now, overlap) = (
             step_state(pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends,
                        prob.intervals, self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii,
-                       self.params.safety_margin, prob.eps[0], self._reach))
+                       self.params.safety_margin, prob.eps[0], self._reach, self.settings.contact_tolerance))
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
@@ -412,7 +413,8 @@ class BSplineMPC:
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
             static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
-            box_low=box_low, box_high=box_high, need_clear=need_clear,
+            box_low=box_low, box_high=box_high, need_clear=need_clear, clearance_now=clear_now,
+            overlap=overlap,
         )
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:

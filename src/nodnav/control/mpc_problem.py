@@ -487,4 +487,8 @@ class StepData:
     """Highest allowed position ``(2,)`` (m)."""
     need_clear: float = 0.0
     """The smallest clearance the plan has to keep from any wall or bound (m)."""
+    clearance_now: float = np.inf
+    """The present clearance from the walls and bounds (m)."""
+    overlap: bool = False
+    """Whether another robot is closer than contact (less ``settings.contact_tolerance``)."""
 

@@ -264,15 +264,17 @@ def all_finite(p0, v0, ref, others, radii):
 
 @compiled
 def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
-               other_radii, margin, eps0, reach):
+               other_radii, margin, eps0, reach, contact_tolerance):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
     (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
     interval end (``min(max_speed, now + max_accel * ends)``), and the box: the distances ``gap``
     to the ``bounds`` ``(x0, y0, x1, y1)``, the clearance kept from each (``min(radius, gap -
     eps0)``) and the allowed corners. Returns ``x_now, away, dist_now, need, delta_sq, far,
-    full, contact, gap, need_box, box_low, box_high`` and the smallest clearance to keep from
-    any wall or bound."""
+    full, contact, gap, need_box, box_low, box_high``, the smallest clearance to keep from any
+    wall or bound, the present clearance from the walls and bounds (the smallest ``dist_now`` of
+    a wall and ``gap``) and whether any other robot is closer than its ``contact`` less
+    ``contact_tolerance``."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
     full = np.empty(n_groups)
@@ -304,7 +306,16 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     for d in range(2):
         box_low[d] = bounds[d] + need_box[d]
         box_high[d] = bounds[2 + d] - need_box[2 + d]
-    return x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear
+    clear_now = np.inf
+    for g in range(n_walls):
+        clear_now = min(clear_now, dist_now[g])
+    for d in range(4):
+        clear_now = min(clear_now, gap[d])
+    overlap = False
+    for g in range(n_walls, n_groups):
+        overlap = overlap or dist_now[g] < contact[g] - contact_tolerance
+    return (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
+            clear_now, overlap)
 
 
 @compiled

@@ -394,12 +394,14 @@ class BSplineMPC:
         robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
         r = robot.radius
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
+        static = prob.static_lower_base(v0)
         # The robot's own displacement over an interval: at most its reachable speed times it.
         (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
          clear_now, overlap) = (
             step_state(pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends,
                        prob.intervals, self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii,
-                       self.params.safety_margin, prob.eps[0], self._reach, self.settings.contact_tolerance))
+                       self.params.safety_margin, prob.eps[0], self._reach, self.settings.contact_tolerance, static,
+                       prob.eps_end))
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
@@ -412,7 +414,7 @@ class BSplineMPC:
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
-            static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
+            static_lower=static, tail_weight=weight, tail_reach=reach,
             box_low=box_low, box_high=box_high, need_clear=need_clear, clearance_now=clear_now,
             overlap=overlap,
         )

@@ -351,11 +351,17 @@ class MPCProblem:
     def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:
         """Lower bounds of the static rows in the QP's coordinates (centred on ``p0``, relative to
         the line ``v0 tau``): the box ``[box_low, box_high]`` of allowed positions at each end,
-        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons."""
+        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons.
+        (A step computes it in :func:`~nodnav.control.mpc_rows.step_state`, the same operations.)"""
         box = np.concatenate([box_low - p0, p0 - box_high])
-        static = self.static_base - (self.static_alpha @ v0) * self.static_line
+        static = self.static_lower_base(v0)
         static[:self.n_box] += (box[None, :] + self.eps_end[:, None]).ravel()
         return static
+
+    def static_lower_base(self, v0: np.ndarray) -> np.ndarray:
+        """:meth:`static_lower` without the box's bounds (which ``step_state`` adds,
+        :func:`~nodnav.control.mpc_rows.step_state`)."""
+        return self.static_base - (self.static_alpha @ v0) * self.static_line
 
     def control_points(self, data: StepData, z: np.ndarray) -> np.ndarray:
         """Control points ``(n, 2)`` of the curve with free control points ``z`` (line plus deviation)."""

@@ -264,7 +264,7 @@ def all_finite(p0, v0, ref, others, radii):
 
 @compiled
 def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
-               other_radii, margin, eps0, reach, contact_tolerance):
+               other_radii, margin, eps0, reach, contact_tolerance, static, eps_end):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
     (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
@@ -274,7 +274,9 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     full, contact, gap, need_box, box_low, box_high``, the smallest clearance to keep from any
     wall or bound, the present clearance from the walls and bounds (the smallest ``dist_now`` of
     a wall and ``gap``) and whether any other robot is closer than its ``contact`` less
-    ``contact_tolerance``."""
+    ``contact_tolerance``. Adds the box's bounds to the first ``4 len(eps_end)`` entries of
+    ``static`` (the static rows' bounds without them, see
+    :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`)."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
     full = np.empty(n_groups)
@@ -306,6 +308,13 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     for d in range(2):
         box_low[d] = bounds[d] + need_box[d]
         box_high[d] = bounds[2 + d] - need_box[2 + d]
+    box = np.empty(4)
+    for d in range(2):
+        box[d] = box_low[d] - p0[d]
+        box[2 + d] = p0[d] - box_high[d]
+    for e in range(eps_end.shape[0]):
+        for d in range(4):
+            static[4 * e + d] += box[d] + eps_end[e]
     clear_now = np.inf
     for g in range(n_walls):
         clear_now = min(clear_now, dist_now[g])

@@ -41,8 +41,10 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     pred = prob.interp_all @ others
     n_end, r, margin, eps0, reach, tol = len(prob.ends), ROBOT.radius, PARAMS.safety_margin, prob.eps[0], 3.0, 1e-3
     bounds = np.asarray(WORLD.bounds, dtype=float)
+    static = prob.static_lower_base(v0)
     out = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends, prob.intervals,
-                     WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0, reach, tol)
+                     WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0, reach, tol, static,
+                     prob.eps_end)
     m_w = prob.n_walls
     full = np.concatenate([np.full(m_w, r), r + radii + margin])
     contact = np.concatenate([np.full(m_w, 1e-12), r + radii])
@@ -59,6 +61,7 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     assert out[12] == min(ref[3][:m_w].min(), need_box.min())
     assert out[13] == min(ref[2][:m_w].min(), gap.min())
     assert out[14] == bool((ref[2][m_w:] < contact[m_w:] - tol).any())
+    assert np.array_equal(static, prob.static_lower(p0, v0, out[10], out[11]))
 
 
 @pytest.mark.parametrize("cold", [False, True])

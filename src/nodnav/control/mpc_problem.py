@@ -400,7 +400,8 @@ class MPCProblem:
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:
         """Empty if the plan ``c``'s straight braking tail keeps ``need_clear`` from every wall and
-        bound (checked exactly, :func:`~nodnav.control.braking.tail_clearance`), else how far it intrudes."""
+        bound (checked exactly, :func:`~nodnav.control.braking.tail_clearance`), else how far it intrudes.
+        :meth:`violation` makes the same check within its compiled call (``plan_check``)."""
         if data.tail_weight <= 0.0:
             return ""
         end = self.b_tail @ c

@@ -542,3 +542,43 @@ def test_malformed_requests_raise():
         ctl.control(replace(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2))), firm=np.array([True])))
     with pytest.raises(ValueError):
         BSplineMPC(WORLD, ROBOT, MPCParams(dt=1.0, horizon=0.8))
+
+
+def test_whitened_qp_has_the_plain_qps_cost_and_minimiser():
+    """The QP's variables are whitened (``y = R z``, ``R^T R`` the cost's Hessian on the free
+    control points): the cost ``y^T y / 2`` must be the tracking cost's quadratic part on the
+    control points, and the minimiser must be the plain QP's (Hessian ``2 N^T G N`` on ``z``,
+    solved by DAQP without whitening) up to rounding."""
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob = ctl._problem(1, TIMES)
+    setup = prob.setup
+    # c = free_map y: y^T y / 2 = c^T G c with G the Gram matrix (the cost is c^T G c, Hessian 2 G).
+    assert np.allclose(2.0 * prob.free_map.T @ setup.cost_hessian @ prob.free_map, np.eye(prob.nz), atol=1e-10)
+    # R from the plain Hessian on z: free_map = nullspace @ R^{-1}.
+    r = np.linalg.lstsq(prob.free_map, setup.nullspace, rcond=None)[0]
+    rng = np.random.default_rng(3)
+    p0, v0 = np.array([-2.0, 0.1]), np.array([0.6, 0.05])
+    ref = p0 + np.outer(TIMES, [0.9, 0.0])
+    other = np.array([[1.0, -0.1]]) + np.outer(TIMES, [-0.5, 0.0])[None]
+    data = ctl._step_data(prob, p0, v0, ref, other, np.array([0.2]))
+    for _ in range(5):
+        lin = prob.interp_ends @ ref + rng.normal(0.0, 0.05, (len(prob.ends), 2))
+        lower = prob.write_separation(data, lin, True, data.need)
+        sol = solve_qp(prob.hessian, prob.gradient(data.v0, data.ref_local), prob.rows, lower, PARAMS.qp_tolerance)
+        assert sol.success
+        big_r = np.kron(np.eye(2), r)
+        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
+        plain_h = np.kron(np.eye(2), 2.0 * p_half)
+        # The plain gradient from the cost's definition: 2 (v0_d q - W ref_d) with q, W on z.
+        inner = setup.knots[(setup.knots > 0) & (setup.knots < setup.horizon)]
+        breaks = np.concatenate([[0.0, setup.horizon], inner, TIMES[TIMES < setup.horizon]])
+        nodes, weights = bspline.gauss_legendre(breaks, 4)
+        w_ref = setup.nullspace.T @ bspline.basis(nodes, setup.knots, 3).T @ (
+            weights[:, None] * interpolation_matrix(TIMES, nodes))
+        q = setup.nullspace.T @ setup.cost_hessian @ setup.greville
+        plain_g = (2.0 * (q[:, None] * v0 - w_ref @ data.ref_local)).T.ravel()
+        plain = solve_qp(plain_h, plain_g, prob.rows @ big_r, lower, PARAMS.qp_tolerance)
+        assert plain.success
+        assert np.allclose(np.linalg.solve(big_r, sol.x), plain.x, rtol=1e-9, atol=1e-9)
+        c_plain = p0 + setup.greville[:, None] * v0 + setup.nullspace @ plain.x.reshape(2, -1).T
+        assert np.allclose(prob.control_points(data, sol.x), c_plain, rtol=0.0, atol=1e-9)

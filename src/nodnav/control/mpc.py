@@ -44,7 +44,7 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
-from nodnav.control.mpc_rows import group_state
+from nodnav.control.mpc_rows import all_finite, step_state
 from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -116,8 +116,6 @@ class BSplineMPC:
         self.obstacles = self.setup.obstacles
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        self._wall_clearances: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self._bounds = (self.setup.world_bounds[:2], self.setup.world_bounds[2:])
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         # A map's world: the rows hold only the walls within reach (:meth:`_local_walls`).
@@ -181,7 +179,7 @@ class BSplineMPC:
         effort = SolverEffort()
         committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
-        clearance0 = float(min(data.dist_now[:m_w].min(initial=np.inf), data.gap_box.min()))
+        clearance0 = data.clearance_now
         if clearance0 < r - self.settings.contact_tolerance:
             return self._brake(request, prob, start, effort,
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
@@ -189,9 +187,9 @@ class BSplineMPC:
         warm = self._warm_start(committed)
         cold = warm is None
         lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
-        dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
-        overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
-        if overlapping.size:
+        if data.overlap:
+            dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
+            overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
             j = int(overlapping[0])
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
@@ -335,8 +333,7 @@ class BSplineMPC:
             if times[0] <= 0 or times[-1] > self.horizon + 1e-9 or (k > 1 and np.diff(times).min() <= 0):
                 raise ValueError(f"sample_times must increase within (0, {self.horizon}], got {times}")
             self._valid_times = stamp
-        # A sum is finite only if every term is (NaN and infinities propagate).
-        if not np.isfinite(p0.sum() + v0.sum() + ref.sum() + others.sum() + radii.sum()):
+        if not all_finite(p0, v0, ref, others, radii):
             raise ValueError("request contains non-finite values")
         firm = np.zeros(len(radii), dtype=bool) if request.firm is None else np.asarray(request.firm, dtype=bool)
         if firm.shape != radii.shape:
@@ -397,13 +394,14 @@ class BSplineMPC:
         robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
         r = robot.radius
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
+        static = prob.static_lower_base(v0)
         # The robot's own displacement over an interval: at most its reachable speed times it.
-        speed = np.minimum(robot.max_speed, math.hypot(v0[0], v0[1]) + robot.max_accel * prob.ends)
-        full, contact = self._clearances(m_w, other_radii)
-        x_now, away, dist_now, need, delta_sq, far = group_state(
-            pred, n_end, p0, speed, prob.intervals, self.obstacles, self.setup.pieces, full, prob.eps[0], self._reach)
-        gap = np.concatenate([p0 - self._bounds[0], self._bounds[1] - p0])
-        need_box = np.minimum(r, gap - prob.eps[0])
+        (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
+         clear_now, overlap) = (
+            step_state(pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends,
+                       prob.intervals, self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii,
+                       self.params.safety_margin, prob.eps[0], self._reach, self.settings.contact_tolerance, static,
+                       prob.eps_end))
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
@@ -412,24 +410,14 @@ class BSplineMPC:
             weight = top / (2.0 * prob.tail_decel)
             reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
                      + weight * top + 0.1)
-        box_low, box_high = self._bounds[0] + need_box[:2], self._bounds[1] - need_box[2:]
         return StepData(
             p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
-            static_lower=prob.static_lower(p0, v0, box_low, box_high), tail_weight=weight, tail_reach=reach,
-            box_low=box_low, box_high=box_high,
+            static_lower=static, tail_weight=weight, tail_reach=reach,
+            box_low=box_low, box_high=box_high, need_clear=need_clear, clearance_now=clear_now,
+            overlap=overlap,
         )
-
-    def _clearances(self, n_walls: int, other_radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Clearance wanted from each group, and the distance under which it is in contact."""
-        # The radii change from step to step (reaction margins): the walls' part is kept.
-        walls = self._wall_clearances.get(n_walls)
-        if walls is None:
-            walls = self._wall_clearances[n_walls] = (np.full(n_walls, self.robot.radius), np.full(n_walls, 1e-12))
-        r = self.robot.radius
-        return (np.concatenate([walls[0], r + other_radii + self.params.safety_margin]),
-                np.concatenate([walls[1], r + other_radii]))
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

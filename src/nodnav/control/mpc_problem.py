@@ -26,20 +26,19 @@ constraint rows, the Hessians and the map from the reference to the cost's gradi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
-from nodnav.control.braking import tail_clearance, tail_decel, tail_rows
+from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
-    plan_extremes,
+    plan_check,
     polygon_normals,
-    separation_rows,
+    step_rows,
     stopping_rows,
 )
 from nodnav.control.qp import SolverEffort
@@ -175,6 +174,14 @@ class MPCProblem:
     ``row @ z >= lower``, in metres: derivative rows are scaled by the knot span (``h``, ``h^2``).
     Order: box rows, speed polygon, acceleration polygon (all static), then one group of
     ``n_end + n_term`` rows per wall and per other robot (normals written at every step).
+
+    The solver sees whitened variables ``y = R z`` per coordinate, with ``R^T R = 2 P`` (the
+    Cholesky factor of the cost's Hessian on ``z``): the QP's Hessian is then the identity, for
+    which DAQP skips its own factorisation and the product of every row with ``R^{-1}`` (about
+    half of its time on these QPs, docs/performance-7-control.md). The rows, the gradient and
+    :attr:`free_map` (``z -> c`` deviation, ``nullspace @ R^{-1}``) are built in ``y`` once here,
+    so a step costs nothing extra; every row still means the same functional in metres, so the
+    solver's primal tolerance keeps its meaning.
     """
 
     def __init__(self, setup: MPCSetup, n_others: int, sample_times: np.ndarray):
@@ -234,7 +241,11 @@ class MPCProblem:
                     + self.term_wv[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 1)
                     + self.term_wa[:, None] * bspline.basis_derivative([self.term_time], knots, DEGREE, 2))
         phi = np.vstack([self.b_ends, d1, d2, phi_term])
-        phi_t = phi @ setup.nullspace
+        # The QP's variables are whitened (see the class docstring): z = unwhiten @ y per coordinate.
+        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
+        unwhiten = np.linalg.inv(np.linalg.cholesky(2.0 * p_half).T)
+        self.free_map = setup.nullspace @ unwhiten
+        phi_t = phi @ self.free_map
         phi_line = phi @ setup.greville  # each functional on the line tau -> tau
         f_vel = n_end + np.arange(len(d1))
         f_acc = n_end + len(d1) + np.arange(len(d2))
@@ -277,7 +288,7 @@ class MPCProblem:
         self.n_rows = self.n_separation + self.n_tail
         phi_tail = np.vstack([bspline.basis_derivative([horizon], knots, DEGREE, 0),
                               bspline.basis_derivative([horizon], knots, DEGREE, 1)])
-        self.tail_phi = np.ascontiguousarray(phi_tail @ setup.nullspace)
+        self.tail_phi = np.ascontiguousarray(phi_tail @ self.free_map)
         self.tail_line = phi_tail @ setup.greville
         self.b_tail = phi_tail
         self.tail_decel = tail_decel(robot.max_accel, s.terminal_decel, s.accel_polygon_sides)
@@ -293,17 +304,16 @@ class MPCProblem:
         self.slack_of_row = np.concatenate([np.arange(n_end), np.full(n_term, n_end)])
         self.slack_weights = np.append(horizon / self.ends, 1.0) * s.evasive_penalty
 
-        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant.
-        p_half = setup.nullspace.T @ setup.cost_hessian @ setup.nullspace
-        q_line = setup.nullspace.T @ setup.cost_hessian @ setup.greville
+        # The cost: z^T P z + 2 (v0 q_line - W ref)^T z per coordinate, up to a constant; in the
+        # whitened variables y^T y / 2 + (unwhiten^T ...)^T y.
+        q_line = unwhiten.T @ setup.nullspace.T @ setup.cost_hessian @ setup.greville
         # Cross term integral N(tau) p_ref(tau) dtau = ref_weights @ reference (exact quadrature).
         inner_knots = knots[(knots > 0) & (knots < horizon)]
         nodes, weights = bspline.gauss_legendre(
             np.concatenate([[0.0, horizon], inner_knots, sample_times[sample_times < horizon]]), 4)
-        ref_weights = setup.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
+        ref_weights = unwhiten.T @ setup.nullspace.T @ bspline.basis(nodes, knots, DEGREE).T @ (
             weights[:, None] * interpolation_matrix(sample_times, nodes))
-        zero = np.zeros_like(p_half)
-        self.hessian = np.block([[2.0 * p_half, zero], [zero, 2.0 * p_half]])
+        self.hessian = np.eye(2 * self.nz)
         self.q_line, self.ref_weights = q_line, ref_weights
 
         # The evasive QP (:func:`~nodnav.control.evasive.elastic_plan`) with every other robot softened, variables
@@ -320,6 +330,7 @@ class MPCProblem:
                            (len(self.slack_weights) * np.arange(n_others)[:, None] + self.slack_of_row).ravel()] = 1.0
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
+        self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
@@ -340,15 +351,21 @@ class MPCProblem:
     def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:
         """Lower bounds of the static rows in the QP's coordinates (centred on ``p0``, relative to
         the line ``v0 tau``): the box ``[box_low, box_high]`` of allowed positions at each end,
-        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons."""
+        tightened by eps there (convex: chords stay inside), the speed and acceleration polygons.
+        (A step computes it in :func:`~nodnav.control.mpc_rows.step_state`, the same operations.)"""
         box = np.concatenate([box_low - p0, p0 - box_high])
-        static = self.static_base - (self.static_alpha @ v0) * self.static_line
+        static = self.static_lower_base(v0)
         static[:self.n_box] += (box[None, :] + self.eps_end[:, None]).ravel()
         return static
 
+    def static_lower_base(self, v0: np.ndarray) -> np.ndarray:
+        """:meth:`static_lower` without the box's bounds (which ``step_state`` adds,
+        :func:`~nodnav.control.mpc_rows.step_state`)."""
+        return self.static_base - (self.static_alpha @ v0) * self.static_line
+
     def control_points(self, data: StepData, z: np.ndarray) -> np.ndarray:
         """Control points ``(n, 2)`` of the curve with free control points ``z`` (line plus deviation)."""
-        return data.p0 + self.setup.greville[:, None] * data.v0 + self.setup.nullspace @ z.reshape(2, -1).T
+        return data.p0 + self.setup.greville[:, None] * data.v0 + self.free_map @ z.reshape(2, -1).T
 
     def write_separation(self, data: StepData, lin: np.ndarray, cold: bool, need: np.ndarray,
                          keep_arrangement: np.ndarray | None = None) -> np.ndarray:
@@ -367,38 +384,24 @@ class MPCProblem:
         Last come the terminal rows of :func:`~nodnav.control.mpc_rows.stopping_rows`, along the
         last end's normal (``x`` the other robot or the wall's nearest point, ``v_x`` its
         velocity, zero for a wall). Bounds are moved to the QP's coordinates (centred on ``p0``,
-        relative to the line ``v0 tau``). The loops run compiled
-        (:func:`~nodnav.control.mpc_rows.separation_rows`): a few hundred scalar rows are cheaper
-        there than as dozens of small array operations.
+        relative to the line ``v0 tau``). Then the braking tail's rows
+        (:func:`~nodnav.control.braking.tail_rows`; ``-inf`` with ``settings.braking_tail`` off).
+        The loops run compiled, all in one call (:func:`~nodnav.control.mpc_rows.step_rows`): a
+        few hundred scalar rows are cheaper there than as dozens of small array operations.
         """
         lower = np.empty(self.n_rows)
-        lower[:self.n_static] = data.static_lower
-        marked = np.zeros(self.n_groups, dtype=bool) if keep_arrangement is None else keep_arrangement
-        separation_rows(lin, data.x_now, self.setup.obstacles, self.setup.pieces, self.n_walls, data.p0, data.v0,
-                        data.contact,
-                        np.asarray(need, dtype=float), cold, marked, self.eps_end, data.delta_sq, self.group_point,
-                        self.group_wv, self.term_offset, data.velocities, data.far, data.away, self.dyn_phi,
-                        self.dyn_line, self.rows, lower, self.n_static)
-        self.write_tail(data, lin, cold, np.asarray(need, dtype=float), lower)
+        marked = self.no_group_marked if keep_arrangement is None else keep_arrangement
+        step_rows(lin, cold, np.asarray(need, dtype=float), marked, data.x_now, data.away, data.dist_now, data.contact,
+                  data.delta_sq, data.far, data.velocities, data.p0, data.v0, data.static_lower, self.setup.obstacles,
+                  self.setup.pieces, self.eps_end, self.group_point, self.group_wv, self.term_offset, self.dyn_phi,
+                  self.dyn_line, data.tail_weight, data.tail_reach, data.box_low, data.box_high, self.intervals[-1],
+                  self.tail_phi, self.tail_line, self.tol, self.rows, lower)
         return lower
-
-    def write_tail(self, data: "StepData", lin: np.ndarray, cold: bool, need: np.ndarray, lower: np.ndarray) -> None:
-        """Write the braking tail's rows (:func:`~nodnav.control.braking.tail_rows`) and their
-        bounds, linearised about the tail of ``lin`` (its last end, with the velocity of its last
-        interval); with ``settings.braking_tail`` off they constrain nothing."""
-        i0 = self.n_separation
-        if data.tail_weight <= 0.0:
-            lower[i0:] = -np.inf
-            return
-        lin_v = (lin[-1] - lin[-2]) / self.intervals[-1] if len(lin) > 1 else data.v0
-        tail_rows(lin[-1], lin_v, data.tail_weight, data.p0, data.v0, data.x_now[:self.n_walls, -1],
-                  data.away[:self.n_walls], data.dist_now[:self.n_walls], need[:self.n_walls], data.tail_reach,
-                  self.setup.obstacles, self.setup.pieces, data.box_low, data.box_high, self.tail_phi, self.tail_line,
-                  self.tol, cold, self.rows, lower, i0)
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:
         """Empty if the plan ``c``'s straight braking tail keeps ``need_clear`` from every wall and
-        bound (checked exactly, :func:`~nodnav.control.braking.tail_clearance`), else how far it intrudes."""
+        bound (checked exactly, :func:`~nodnav.control.braking.tail_clearance`), else how far it intrudes.
+        :meth:`violation` makes the same check within its compiled call (``plan_check``)."""
         if data.tail_weight <= 0.0:
             return ""
         end = self.b_tail @ c
@@ -415,19 +418,17 @@ class MPCProblem:
         points whose hulls hold them), else what it violates."""
         setup = self.setup
         tol = setup.settings.check_tolerance
-        clear, closest, speed, accel = plan_extremes(self.b_check_rates @ c, len(self.check_times), setup.n_speed,
-                                                      setup.obstacles, setup.pieces, setup.world_bounds,
-                                                      data.pred_check)
+        tail_end = self.b_tail @ c
+        clear, short, j, speed, accel, tail = plan_check(
+            self.b_check_rates @ c, len(self.check_times), setup.n_speed, setup.obstacles, setup.pieces,
+            setup.world_bounds, data.pred_check, data.need[self.n_walls:], tail_end,
+            self.tail_decel if data.tail_weight > 0.0 else 0.0)
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
-        if separation and self.n_others:
-            short = data.need[self.n_walls:] - closest
-            j = int(np.argmax(short))
-            if short[j] > tol:
-                return f"plan comes {1e3 * short[j]:.2f} mm too close to robot {j}"
-        tail = self.tail_violation(data, c)
-        if tail:
-            return tail
+        if separation and self.n_others and short > tol:
+            return f"plan comes {1e3 * short:.2f} mm too close to robot {j}"
+        if data.tail_weight > 0.0 and data.need_clear - tail > tol:
+            return f"plan's braking tail comes {1e3 * (data.need_clear - tail):.2f} mm too close to a wall"
         if speed > setup.robot.max_speed + tol:
             return f"plan exceeds the speed limit ({speed:.4f} m/s)"
         if accel > setup.robot.max_accel + tol:
@@ -441,7 +442,7 @@ class MPCProblem:
         return self.conflicting_others(support) if support.size else None
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class StepData:
     """The request's data for one step, with the requirements derived from the current state.
 
@@ -491,8 +492,10 @@ class StepData:
     """Lowest allowed position ``(2,)``: the bounds' corner plus the clearance kept from them (m)."""
     box_high: np.ndarray | None = None
     """Highest allowed position ``(2,)`` (m)."""
+    need_clear: float = 0.0
+    """The smallest clearance the plan has to keep from any wall or bound (m)."""
+    clearance_now: float = np.inf
+    """The present clearance from the walls and bounds (m)."""
+    overlap: bool = False
+    """Whether another robot is closer than contact (less ``settings.contact_tolerance``)."""
 
-    @cached_property
-    def need_clear(self) -> float:
-        """The smallest clearance the plan has to keep from any wall or bound (m)."""
-        return float(min(self.need[:self.n_walls].min(initial=np.inf), self.need_box.min()))

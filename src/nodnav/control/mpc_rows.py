@@ -36,6 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.compiled import compiled
+from nodnav.control.braking import _tail_clearance_kernel, tail_rows
 from nodnav.geometry import piece_closest_point_one, piece_signed_distance_one
 
 
@@ -239,3 +240,130 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, re
             delta_sq[g, e] = d * d / 4.0
         far[g] = g < n_walls and dist > reach
     return x_now, away, dist_now, need, delta_sq, far
+
+
+# -- One compiled call per stage of a step ---------------------------------------------------------
+# A step's set-up, its rows and its exact check each call one kernel below, which runs the loops
+# above in turn: the same operations in the same order (the results are bit for bit those of the
+# separate calls), without a Python round trip and the small array operations between them.
+
+
+@compiled
+def _finite(a):
+    for x in a.flat:
+        if not np.isfinite(x):
+            return False
+    return True
+
+
+@compiled
+def all_finite(p0, v0, ref, others, radii):
+    """Whether every entry of the five arrays is finite (a request's validation)."""
+    return _finite(p0) and _finite(v0) and _finite(ref) and _finite(others) and _finite(radii)
+
+
+@compiled
+def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
+               other_radii, margin, eps0, reach, contact_tolerance, static, eps_end):
+    """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
+    (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
+    (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
+    interval end (``min(max_speed, now + max_accel * ends)``), and the box: the distances ``gap``
+    to the ``bounds`` ``(x0, y0, x1, y1)``, the clearance kept from each (``min(radius, gap -
+    eps0)``) and the allowed corners. Returns ``x_now, away, dist_now, need, delta_sq, far,
+    full, contact, gap, need_box, box_low, box_high``, the smallest clearance to keep from any
+    wall or bound, the present clearance from the walls and bounds (the smallest ``dist_now`` of
+    a wall and ``gap``) and whether any other robot is closer than its ``contact`` less
+    ``contact_tolerance``. Adds the box's bounds to the first ``4 len(eps_end)`` entries of
+    ``static`` (the static rows' bounds without them, see
+    :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`)."""
+    n_walls = boxes.shape[0] + pieces.shape[0]
+    n_groups = n_walls + other_radii.shape[0]
+    full = np.empty(n_groups)
+    contact = np.empty(n_groups)
+    for g in range(n_walls):
+        full[g], contact[g] = radius, 1e-12
+    for j in range(other_radii.shape[0]):
+        full[n_walls + j] = radius + other_radii[j] + margin
+        contact[n_walls + j] = radius + other_radii[j]
+    speed = np.empty(ends.shape[0])
+    for e in range(ends.shape[0]):
+        speed[e] = min(max_speed, now + max_accel * ends[e])
+    x_now, away, dist_now, need, delta_sq, far = group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full,
+                                                             eps0, reach)
+    gap = np.empty(4)
+    need_box = np.empty(4)
+    box_low = np.empty(2)
+    box_high = np.empty(2)
+    for d in range(2):
+        gap[d] = p0[d] - bounds[d]
+        gap[2 + d] = bounds[2 + d] - p0[d]
+    need_clear = np.inf
+    for d in range(4):
+        need_box[d] = min(radius, gap[d] - eps0)
+    for g in range(n_walls):
+        need_clear = min(need_clear, need[g])
+    for d in range(4):
+        need_clear = min(need_clear, need_box[d])
+    for d in range(2):
+        box_low[d] = bounds[d] + need_box[d]
+        box_high[d] = bounds[2 + d] - need_box[2 + d]
+    box = np.empty(4)
+    for d in range(2):
+        box[d] = box_low[d] - p0[d]
+        box[2 + d] = p0[d] - box_high[d]
+    for e in range(eps_end.shape[0]):
+        for d in range(4):
+            static[4 * e + d] += box[d] + eps_end[e]
+    clear_now = np.inf
+    for g in range(n_walls):
+        clear_now = min(clear_now, dist_now[g])
+    for d in range(4):
+        clear_now = min(clear_now, gap[d])
+    overlap = False
+    for g in range(n_walls, n_groups):
+        overlap = overlap or dist_now[g] < contact[g] - contact_tolerance
+    return (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
+            clear_now, overlap)
+
+
+@compiled
+def step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact, delta_sq, far, vel, p0, v0,
+              static_lower, boxes, pieces, eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line,
+              tail_weight, tail_reach, box_low, box_high, last_interval, tail_phi, tail_line, tol, rows, lower):
+    """Every row's lower bound into ``lower`` and the dynamic rows into ``rows``: the static
+    bounds, :func:`separation_rows`, then the braking tail's :func:`~nodnav.control.braking.tail_rows`
+    (linearised about ``lin``'s last end with its last interval's velocity; ``-inf`` with no tail)."""
+    n_static = static_lower.shape[0]
+    n_walls = boxes.shape[0] + pieces.shape[0]
+    lower[:n_static] = static_lower
+    separation_rows(lin, x_now, boxes, pieces, n_walls, p0, v0, contact, need, cold, keep_arrangement, eps_end,
+                    delta_sq, group_point, group_wv, term_offset, vel, far, away, dyn_phi, dyn_line, rows, lower,
+                    n_static)
+    i0 = n_static + dyn_phi.shape[0]
+    if tail_weight <= 0.0:
+        lower[i0:] = -np.inf
+        return
+    n = lin.shape[0]
+    lin_v = (lin[n - 1] - lin[n - 2]) / last_interval if n > 1 else v0
+    tail_rows(lin[n - 1], lin_v, tail_weight, p0, v0, x_now[:n_walls, x_now.shape[1] - 1], away[:n_walls],
+              dist_now[:n_walls], need[:n_walls], tail_reach, boxes, pieces, box_low, box_high, tail_phi, tail_line,
+              tol, cold, rows, lower, i0)
+
+
+@compiled
+def plan_check(values, n_points, n_speed, boxes, pieces, bounds, preds, need_others, tail_end, tail_decel):
+    """:func:`plan_extremes`, the largest shortfall from ``need_others`` of the closest distances
+    and its first index (``-inf, -1`` without others), and the clearance of the plan's straight
+    braking tail from ``tail_end`` (position, velocity at the horizon) when ``tail_decel > 0``
+    (``inf`` otherwise)."""
+    clear, closest, fastest, hardest = plan_extremes(values, n_points, n_speed, boxes, pieces, bounds, preds)
+    short, worst = -np.inf, -1
+    for j in range(closest.shape[0]):
+        s = need_others[j] - closest[j]
+        if s > short:
+            short, worst = s, j
+    tail = np.inf
+    if tail_decel > 0.0:
+        tail = _tail_clearance_kernel(tail_end[0], tail_end[1], tail_decel, boxes, pieces, bounds)
+    return clear, short, worst, fastest, hardest, tail

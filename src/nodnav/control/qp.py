@@ -55,16 +55,36 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     ``start_active`` (a mask over ``bounds``) makes those bounds DAQP's initial working set: a
     guess of the constraints active at the minimiser saves the iterations that would add them.
     """
-    low = np.ascontiguousarray(lower if bounds is None else np.concatenate([bounds, lower]), dtype=float)
+    if bounds is None:
+        low = lower if _plain(lower) else np.ascontiguousarray(lower, dtype=float)
+    else:
+        low = np.concatenate([np.asarray(bounds, dtype=float), np.asarray(lower, dtype=float)])
     # DAQP's constraint flags: 1 active, 2 at the lower bound.
     sense = None if start_active is None else np.concatenate(
         [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
-    x, _, flag, info = daqp.solve(np.ascontiguousarray(hessian, dtype=float), np.ascontiguousarray(gradient,
-                                                                                                   dtype=float),
-                                  np.ascontiguousarray(rows, dtype=float), np.full(len(low), np.inf), low, sense,
-                                  primal_tol=tol)
+    x, _, flag, info = daqp.solve(hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float),
+                                  gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float),
+                                  rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float),
+                                  _no_upper(len(low)), low, sense, primal_tol=tol)
     return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
-                      x=np.asarray(x), iterations=int(info["iterations"]))
+                      x=x, iterations=int(info["iterations"]))
+
+
+def _plain(a: np.ndarray) -> bool:
+    """Whether ``a`` is already what DAQP takes as it is (a C-contiguous float64 array)."""
+    return type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
+
+
+_UPPER: dict[int, np.ndarray] = {}
+
+
+def _no_upper(n: int) -> np.ndarray:
+    """``+inf`` upper bounds for ``n`` constraints (one array per size, never written: DAQP
+    copies its bounds into its own workspace)."""
+    up = _UPPER.get(n)
+    if up is None:
+        up = _UPPER[n] = np.full(n, np.inf)
+    return up
 
 
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -1,0 +1,126 @@
+"""The MPC step's fused compiled calls (:mod:`nodnav.control.mpc_rows`: ``all_finite``,
+``step_state``, ``step_rows``, ``plan_check``) against the separate calls and the NumPy
+expressions they replace: equal bit for bit (the same operations in the same order)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from nodnav.control.braking import tail_clearance, tail_rows
+from nodnav.control.mpc import BSplineMPC
+from nodnav.control.mpc_rows import all_finite, group_state, plan_check, plan_extremes, separation_rows, step_state
+from nodnav.scenario.params import MPCParams, RobotSpec
+from nodnav.scenario.world import paper_world
+
+WORLD = paper_world()
+ROBOT = RobotSpec(origin=(-5.0, 0.0), destination=(5.0, 0.0))
+PARAMS = MPCParams()
+TIMES = 0.1 * np.arange(1, 9)
+
+
+def test_all_finite_finds_any_non_finite_entry():
+    arrays = [np.zeros(2), np.ones(2), np.zeros((8, 2)), np.zeros((2, 8, 2)), np.full(2, 0.2)]
+    assert all_finite(*arrays)
+    for i, bad in [(0, np.nan), (2, np.inf), (3, -np.inf), (4, np.nan)]:
+        broken = [a.copy() for a in arrays]
+        broken[i].reshape(-1)[-1] = bad
+        assert not all_finite(*broken)
+    assert all_finite(arrays[0], arrays[1], arrays[2], np.zeros((0, 8, 2)), np.zeros(0))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
+    rng = np.random.default_rng(seed)
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob = ctl._problem(3, TIMES)
+    p0 = rng.uniform([-6.0, -1.0], [6.0, 1.0])
+    v0 = rng.normal(0.0, 0.5, 2)
+    radii = rng.uniform(0.1, 0.3, 3)
+    others = p0 + rng.normal(0.0, 1.0, (3, 1, 2)) + np.outer(TIMES, rng.normal(0.0, 0.5, 2))[None]
+    pred = prob.interp_all @ others
+    n_end, r, margin, eps0, reach, tol = len(prob.ends), ROBOT.radius, PARAMS.safety_margin, prob.eps[0], 3.0, 1e-3
+    bounds = np.asarray(WORLD.bounds, dtype=float)
+    static = prob.static_lower_base(v0)
+    out = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends, prob.intervals,
+                     WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0, reach, tol, static,
+                     prob.eps_end)
+    m_w = prob.n_walls
+    full = np.concatenate([np.full(m_w, r), r + radii + margin])
+    contact = np.concatenate([np.full(m_w, 1e-12), r + radii])
+    speed = np.minimum(ROBOT.max_speed, math.hypot(*v0) + ROBOT.max_accel * prob.ends)
+    ref = group_state(pred, n_end, p0, speed, prob.intervals, WORLD.obstacle_array, WORLD.piece_array, full, eps0,
+                      reach)
+    for a, b in zip(out[:6], ref):
+        assert np.array_equal(a, b)
+    assert np.array_equal(out[6], full) and np.array_equal(out[7], contact)
+    gap = np.concatenate([p0 - bounds[:2], bounds[2:] - p0])
+    need_box = np.minimum(r, gap - eps0)
+    assert np.array_equal(out[8], gap) and np.array_equal(out[9], need_box)
+    assert np.array_equal(out[10], bounds[:2] + need_box[:2]) and np.array_equal(out[11], bounds[2:] - need_box[2:])
+    assert out[12] == min(ref[3][:m_w].min(), need_box.min())
+    assert out[13] == min(ref[2][:m_w].min(), gap.min())
+    assert out[14] == bool((ref[2][m_w:] < contact[m_w:] - tol).any())
+    assert np.array_equal(static, prob.static_lower(p0, v0, out[10], out[11]))
+
+
+@pytest.mark.parametrize("cold", [False, True])
+def test_step_rows_are_the_separate_row_writers(cold):
+    rng = np.random.default_rng(7)
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob = ctl._problem(2, TIMES)
+    p0, v0 = np.array([-1.0, 0.2]), np.array([0.5, 0.1])
+    ref = p0 + np.outer(TIMES, [0.8, 0.0])
+    others = np.array([[1.5, 0.0], [-2.5, -0.3]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
+    data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2, 0.25]))
+    assert data.tail_weight > 0.0
+    lin = prob.interp_ends @ ref + rng.normal(0.0, 0.05, (len(prob.ends), 2))
+    lower = prob.write_separation(data, lin, cold, data.need)
+    rows = prob.rows.copy()
+    # The separate writers, as before they were fused.
+    ref_rows, ref_lower = np.zeros_like(rows), np.empty_like(lower)
+    ref_lower[:prob.n_static] = data.static_lower
+    ref_rows[:prob.n_static] = rows[:prob.n_static]
+    separation_rows(lin, data.x_now, prob.setup.obstacles, prob.setup.pieces, prob.n_walls, p0, v0, data.contact,
+                    data.need, cold, np.zeros(prob.n_groups, dtype=bool), prob.eps_end, data.delta_sq,
+                    prob.group_point, prob.group_wv, prob.term_offset, data.velocities, data.far, data.away,
+                    prob.dyn_phi, prob.dyn_line, ref_rows, ref_lower, prob.n_static)
+    lin_v = (lin[-1] - lin[-2]) / prob.intervals[-1]
+    m_w = prob.n_walls
+    tail_rows(lin[-1], lin_v, data.tail_weight, p0, v0, data.x_now[:m_w, -1], data.away[:m_w], data.dist_now[:m_w],
+              data.need[:m_w], data.tail_reach, prob.setup.obstacles, prob.setup.pieces, data.box_low, data.box_high,
+              prob.tail_phi, prob.tail_line, prob.tol, cold, ref_rows, ref_lower, prob.n_separation)
+    assert np.array_equal(rows, ref_rows)
+    assert np.array_equal(lower, ref_lower)
+
+
+def test_plan_check_is_plan_extremes_with_the_shortfall_and_the_tail():
+    rng = np.random.default_rng(5)
+    points = np.column_stack([rng.uniform(-7.5, 7.5, 40), rng.uniform(-3.0, 3.0, 40)])
+    values = np.vstack([points, rng.normal(size=(12, 2))])
+    preds = rng.normal(size=(3, 40, 2))
+    need = np.array([0.5, 3.0, 2.9])
+    bounds = np.asarray(WORLD.bounds, dtype=float)
+    end = np.array([[-1.0, 0.1], [0.8, 0.2]])
+    clear, short, worst, fastest, hardest, tail = plan_check(values, 40, 5, WORLD.obstacle_array, WORLD.piece_array,
+                                                             bounds, preds, need, end, 1.5)
+    ref = plan_extremes(values, 40, 5, WORLD.obstacle_array, WORLD.piece_array, bounds, preds)
+    assert (clear, fastest, hardest) == (ref[0], ref[2], ref[3])
+    shortfall = need - ref[1]
+    assert worst == int(np.argmax(shortfall)) and short == shortfall[worst]
+    assert tail == tail_clearance(end[0], end[1], 1.5, WORLD.obstacle_array, WORLD.piece_array, bounds)
+    none = plan_check(values, 40, 5, WORLD.obstacle_array, WORLD.piece_array, bounds, np.zeros((0, 40, 2)),
+                      np.zeros(0), end, 0.0)
+    assert none[1] == -np.inf and none[2] == -1 and none[5] == np.inf
+
+
+def test_step_data_static_bounds_are_static_lower():
+    """The static rows' bounds ``step_state`` completes are :meth:`MPCProblem.static_lower`'s, bit for bit."""
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob = ctl._problem(1, TIMES)
+    for p0, v0 in [((-1.0, 0.2), (0.5, 0.1)), ((6.9, -1.1), (-0.3, 0.7)), ((0.0, 0.0), (0.0, 0.0))]:
+        p0, v0 = np.array(p0), np.array(v0)
+        ref = p0 + np.outer(TIMES, [0.8, 0.0])
+        others = np.array([[1.5, 0.0]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
+        data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2]))
+        assert np.array_equal(data.static_lower, prob.static_lower(p0, v0, data.box_low, data.box_high))

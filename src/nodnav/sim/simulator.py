@@ -206,15 +206,22 @@ class Simulation:
                          if noisy and sensing.filter == "kalman" else None)
         """Each robot's Kalman filters of the others (:class:`~nodnav.sim.sensing.Tracker`); None
         without noise or loss, or with ``sensing.filter: none``."""
+        self._exact = not noisy and self.sight is None
+        """Whether every robot observes exactly the truth (the paper's sensing): then all observe
+        the same states, computed once a step and shared (read-only) by every robot's record."""
         self.observed: list[list[np.ndarray]] = [[] for _ in range(n)]
         # Each robot's own record of what it observed (noisy for the others), newest last.
         for i in range(n):
-            self.observed[i].append(self._observe(i))
+            self.observed[i].append(self.observed[0][-1] if self._exact and i else self._observe(i))
         # Each robot's window of the last opinion period (N_r, M, 4), shifted by one sample a
         # step rather than stacked anew; before one whole period has passed it is padded with
-        # the first sample. Read-only: every view of a step shares it.
+        # the first sample. Read-only: every view of a step shares it (and with exact sensing
+        # every robot's is the same array).
         m = self.steps_per_decision + 1
-        self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed]
+        self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed[:1 if self._exact else n]]
+        if self._exact:
+            self._windows = self._windows * n
+        self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
@@ -276,14 +283,20 @@ class Simulation:
         """
         n = self.scenario.n_robots
         seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
-        for passage, approach, (true_log, seen_logs) in zip(self.scenario.world.passages, self._passage_sides,
-                                                            self.entered_by):
+        for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
+                self.scenario.world.passages, self._passage_sides, self.entered_by)):
             s = passage.along(seen)
-            left_ahead = np.where(approach == RIGHT, s - passage.s_start, passage.s_end - s)
             sides = passage.side_of_along(s)
             if self.sight is not None:  # a robot's record changes only with what it sees now
                 sides = sides.copy()
                 sides[1:][~self.sight.visible] = UNSEEN
+            # Each record takes in the robots seen inside and not in it and drops those seen back
+            # on their approach side: after one update with these sides, another changes nothing.
+            last = self._last_sides[number]
+            if last is not None and np.array_equal(last, sides):
+                continue
+            self._last_sides[number] = sides
+            left_ahead = np.where(approach == RIGHT, s - passage.s_start, passage.s_end - s)
             for log_, side, ahead in zip([true_log] + seen_logs, sides.tolist(), left_ahead):
                 new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
                 log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
@@ -338,11 +351,20 @@ class Simulation:
         self.t = self.k * self.dt
         if self.sight is not None:
             self.sight.update(self.t, self.positions)
-        for i in range(self.scenario.n_robots):
-            seen = self._observe(i)
-            self.observed[i].append(seen)
-            del self.observed[i][: -(self.steps_per_decision + 2)]
-            self._windows[i] = _frozen(np.concatenate((self._windows[i][:, 1:], seen[:, None]), axis=1))
+        if self._exact:  # everyone observes the same: one observation and one window for all
+            seen = self._observe(0)
+            window = _frozen(np.concatenate((self._windows[0][:, 1:], seen[:, None]), axis=1))
+            keep = -(self.steps_per_decision + 2)
+            for i in range(self.scenario.n_robots):
+                self.observed[i].append(seen)
+                del self.observed[i][:keep]
+                self._windows[i] = window
+        else:
+            for i in range(self.scenario.n_robots):
+                seen = self._observe(i)
+                self.observed[i].append(seen)
+                del self.observed[i][: -(self.steps_per_decision + 2)]
+                self._windows[i] = _frozen(np.concatenate((self._windows[i][:, 1:], seen[:, None]), axis=1))
         self._update_entries()
         self._record_state()
         self._judge(path)

@@ -119,17 +119,30 @@ def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(local_of[k] for k in project_order(order, robots))
 
 
-def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders) -> list[PlanRequest]:
+def robot_arrays(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The scenario's destinations, radii, speed and acceleration limits, ``(N_r, 2)`` and
+    ``(N_r,)`` arrays, read-only: the scenario builds them anew at every access, a trial's
+    objects build them once."""
+    arrays = (scenario.destinations, scenario.radii, scenario.max_speeds,
+              np.array([r.max_accel for r in scenario.robots], dtype=float))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders,
+                   arrays: tuple[np.ndarray, ...] | None = None) -> list[PlanRequest]:
     """The planning queries of ``robots`` (scenario indices, in increasing index) passing in each
     of ``orders`` (numbered by place in ``robots``, :func:`local_order`), from what ``view``
-    shows; the queries share their state arrays."""
+    shows; the queries share their state arrays. ``arrays``: :func:`robot_arrays` of the
+    scenario, if the caller holds them."""
     local_of = {k: m for m, k in enumerate(robots)}
     rows = list(robots)
     positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
     entered = tuple(local_of[k] for k in view.entered if k in local_of)
-    accels = np.array([scenario.robots[k].max_accel for k in rows], dtype=float)
-    # The scenario's arrays are built anew on every access: once for all orders.
-    destinations, radii, max_speeds = scenario.destinations[rows], scenario.radii[rows], scenario.max_speeds[rows]
+    all_destinations, all_radii, all_speeds, all_accels = robot_arrays(scenario) if arrays is None else arrays
+    accels = all_accels[rows]
+    destinations, radii, max_speeds = all_destinations[rows], all_radii[rows], all_speeds[rows]
     return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
                         destinations=destinations, radii=radii, max_speeds=max_speeds, order=order,
                         entered=entered, t0=view.t, max_accels=accels)
@@ -199,7 +212,10 @@ class NODAgent:
         self.start_positions = scenario.origins
         """Where the robots are when this robot starts playing (eqs. (10)-(11)'s initial opinions):
         their origins, or where it sees them when it reaches a later passage of several."""
-        self.accel = np.array([r.max_accel for r in scenario.robots])
+        self.arrays = robot_arrays(scenario)
+        """The scenario's destinations, radii, speed and acceleration limits (:func:`robot_arrays`)."""
+        self.destinations, self.radii = self.arrays[0], self.arrays[1]
+        self.accel = self.arrays[3]
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -299,7 +315,7 @@ class NODAgent:
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
-        requests = joint_requests(self.scenario, view, planning, orders)
+        requests = joint_requests(self.scenario, view, planning, orders, self.arrays)
         state = state_key(requests[0]) if requests else ()  # the requests share their state (equal arrays)
         return [self.plans.plan(request, state) for request in requests]
 
@@ -331,7 +347,7 @@ class NODAgent:
         s = self.scenario
         done = view.known if self.settled is None else view.known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
-        return entered + self.plans.packed_crossed(world, view.positions, s.destinations, s.radii, done,
+        return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
                                                    [self.index, *players, *entered], s.sim.goal_tolerance,
                                                    s.planner.margin)
 
@@ -340,11 +356,13 @@ class NODAgent:
         seconds (:mod:`nodnav.decision.standoff`), or -1."""
         patience = self.params.standoff_patience
         partner = -1
+        to_go_now = None
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             planning, _, _, plans = self.previous
             plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             to_go = self._to_go(ends)
+            to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -np.diff(to_go, axis=1)[:, 0]
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
@@ -352,7 +370,7 @@ class NODAgent:
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
             now = view.positions[list(players)]
-            arrived = (np.linalg.norm(now - self.scenario.destinations[list(players)], axis=1)
+            arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
                        <= self.scenario.sim.goal_tolerance)
             found = standoff_partner(progress[self.index], progress[list(players)],
                                      planned[planning.index(self.index)], players_planned,
@@ -361,7 +379,9 @@ class NODAgent:
             partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
-            self._to_go_seen = [*self._to_go_seen, self._to_go(view.positions[:, None])[:, 0]][-span:]
+            if to_go_now is None:
+                to_go_now = self._to_go(view.positions[:, None])[:, 0]
+            self._to_go_seen = [*self._to_go_seen, to_go_now][-span:]
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
 
@@ -369,7 +389,7 @@ class NODAgent:
         """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``
         ``(n, M, 2)``."""
         robots = list(range(self.scenario.n_robots)) if robots is None else list(robots)
-        dest = self.scenario.destinations[robots][:, None]
+        dest = self.destinations[robots][:, None]
         return distance_to_go(self.scenario.world, positions, dest, self.sides[robots][:, None])
 
     def decide(self, view: RobotView) -> Decision:

@@ -303,6 +303,7 @@ class ReactionMargins:
         self.dt = scenario.controller.dt
         self._others = [[k for k in range(n) if k != i] for i in range(n)]
         self._accel = np.array([r.max_accel for r in scenario.robots])
+        self._radii = scenario.radii  # built anew at every access: once
         self._braking_margin = scenario.execution.reaction_margin
         self.conflicted = np.zeros(n, dtype=bool)
         """Whether each robot could not follow its plan at its last control step (set by the method)."""
@@ -323,7 +324,7 @@ class ReactionMargins:
         positions, velocities = view.positions, view.velocities
         out = careful_radii(positions, velocities, positions if seen is None else seen[0],
                             velocities if seen is None else seen[1], seen is not None, i, self._others_array[i],
-                            self._accel, self.scenario.radii, self.scenario.controller.safety_margin,
+                            self._accel, self._radii, self.scenario.controller.safety_margin,
                             self.scenario.execution.reaction_slack, self.dt, self._surprise, self._mode,
                             self._surprised[i], self._surprise_steps, bool(self.conflicted[i]), radii)
         if self._mode >= _SURPRISED:

@@ -23,7 +23,7 @@ from nodnav.decision.strategies import strategy_index
 from nodnav.geometry import piece_clearance
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
-from nodnav.sim.agent import RobotView, approach_sides
+from nodnav.sim.agent import RobotView, approach_sides, robot_arrays
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
@@ -190,6 +190,8 @@ class Simulation:
         self.dt = ctrl.dt
         self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
         self.sides = approach_sides(scenario)
+        # The scenario builds these anew at every access: once per trial, read-only.
+        self._destinations, self._radii, self._max_speeds, _ = robot_arrays(scenario)
         self.k = 0
         self.t = 0.0
         self.positions = scenario.origins.copy()
@@ -308,7 +310,7 @@ class Simulation:
         """Distance each robot still has to go (m): through the passage's entrances with one
         passage, along its route with several."""
         if self.routes is None:
-            return distance_to_go(self.scenario.world, self.positions, self.scenario.destinations, self.sides)
+            return distance_to_go(self.scenario.world, self.positions, self._destinations, self.sides)
         return np.array([route.to_go(p) for route, p in zip(self.routes, self.positions)])
 
     def views(self) -> dict[int, RobotView]:
@@ -416,15 +418,15 @@ class Simulation:
         s, world = self.scenario, self.scenario.world
         if self.people is None and world.wall_grid is not None:  # a map's many boxes: through the index
             clear = world.clearance(np.ascontiguousarray(path.reshape(-1, 2)))
-            pair_hits, wall_hits = contact_tally(path, s.radii, s.sim.collision_tolerance, clear)
+            pair_hits, wall_hits = contact_tally(path, self._radii, s.sim.collision_tolerance, clear)
             kind = collision_kind(pair_hits, wall_hits)
         elif self.people is None:
-            pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
+            pair_hits, wall_hits = contact_counts(path, self._radii, s.sim.collision_tolerance, world.bounds_array,
                                                   world.obstacle_array, world.piece_array)
             kind = collision_kind(pair_hits, wall_hits)
         else:  # robots among themselves and with walls as always; contacts with people are attributed
             robots = ~self.pedestrians
-            pair_hits, wall_hits = contact_counts(np.ascontiguousarray(path[:, robots]), s.radii[robots],
+            pair_hits, wall_hits = contact_counts(np.ascontiguousarray(path[:, robots]), self._radii[robots],
                                                   s.sim.collision_tolerance, world.bounds_array, world.obstacle_array,
                                                   world.piece_array)
             kind = collision_kind(pair_hits, wall_hits)
@@ -438,7 +440,7 @@ class Simulation:
             self._finish("collision")
             return
         to_go = self._to_go()
-        arrived = np.linalg.norm(self.positions - s.destinations, axis=1) <= s.sim.goal_tolerance
+        arrived = np.linalg.norm(self.positions - self._destinations, axis=1) <= s.sim.goal_tolerance
         self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
         if arrived.all():
             self._finish("success")
@@ -446,7 +448,7 @@ class Simulation:
         improved = to_go < self.best_to_go - s.sim.progress_epsilon
         self.best_to_go = np.where(improved, to_go, self.best_to_go)
         if self.plan_progress is not None:  # or along the plan it follows (backing out, ...)
-            improved |= self.plan_progress.advanced(self.positions, 2.0 * s.max_speeds * self.dt + 0.1)
+            improved |= self.plan_progress.advanced(self.positions, 2.0 * self._max_speeds * self.dt + 0.1)
         if improved.any():
             self.last_progress = self.t
         if self.t - self.last_progress >= s.sim.deadlock_time:

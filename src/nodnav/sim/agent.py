@@ -294,10 +294,17 @@ class NODAgent:
     def _select_players(self, view: RobotView) -> tuple[int, ...]:
         """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
         not yet seen to enter the corridor first (those that have are ahead in every order)."""
-        d_corr = self.scenario.world.corridor_distance(view.positions, self.sides)
-        L = conflict_likelihood(view.positions, d_corr, self.params.delta)
-        if self.params.conflict == "undecided" and view.entered:
-            L = undecided_first(L, view.entered)
+        world, positions = self.scenario.world, view.positions
+        undecided = self.params.conflict == "undecided" and view.entered
+
+        def likelihoods() -> np.ndarray:
+            L = conflict_likelihood(positions, world.corridor_distance(positions, self.sides), self.params.delta)
+            return undecided_first(L, view.entered) if undecided else L
+
+        # Every agent of the round that sees the same asks the same (its own row differs only).
+        key = ("likelihoods", id(world), positions.tobytes(), self.sides.tobytes(), self.params.delta,
+               view.entered if undecided else None)
+        L = self.plans.shared(key, likelihoods, world)
         return players_in_sight(L, view, self.index, self.n_players, self.eligible)
 
     def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:
@@ -361,12 +368,12 @@ class NODAgent:
             planning, _, _, plans = self.previous
             plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
-            to_go = self._to_go(ends)
+            to_go = self._shared_to_go(ends)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -np.diff(to_go, axis=1)[:, 0]
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
-            planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
+            planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
             now = view.positions[list(players)]
@@ -384,6 +391,14 @@ class NODAgent:
             self._to_go_seen = [*self._to_go_seen, to_go_now][-span:]
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
+
+    def _shared_to_go(self, positions: np.ndarray, robots: tuple[int, ...] | None = None) -> np.ndarray:
+        """:meth:`_to_go`, computed once per round for every agent that asks it of the same
+        positions, robots, approach sides and destinations (read-only)."""
+        world = self.scenario.world
+        key = ("to_go", id(world), positions.shape, positions.tobytes(), robots, self.sides.tobytes(),
+               self.destinations.tobytes())
+        return self.plans.shared(key, lambda: self._to_go(positions, robots), world)
 
     def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
         """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``

@@ -43,14 +43,30 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
+        self._packed: dict[tuple, dict] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
+        self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
         self._states.clear()
         self._crossed.clear()
+        self._packed.clear()
         self._stacks.clear()
+        self._shared.clear()
+
+    def shared(self, key: tuple, compute, keep: object = None) -> np.ndarray:
+        """``compute()``, an array, computed at most once per round for ``key`` (which must name
+        everything the answer reads) and returned read-only to everyone who asks: the agents of a
+        round that see the same (every agent, with exact sensing) ask alike. ``keep``: an object
+        whose ``id`` is part of ``key``, held with the answer so that the id stays unique."""
+        hit = self._shared.get(key)
+        if hit is None:
+            value = compute()
+            value.flags.writeable = False
+            hit = self._shared[key] = (keep, value)
+        return hit[1]
 
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
@@ -72,12 +88,16 @@ class PlanCache:
         once per round for the same arguments: robots that see the same and plan the same robots
         (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
         their bytes, ``planning`` as a set: only membership counts)."""
-        args = (world, positions, destinations, radii, known, sorted(planning), goal_tolerance, margin)
-        key = tuple(_hashable(a) for a in args)
+        state = tuple(_hashable(a) for a in (world, positions, destinations, radii, known, goal_tolerance, margin))
+        key = (*state, tuple(sorted(planning)))
         hit = self._crossed.get(key)
         if hit is None:
+            # What is packed round each robot's way does not depend on who plans: shared by every
+            # planning set of the same state.
+            packed = self._packed.setdefault(state, {})
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
-                                                            list(planning), goal_tolerance, margin, self.graphs))
+                                                            list(planning), goal_tolerance, margin, self.graphs,
+                                                            packed))
         return hit
 
     def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:

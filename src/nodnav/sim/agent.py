@@ -274,15 +274,21 @@ class NODAgent:
         if players and self.social:
             columns = [planning.index(k) for k in players]
             stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
-            planned = (stacked[:, columns] if stacked.ndim == 4 else
-                       np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans]))  # (G, N_k, M, 4)
-            observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
-            if self.params.estimation == "reachable":
-                planned = reachable_predictions(observed, planned, self.accel[list(players)], dt)
-            elif self.params.estimation == "mismatch":
-                planned = mismatch_predictions(observed, planned, self.accel[list(players)], dt)
-            z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
+            if stacked.ndim == 4:
+                # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
+                # same and planned alike (each element reads its own robot's row only); this
+                # robot's players' columns of it, laid out as eq. (4a) of its players alone.
+                rows = list(planning)
+                key = ("eq4", tuple(id(p.trajectory) for p in plans), view.window_times.tobytes(), planning,
+                       self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
+                       self.accel[rows].tobytes())
+                everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
+                                             list(plans))
+                z_prime = np.ascontiguousarray(everyone[:, columns]).T  # the layout decides mean's summation order
+            else:
+                planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
+                z_prime = self._estimated(view.window_states[list(players)], planned, list(players), dt).T
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
             # of the game standing for class_size of the N_r! strategies.
@@ -290,6 +296,16 @@ class NODAgent:
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
+
+    def _estimated(self, observed: np.ndarray, planned: np.ndarray, robots: list[int], dt: float) -> np.ndarray:
+        """Eq. (4a) (:func:`estimated_opinions`) of the robots ``robots`` observed as ``observed``
+        ``(N_k, M, 4)`` against ``planned`` ``(G, N_k, M, 4)``, after ``opinion.estimation``'s
+        correction, transposed: ``(G, N_k)``."""
+        if self.params.estimation == "reachable":
+            planned = reachable_predictions(observed, planned, self.accel[robots], dt)
+        elif self.params.estimation == "mismatch":
+            planned = mismatch_predictions(observed, planned, self.accel[robots], dt)
+        return estimated_opinions(observed, planned, dt, self.params.K1).T
 
     def _select_players(self, view: RobotView) -> tuple[int, ...]:
         """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
@@ -322,9 +338,12 @@ class NODAgent:
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
-        requests = joint_requests(self.scenario, view, planning, orders, self.arrays)
-        state = state_key(requests[0]) if requests else ()  # the requests share their state (equal arrays)
-        return [self.plans.plan(request, state) for request in requests]
+        if not orders:
+            return []
+        # The queries of all orders share their state: one request, asked in each order.
+        template = joint_requests(self.scenario, view, planning, orders[:1], self.arrays)[0]
+        state = state_key(template)
+        return [self.plans.plan_order(template, order, state) for order in orders]
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order

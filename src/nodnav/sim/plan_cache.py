@@ -9,6 +9,8 @@ so a hit returns exactly what the agent would have computed alone.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult
@@ -77,6 +79,20 @@ class PlanCache:
             self.misses += 1
             result = self.planner.plan(request)
             self._plans[key] = result
+        else:
+            self.hits += 1
+        return result
+
+    def plan_order(self, template: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
+        """:meth:`plan` of ``template`` asked in ``order`` (``state``: :func:`state_key` of the
+        template): the request is built only when the round has not answered it yet, since most
+        of an agent's queries were posed by a game player before it."""
+        key = (order, template.entered, template.t0, *state)
+        result = self._plans.get(key)
+        if result is None:
+            self.misses += 1
+            request = template if template.order == order else replace(template, order=order)
+            result = self._plans[key] = self.planner.plan(request)
         else:
             self.hits += 1
         return result

@@ -327,8 +327,9 @@ class ReactionMargins:
                             self._accel, self._radii, self.scenario.controller.safety_margin,
                             self.scenario.execution.reaction_slack, self.dt, self._surprise, self._mode,
                             self._surprised[i], self._surprise_steps, bool(self.conflicted[i]), radii)
-        if self._mode >= _SURPRISED:
-            self._last_seen[i] = (positions.copy(), velocities.copy())
+        if self._mode >= _SURPRISED:  # a read-only view (the simulator's windows) never changes: kept as it is
+            self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
+                                  velocities if not velocities.flags.writeable else velocities.copy())
         return out
 
     def radii_plain(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:

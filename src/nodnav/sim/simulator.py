@@ -224,6 +224,7 @@ class Simulation:
         if self._exact:
             self._windows = self._windows * n
         self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
+        self._last_truth: list[np.ndarray | None] = [None] * len(scenario.world.passages)
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
@@ -284,9 +285,17 @@ class Simulation:
         corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
-        seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
+        seen = None
         for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
                 self.scenario.world.passages, self._passage_sides, self.entered_by)):
+            if self._exact:  # everyone sees the truth: the records change only when its sides do
+                truth = passage.side_of_along(passage.along(self.positions))
+                last_truth = self._last_truth[number]
+                if last_truth is not None and np.array_equal(last_truth, truth):
+                    continue
+                self._last_truth[number] = truth
+            if seen is None:
+                seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
             s = passage.along(seen)
             sides = passage.side_of_along(s)
             if self.sight is not None:  # a robot's record changes only with what it sees now

@@ -287,7 +287,7 @@ class NODAgent:
                                              list(plans))
                 z_prime = np.ascontiguousarray(everyone[:, columns]).T  # the layout decides mean's summation order
             else:
-                planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])  # (G, N_k, M, 4)
+                planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])
                 z_prime = self._estimated(view.window_states[list(players)], planned, list(players), dt).T
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order

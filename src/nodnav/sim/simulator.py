@@ -220,7 +220,8 @@ class Simulation:
         # the first sample. Read-only: every view of a step shares it (and with exact sensing
         # every robot's is the same array).
         m = self.steps_per_decision + 1
-        self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed[:1 if self._exact else n]]
+        firsts = [obs[0] for obs in self.observed[:1 if self._exact else n]]
+        self._windows = [_frozen(np.repeat(first[:, None], m, axis=1)) for first in firsts]
         if self._exact:
             self._windows = self._windows * n
         self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)

@@ -362,7 +362,8 @@ class NODAgent:
             return ()
         world = self.scenario.world
         inside = world.in_corridor(view.positions)
-        entered = tuple(k for k in view.entered if inside[k] and view.known[k] and k != self.index and k not in players)
+        known = view.known
+        entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
@@ -371,7 +372,7 @@ class NODAgent:
         # local goal it drives through), not parked, and planning it as parked at the front of
         # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
-        done = view.known if self.settled is None else view.known & self.settled
+        done = known if self.settled is None else known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
                                                    [self.index, *players, *entered], s.sim.goal_tolerance,

@@ -56,6 +56,8 @@ def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray
 def _packed_round(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                   crossed: np.ndarray, k: int, margin: float, graphs: dict) -> np.ndarray:
     """The ``crossed`` robots packed round robot ``k``'s way (:func:`packed_crossed`), ``(N,)``."""
+    if not (crossed.sum() - crossed[k]):  # nobody else has crossed: nobody to find, no way to search
+        return np.zeros(len(positions), dtype=bool)
     way = 2.0 * radii[k] + 2.0 * margin  # the room robot k needs between two bodies
     key = (world, float(radii[k]))
     graph = graphs.get(key)

@@ -174,3 +174,19 @@ def test_exact_sensing_shared_by_every_robot_gives_the_same_trial():
     alone._windows = [copy.deepcopy(w) for w in alone._windows]
     for a, b in zip(_history(shared, 120), _history(alone, 120)):
         assert a.tobytes() == b.tobytes()
+
+
+def test_trajectory_states_equal_positions_and_velocities_at():
+    from nodnav.sim.plan_cache import trajectory_states, trajectory_states_plain
+
+    rng = np.random.default_rng(9)
+    for n in (1, 3):
+        traj = _crossing_plan(rng, n)
+        # Inside, on the samples, before the first and from the last sample on.
+        query = np.concatenate([rng.uniform(-1.0, 9.0, 30), traj.times[[0, 5, -2, -1]], [-0.5, 8.0, 12.0]])
+        got = trajectory_states(traj.times, traj.positions, traj.velocities, query)
+        assert got.tobytes() == np.ascontiguousarray(trajectory_states_plain(traj, query)).tobytes()
+        assert np.all(got[:, query >= traj.times[-1], 2:] == 0.0)
+    single = JointTrajectory.from_positions(np.array([0.0]), np.zeros((1, 2, 2)))
+    got = trajectory_states(single.times, single.positions, single.velocities, np.array([-1.0, 0.0, 3.0]))
+    assert got.tobytes() == np.ascontiguousarray(trajectory_states_plain(single, np.array([-1.0, 0.0, 3.0]))).tobytes()

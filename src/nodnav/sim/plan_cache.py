@@ -13,7 +13,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult
+from nodnav.compiled import compiled
+from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, interpolate_positions
 from nodnav.scenario.world import World
 from nodnav.sim.parked import packed_crossed
 
@@ -140,9 +141,35 @@ class PlanCache:
         key = (id(traj), times.tobytes())
         hit = self._states.get(key)
         if hit is None:
-            states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
+            states = trajectory_states(traj.times, traj.positions, traj.velocities, np.asarray(times, dtype=float))
             hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
         return hit[1]
+
+
+def trajectory_states_plain(trajectory: JointTrajectory, times: np.ndarray) -> np.ndarray:
+    """Planned states (px, py, vx, vy) of every robot of ``trajectory`` at ``times``, ``(n, M, 4)``:
+    :meth:`~nodnav.planning.base.JointTrajectory.positions_at` and ``velocities_at``, the
+    reference :func:`trajectory_states` is tested against."""
+    return np.concatenate([trajectory.positions_at(times), trajectory.velocities_at(times)], axis=-1).transpose(1, 0, 2)
+
+
+@compiled
+def trajectory_states(times, positions, velocities, query):
+    """:func:`trajectory_states_plain` in one compiled call: the positions by the same
+    interpolation (:func:`~nodnav.planning.base.interpolate_positions`), the velocities of the
+    segment each query time falls in (zero from the last sample on), ``(n, M, 4)``."""
+    at = interpolate_positions(times, positions, query)
+    k, n, m = times.shape[0], positions.shape[1], query.shape[0]
+    out = np.empty((n, m, 4))
+    for q in range(m):
+        i = min(max(np.searchsorted(times, query[q], side="right") - 1, 0), k - 1)
+        end = query[q] >= times[k - 1]
+        for r in range(n):
+            out[r, q, 0] = at[q, r, 0]
+            out[r, q, 1] = at[q, r, 1]
+            out[r, q, 2] = 0.0 if end else velocities[i, r, 0]
+            out[r, q, 3] = 0.0 if end else velocities[i, r, 1]
+    return out
 
 
 def _hashable(value):

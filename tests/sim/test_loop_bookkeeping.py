@@ -190,3 +190,17 @@ def test_trajectory_states_equal_positions_and_velocities_at():
     single = JointTrajectory.from_positions(np.array([0.0]), np.zeros((1, 2, 2)))
     got = trajectory_states(single.times, single.positions, single.velocities, np.array([-1.0, 0.0, 3.0]))
     assert got.tobytes() == np.ascontiguousarray(trajectory_states_plain(single, np.array([-1.0, 0.0, 3.0]))).tobytes()
+
+
+def test_a_request_in_another_order_is_the_template_with_that_order():
+    from dataclasses import fields, replace
+
+    from nodnav.sim.plan_cache import _in_order
+
+    scenario = load_scenario("3r-case4")
+    states = np.concatenate([scenario.origins, np.zeros((3, 2))], axis=1)[:, None, :]
+    view = RobotView(t=1.5, window_times=np.zeros(1), window_states=states, entered=(2,))
+    template = joint_requests(scenario, view, (0, 1, 2), [(2, 0, 1)])[0]
+    got, want = _in_order(template, (2, 1, 0)), replace(template, order=(2, 1, 0))
+    assert type(got) is type(want) and got.order == (2, 1, 0) and template.order == (2, 0, 1)
+    assert all(getattr(got, f.name) is getattr(want, f.name) for f in fields(want) if f.name != "order")

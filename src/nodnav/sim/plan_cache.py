@@ -9,8 +9,6 @@ so a hit returns exactly what the agent would have computed alone.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from nodnav.compiled import compiled
@@ -92,7 +90,7 @@ class PlanCache:
         result = self._plans.get(key)
         if result is None:
             self.misses += 1
-            request = template if template.order == order else replace(template, order=order)
+            request = template if template.order == order else _in_order(template, order)
             result = self._plans[key] = self.planner.plan(request)
         else:
             self.hits += 1
@@ -170,6 +168,15 @@ def trajectory_states(times, positions, velocities, query):
             out[r, q, 2] = 0.0 if end else velocities[i, r, 0]
             out[r, q, 3] = 0.0 if end else velocities[i, r, 1]
     return out
+
+
+def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
+    """``dataclasses.replace(template, order=order)`` without its field-by-field rebuild (a
+    :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class."""
+    request = object.__new__(PlanRequest)
+    request.__dict__.update(template.__dict__)
+    object.__setattr__(request, "order", order)
+    return request
 
 
 def _hashable(value):

@@ -257,6 +257,11 @@ class World:
         return WallGrid(self.obstacle_array, self.bounds_array) if self.map_walls else None
 
     @cached_property
+    def entrance_array(self) -> np.ndarray:
+        """The entrances as a ``(2, 2)`` array (read-only: computed once and shared)."""
+        return _read_only(np.asarray(self.entrances, dtype=float))
+
+    @cached_property
     def bounds_array(self) -> np.ndarray:
         """The outer boundary as a ``(4,)`` array (read-only: computed once and shared)."""
         return _read_only(np.asarray(self.bounds, dtype=float))
@@ -295,7 +300,7 @@ class World:
 
     def entrance_for(self, side: np.ndarray) -> np.ndarray:
         """The entrance a robot approaching from ``side`` (-1 or +1) uses, shape ``(..., 2)``."""
-        ent = np.asarray(self.entrances, dtype=float)
+        ent = self.entrance_array
         return np.where((np.asarray(side) > 0)[..., None], ent[1], ent[0])
 
     def corridor_distance(self, points: np.ndarray, approach_side: np.ndarray) -> np.ndarray:
@@ -393,7 +398,7 @@ def distance_to_go(world: World, points: np.ndarray, destinations: np.ndarray, a
     g = world.passage
     out = _distance_to_go_kernel(np.ascontiguousarray(p.reshape(-1, 2)), np.ascontiguousarray(dest.reshape(-1, 2)),
                                  np.ascontiguousarray(side.reshape(-1), dtype=np.int64),
-                                 np.asarray(world.entrances, dtype=float), g.along_x, g.axis[0], g.axis[1],
+                                 world.entrance_array, g.along_x, g.axis[0], g.axis[1],
                                  g.s_start, g.s_end)
     return out.reshape(shape)
 

@@ -119,17 +119,30 @@ def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(local_of[k] for k in project_order(order, robots))
 
 
-def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders) -> list[PlanRequest]:
+def robot_arrays(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The scenario's destinations, radii, speed and acceleration limits, ``(N_r, 2)`` and
+    ``(N_r,)`` arrays, read-only: the scenario builds them anew at every access, a trial's
+    objects build them once."""
+    arrays = (scenario.destinations, scenario.radii, scenario.max_speeds,
+              np.array([r.max_accel for r in scenario.robots], dtype=float))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders,
+                   arrays: tuple[np.ndarray, ...] | None = None) -> list[PlanRequest]:
     """The planning queries of ``robots`` (scenario indices, in increasing index) passing in each
     of ``orders`` (numbered by place in ``robots``, :func:`local_order`), from what ``view``
-    shows; the queries share their state arrays."""
+    shows; the queries share their state arrays. ``arrays``: :func:`robot_arrays` of the
+    scenario, if the caller holds them."""
     local_of = {k: m for m, k in enumerate(robots)}
     rows = list(robots)
     positions, velocities = view.positions[rows].copy(), view.velocities[rows].copy()
     entered = tuple(local_of[k] for k in view.entered if k in local_of)
-    accels = np.array([scenario.robots[k].max_accel for k in rows], dtype=float)
-    # The scenario's arrays are built anew on every access: once for all orders.
-    destinations, radii, max_speeds = scenario.destinations[rows], scenario.radii[rows], scenario.max_speeds[rows]
+    all_destinations, all_radii, all_speeds, all_accels = robot_arrays(scenario) if arrays is None else arrays
+    accels = all_accels[rows]
+    destinations, radii, max_speeds = all_destinations[rows], all_radii[rows], all_speeds[rows]
     return [PlanRequest(world=scenario.world, positions=positions, velocities=velocities,
                         destinations=destinations, radii=radii, max_speeds=max_speeds, order=order,
                         entered=entered, t0=view.t, max_accels=accels)
@@ -199,7 +212,10 @@ class NODAgent:
         self.start_positions = scenario.origins
         """Where the robots are when this robot starts playing (eqs. (10)-(11)'s initial opinions):
         their origins, or where it sees them when it reaches a later passage of several."""
-        self.accel = np.array([r.max_accel for r in scenario.robots])
+        self.arrays = robot_arrays(scenario)
+        """The scenario's destinations, radii, speed and acceleration limits (:func:`robot_arrays`)."""
+        self.destinations, self.radii = self.arrays[0], self.arrays[1]
+        self.accel = self.arrays[3]
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -258,15 +274,21 @@ class NODAgent:
         if players and self.social:
             columns = [planning.index(k) for k in players]
             stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
-            planned = (stacked[:, columns] if stacked.ndim == 4 else
-                       np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans]))  # (G, N_k, M, 4)
-            observed = view.window_states[list(players)]
             dt = float(view.window_times[1] - view.window_times[0])
-            if self.params.estimation == "reachable":
-                planned = reachable_predictions(observed, planned, self.accel[list(players)], dt)
-            elif self.params.estimation == "mismatch":
-                planned = mismatch_predictions(observed, planned, self.accel[list(players)], dt)
-            z_prime = estimated_opinions(observed, planned, dt, self.params.K1)
+            if stacked.ndim == 4:
+                # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
+                # same and planned alike (each element reads its own robot's row only); this
+                # robot's players' columns of it, laid out as eq. (4a) of its players alone.
+                rows = list(planning)
+                key = ("eq4", tuple(id(p.trajectory) for p in plans), view.window_times.tobytes(), planning,
+                       self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
+                       self.accel[rows].tobytes())
+                everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
+                                             list(plans))
+                z_prime = np.ascontiguousarray(everyone[:, columns]).T  # the layout decides mean's summation order
+            else:
+                planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])
+                z_prime = self._estimated(view.window_states[list(players)], planned, list(players), dt).T
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
             # of the game standing for class_size of the N_r! strategies.
@@ -275,13 +297,30 @@ class NODAgent:
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
 
+    def _estimated(self, observed: np.ndarray, planned: np.ndarray, robots: list[int], dt: float) -> np.ndarray:
+        """Eq. (4a) (:func:`estimated_opinions`) of the robots ``robots`` observed as ``observed``
+        ``(N_k, M, 4)`` against ``planned`` ``(G, N_k, M, 4)``, after ``opinion.estimation``'s
+        correction, transposed: ``(G, N_k)``."""
+        if self.params.estimation == "reachable":
+            planned = reachable_predictions(observed, planned, self.accel[robots], dt)
+        elif self.params.estimation == "mismatch":
+            planned = mismatch_predictions(observed, planned, self.accel[robots], dt)
+        return estimated_opinions(observed, planned, dt, self.params.K1).T
+
     def _select_players(self, view: RobotView) -> tuple[int, ...]:
         """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
         not yet seen to enter the corridor first (those that have are ahead in every order)."""
-        d_corr = self.scenario.world.corridor_distance(view.positions, self.sides)
-        L = conflict_likelihood(view.positions, d_corr, self.params.delta)
-        if self.params.conflict == "undecided" and view.entered:
-            L = undecided_first(L, view.entered)
+        world, positions = self.scenario.world, view.positions
+        undecided = self.params.conflict == "undecided" and view.entered
+
+        def likelihoods() -> np.ndarray:
+            L = conflict_likelihood(positions, world.corridor_distance(positions, self.sides), self.params.delta)
+            return undecided_first(L, view.entered) if undecided else L
+
+        # Every agent of the round that sees the same asks the same (its own row differs only).
+        key = ("likelihoods", id(world), positions.tobytes(), self.sides.tobytes(), self.params.delta,
+               view.entered if undecided else None)
+        L = self.plans.shared(key, likelihoods, world)
         return players_in_sight(L, view, self.index, self.n_players, self.eligible)
 
     def plan_all(self, view: RobotView, game: tuple[int, ...], planning: tuple[int, ...]) -> list[PlanResult]:
@@ -299,9 +338,12 @@ class NODAgent:
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
-        requests = joint_requests(self.scenario, view, planning, orders)
-        state = state_key(requests[0]) if requests else ()  # the requests share their state (equal arrays)
-        return [self.plans.plan(request, state) for request in requests]
+        if not orders:
+            return []
+        # The queries of all orders share their state: one request, asked in each order.
+        template = joint_requests(self.scenario, view, planning, orders[:1], self.arrays)[0]
+        state = state_key(template)
+        return [self.plans.plan_order(template, order, state) for order in orders]
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order
@@ -320,7 +362,8 @@ class NODAgent:
             return ()
         world = self.scenario.world
         inside = world.in_corridor(view.positions)
-        entered = tuple(k for k in view.entered if inside[k] and view.known[k] and k != self.index and k not in players)
+        known = view.known
+        entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
@@ -329,9 +372,9 @@ class NODAgent:
         # local goal it drives through), not parked, and planning it as parked at the front of
         # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
-        done = view.known if self.settled is None else view.known & self.settled
+        done = known if self.settled is None else known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
-        return entered + self.plans.packed_crossed(world, view.positions, s.destinations, s.radii, done,
+        return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
                                                    [self.index, *players, *entered], s.sim.goal_tolerance,
                                                    s.planner.margin)
 
@@ -340,19 +383,21 @@ class NODAgent:
         seconds (:mod:`nodnav.decision.standoff`), or -1."""
         patience = self.params.standoff_patience
         partner = -1
+        to_go_now = None
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             planning, _, _, plans = self.previous
             plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
-            to_go = self._to_go(ends)
+            to_go = self._shared_to_go(ends)
+            to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -np.diff(to_go, axis=1)[:, 0]
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
-            planned = -np.diff(self._to_go(plan, planning), axis=1)[:, 0]
+            planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
             columns = [planning.index(k) if k in planning else -1 for k in players]
             players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
             now = view.positions[list(players)]
-            arrived = (np.linalg.norm(now - self.scenario.destinations[list(players)], axis=1)
+            arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
                        <= self.scenario.sim.goal_tolerance)
             found = standoff_partner(progress[self.index], progress[list(players)],
                                      planned[planning.index(self.index)], players_planned,
@@ -361,15 +406,25 @@ class NODAgent:
             partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
-            self._to_go_seen = [*self._to_go_seen, self._to_go(view.positions[:, None])[:, 0]][-span:]
+            if to_go_now is None:
+                to_go_now = self._to_go(view.positions[:, None])[:, 0]
+            self._to_go_seen = [*self._to_go_seen, to_go_now][-span:]
         self.standoff_periods = self.standoff_periods + 1 if partner >= 0 else 0
         return partner if self.standoff_periods * self.params.T >= patience - 1e-9 else -1
+
+    def _shared_to_go(self, positions: np.ndarray, robots: tuple[int, ...] | None = None) -> np.ndarray:
+        """:meth:`_to_go`, computed once per round for every agent that asks it of the same
+        positions, robots, approach sides and destinations (read-only)."""
+        world = self.scenario.world
+        key = ("to_go", id(world), positions.shape, positions.tobytes(), robots, self.sides.tobytes(),
+               self.destinations.tobytes())
+        return self.plans.shared(key, lambda: self._to_go(positions, robots), world)
 
     def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
         """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``
         ``(n, M, 2)``."""
         robots = list(range(self.scenario.n_robots)) if robots is None else list(robots)
-        dest = self.scenario.destinations[robots][:, None]
+        dest = self.destinations[robots][:, None]
         return distance_to_go(self.scenario.world, positions, dest, self.sides[robots][:, None])
 
     def decide(self, view: RobotView) -> Decision:

@@ -86,6 +86,19 @@ class PlanExecution:
         _observe_kernel(self.samples, np.ascontiguousarray(positions, dtype=float), self.settings.tolerance,
                         self.dependencies, self.progress, self.gates)
 
+    def observe_held(self, positions: np.ndarray, rows: np.ndarray, anchor: np.ndarray,
+                     reach: float) -> tuple[int, bool, np.ndarray]:
+        """:meth:`observe` from every robot's observed ``positions`` ``(N, 2)`` (``rows``: the
+        plan's robots as scenario indices), then what :class:`WaitRelease` reads, all in one
+        compiled call (gated execution only): how many robots hold the plan's first robot at its
+        gate (:meth:`blockers`), whether any robot of the plan stands farther than ``reach`` from
+        where it stood at ``anchor`` ``(N, 2)`` (:func:`moved_beyond`), and which columns hold it
+        without having moved so ``(n,)``."""
+        stuck = np.zeros(len(self.robots), dtype=np.bool_)
+        held, moved = _observe_held_kernel(self.samples, positions, rows, self.settings.tolerance, self.dependencies,
+                                           self.progress, self.gates, anchor, reach, stuck)
+        return held, moved, stuck
+
     def blockers(self) -> np.ndarray:
         """Columns of the robots whose precedences hold the plan's first robot (the one executing
         it) at its gate now: its next sample depends on where they have not yet got."""
@@ -111,7 +124,7 @@ class PlanExecution:
     def read(self, offsets: np.ndarray) -> np.ndarray:
         """Plan positions of every robot at ``offsets`` ``(M,)`` (s) after its clock, each held at
         its limit: ``(M, n, 2)``."""
-        return _read_kernel(self.trajectory.times, self.trajectory.positions, self.t0, self.clocks,
+        return read_kernel(self.trajectory.times, self.trajectory.positions, self.t0, self.clocks,
                             np.asarray(offsets, dtype=float), self.limits())
 
     def read_plain(self, offsets: np.ndarray) -> np.ndarray:
@@ -146,7 +159,7 @@ def moved_beyond(positions, anchor, rows, reach):
 
 
 @compiled
-def _read_kernel(times, positions, t0, clocks, offsets, limits):
+def read_kernel(times, positions, t0, clocks, offsets, limits):
     """:meth:`PlanExecution.read_plain` as one loop: robot ``r``'s own column of the plan at
     ``t0 + min(clocks[r] + offset, limits[r])`` for each offset, interpolated as
     :func:`~nodnav.planning.base.interpolate_positions` does (the other robots' columns at that
@@ -179,6 +192,30 @@ def _observe_kernel(samples, positions, tolerance, dependencies, progress, gates
         progress[c] = progress_kernel(samples[:, c], positions[c], progress[c], tolerance)
     for c in range(n):
         gates[c] = gate_kernel(dependencies[:, c, :], progress, c)
+
+
+@compiled
+def _observe_held_kernel(samples, positions, rows, tolerance, dependencies, progress, gates, anchor, reach, stuck):
+    """:func:`_observe_kernel` on ``positions[rows]``, then :meth:`PlanExecution.blockers` and
+    :func:`moved_beyond` element by element: returns the number of blockers and whether any robot
+    of the plan moved, and marks in ``stuck`` the blockers that did not."""
+    n = rows.shape[0]
+    for c in range(n):
+        progress[c] = progress_kernel(samples[:, c], positions[rows[c]], progress[c], tolerance)
+    for c in range(n):
+        gates[c] = gate_kernel(dependencies[:, c, :], progress, c)
+    gated = gates[0] < samples.shape[0] - 1
+    held, moved = 0, False
+    for c in range(n):
+        r = rows[c]
+        dx = positions[r, 0] - anchor[r, 0]
+        dy = positions[r, 1] - anchor[r, 1]
+        away = np.sqrt(dx * dx + dy * dy) > reach
+        moved = moved or away
+        blocker = gated and c > 0 and dependencies[gates[0] + 1, 0, c] >= progress[c]
+        held += blocker
+        stuck[c] = blocker and not away
+    return held, moved
 
 
 def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.ndarray:
@@ -266,6 +303,7 @@ class ReactionMargins:
         self.dt = scenario.controller.dt
         self._others = [[k for k in range(n) if k != i] for i in range(n)]
         self._accel = np.array([r.max_accel for r in scenario.robots])
+        self._radii = scenario.radii  # built anew at every access: once
         self._braking_margin = scenario.execution.reaction_margin
         self.conflicted = np.zeros(n, dtype=bool)
         """Whether each robot could not follow its plan at its last control step (set by the method)."""
@@ -286,11 +324,12 @@ class ReactionMargins:
         positions, velocities = view.positions, view.velocities
         out = careful_radii(positions, velocities, positions if seen is None else seen[0],
                             velocities if seen is None else seen[1], seen is not None, i, self._others_array[i],
-                            self._accel, self.scenario.radii, self.scenario.controller.safety_margin,
+                            self._accel, self._radii, self.scenario.controller.safety_margin,
                             self.scenario.execution.reaction_slack, self.dt, self._surprise, self._mode,
                             self._surprised[i], self._surprise_steps, bool(self.conflicted[i]), radii)
-        if self._mode >= _SURPRISED:
-            self._last_seen[i] = (positions.copy(), velocities.copy())
+        if self._mode >= _SURPRISED:  # a read-only view (the simulator's windows) never changes: kept as it is
+            self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
+                                  velocities if not velocities.flags.writeable else velocities.copy())
         return out
 
     def radii_plain(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
@@ -384,3 +423,25 @@ class WaitRelease:
         stuck = blockers[~moved[blockers]]  # released: the robots that hold it and have not moved
         if len(stuck):
             execution.release(stuck, view.positions[rows])
+
+    def observe(self, i: int, t: float, execution: PlanExecution, rows: np.ndarray, positions: np.ndarray) -> None:
+        """:meth:`PlanExecution.observe` and :meth:`check` at once (gated execution), from every
+        robot's observed ``positions`` ``(N, 2)``: one compiled call per robot and step."""
+        waiting = self.patience > 0.0
+        anchor = self.anchors[i] if waiting else positions
+        if anchor is None:
+            anchor = self.anchors[i] = positions.copy()
+            self.since[i] = t
+        held, moved, stuck = execution.observe_held(positions, rows, anchor, self.reach)
+        if not waiting:
+            return
+        if t >= self.released_until[i] - 1e-9:
+            if moved or not held:  # not held, or somebody of the plan got somewhere
+                self.anchors[i] = positions.copy()
+                self.since[i] = t
+                return
+            if t - self.since[i] < self.patience - 1e-9:
+                return
+            self.released_until[i] = t + self.patience
+        if stuck.any():
+            execution.release(np.flatnonzero(stuck), positions[rows])

@@ -21,7 +21,7 @@ from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, RobotView
-from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
+from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease, read_kernel
 from nodnav.sim.plan_cache import PlanCache
 from nodnav.sim.sensing import OcclusionLimit, slowed_reference
 from nodnav.sim.several import PassageAgent, PassageViews, several
@@ -68,6 +68,30 @@ def horizon_predictions(planned: np.ndarray, columns: np.ndarray, positions: np.
                 out[j, s, d] = positions[j, d] + shift
                 out[n + j, s, d] = positions[j, d] + velocities[j, d] * times[s]
     return out
+
+
+@compiled
+def gated_horizon(times, plan_positions, t0, clocks, offsets, sample_times, gates, dt, columns, positions, velocities,
+                  others, decel, horizon_times):
+    """One control step of a gated execution in one call: the plan read at ``offsets`` after each
+    robot's clock, held at its gate (:meth:`~nodnav.sim.execution.PlanExecution.read`,
+    ``(M, n, 2)``), the :func:`horizon_predictions` of the robots ``others`` (rows of every
+    robot's observed ``positions`` and ``velocities`` ``(N, 2)``) from it, and then the clocks
+    run on by ``dt`` up to their gates, in place (:meth:`~nodnav.sim.execution.PlanExecution.advance`)."""
+    n = clocks.shape[0]
+    limits = np.empty(n)
+    for r in range(n):
+        limits[r] = sample_times[gates[r]]
+    planned = read_kernel(times, plan_positions, t0, clocks, offsets, limits)
+    for r in range(n):
+        clocks[r] = min(clocks[r] + dt, max(clocks[r], limits[r]))
+    m = others.shape[0]
+    seen_positions, seen_velocities = np.empty((m, 2)), np.empty((m, 2))
+    for j in range(m):
+        for d in range(2):
+            seen_positions[j, d] = positions[others[j], d]
+            seen_velocities[j, d] = velocities[others[j], d]
+    return planned, horizon_predictions(planned, columns, seen_positions, seen_velocities, decel, horizon_times)
 
 
 @compiled
@@ -122,6 +146,7 @@ class PlannedMethod:
         self._offsets = np.concatenate([[0.0], self.sample_times])
         n = scenario.n_robots
         self._others = [[k for k in range(n) if k != i] for i in range(n)]
+        self._others_array = [np.array(o, dtype=np.int64) for o in self._others]
         # Radii of the others, once for each of the three predictions of every other robot.
         self._other_radii = [np.tile(np.delete(scenario.radii, i), 3) for i in range(n)]
         # Where the others would be if they braked now is where they can at least be: an
@@ -229,27 +254,38 @@ class PlannedMethod:
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
+        gated = self._execution_settings.gated
         for i, view in views.items():
-            _, execution, rows, _ = self._held(i)
-            execution.observe(view.positions[rows])
-            self.waits.check(i, t, execution, rows, view)
-            reference, predictions = self._horizon(i, t, view)
-            execution.advance()
+            _, execution, rows, columns = self._held(i)
+            positions, velocities = view.positions, view.velocities
+            if gated:  # observe, wait, read, predict and advance: two compiled calls
+                self.waits.observe(i, t, execution, rows, positions)
+                traj = execution.trajectory
+                planned, predictions = gated_horizon(traj.times, traj.positions, execution.t0, execution.clocks,
+                                                     self._offsets, execution.sample_times, execution.gates, self.dt,
+                                                     columns, positions, velocities, self._others_array[i],
+                                                     self._decel[i], self.sample_times)
+                reference = planned[1:, 0]
+            else:
+                execution.observe(positions[rows])
+                self.waits.check(i, t, execution, rows, view)
+                reference, predictions = self._horizon(i, t, view)
+                execution.advance()
             if self.occlusion is not None:
                 limit = self.scenario.robots[i].max_speed
-                cap = self.occlusion.speed(i, view.positions[i], limit)
+                cap = self.occlusion.speed(i, positions[i], limit)
                 if cap < limit:
-                    reference = slowed_reference(view.positions[i], reference, self.sample_times, cap)
+                    reference = slowed_reference(positions[i], reference, self.sample_times, cap)
             radii = self.reactions.radii(i, view, self._other_radii[i])
             firm = self._firm
             if view.age is not None or view.sigma is not None:
                 predictions, radii, firm = self._sensed(i, view, predictions, radii)
-            if self._rest is not None and at_rest_and_clear(view.positions[i], view.velocities[i], reference,
+            if self._rest is not None and at_rest_and_clear(positions[i], velocities[i], reference,
                                                             predictions, radii, *self._rest[i]):
-                out[i] = self._stay(view.positions[i])
+                out[i] = self._stay(positions[i])
                 self.reactions.conflicted[i] = False
                 continue
-            request = ControlRequest(position=view.positions[i], velocity=view.velocities[i], reference=reference,
+            request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
                                      other_radii=radii, firm=firm)
             out[i] = self.controllers[i].control(request)

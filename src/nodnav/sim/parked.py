@@ -24,7 +24,7 @@ from nodnav.scenario.world import World
 
 def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                    known: np.ndarray, planning: list[int], goal_tolerance: float, margin: float,
-                   graphs: dict | None = None) -> list[int]:
+                   graphs: dict | None = None, packed_round: dict | None = None) -> list[int]:
     """The robots not in ``planning`` that join it: every robot seen (``known`` ``(N,)``, a mask)
     that has crossed (outside the corridor, on its destination's side) and stands packed round the
     way of a robot that has not arrived (farther than ``goal_tolerance`` from its destination):
@@ -32,34 +32,48 @@ def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray
     of ``planning``, or has crossed too and the robots packed round its way include one of
     ``planning`` (then it joins as well). Packed: closer to the way than leaves its robot room to
     pass (its diameter and twice the planner's ``margin`` between the bodies), or, in turn, that
-    close to a robot already packed round it. ``graphs`` caches visibility graphs by radius.
-    Increasing index."""
+    close to a robot already packed round it. ``graphs`` caches visibility graphs by radius;
+    ``packed_round`` (robot -> its packed robots) those found for the same arguments but
+    ``planning``, which they do not read. Increasing index."""
     graphs = {} if graphs is None else graphs
     crossed = known & (crossing_directions(world, positions, destinations) == 0) & ~world.in_corridor(positions)
     mine = np.zeros(len(positions), dtype=bool)
     mine[planning] = True
     arriving = np.linalg.norm(positions - destinations, axis=1) > goal_tolerance
     joining = np.zeros(len(positions), dtype=bool)
+    packed_round = {} if packed_round is None else packed_round
     for k in np.flatnonzero(arriving & (mine | crossed)):
-        way = 2.0 * radii[k] + 2.0 * margin  # the room robot k needs between two bodies
-        key = (world, float(radii[k]))
-        graph = graphs.get(key)
-        if graph is None:
-            graph = graphs[key] = VisibilityGraph(world, float(radii[k]))
-        path = graph.shortest_path(positions[k], destinations[k])
-        line = path.points if path.success else np.array([positions[k], destinations[k]])
-        # Round its way first, then round each robot found, until nobody new is found.
-        gaps = polyline_point_distance(line, positions) - radii - radii[k]
-        packed = np.zeros(len(positions), dtype=bool)
-        new = crossed & (gaps < way)
-        new[k] = False
-        while new.any():
-            packed |= new
-            centres, reach = positions[new], radii[new]
-            gaps = np.linalg.norm(positions[:, None] - centres[None], axis=2) - radii[:, None] - reach[None]
-            new = crossed & ~packed & (gaps < way).any(axis=1)
-            new[k] = False
+        packed = packed_round.get(int(k))
+        if packed is None:
+            packed = packed_round[int(k)] = _packed_round(world, positions, destinations, radii, crossed, int(k),
+                                                          margin, graphs)
         if mine[k] or (packed & mine).any():
             joining |= packed
             joining[k] = True
     return np.flatnonzero(joining & ~mine).tolist()
+
+
+def _packed_round(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
+                  crossed: np.ndarray, k: int, margin: float, graphs: dict) -> np.ndarray:
+    """The ``crossed`` robots packed round robot ``k``'s way (:func:`packed_crossed`), ``(N,)``."""
+    if not (crossed.sum() - crossed[k]):  # nobody else has crossed: nobody to find, no way to search
+        return np.zeros(len(positions), dtype=bool)
+    way = 2.0 * radii[k] + 2.0 * margin  # the room robot k needs between two bodies
+    key = (world, float(radii[k]))
+    graph = graphs.get(key)
+    if graph is None:
+        graph = graphs[key] = VisibilityGraph(world, float(radii[k]))
+    path = graph.shortest_path(positions[k], destinations[k])
+    line = path.points if path.success else np.array([positions[k], destinations[k]])
+    # Round its way first, then round each robot found, until nobody new is found.
+    gaps = polyline_point_distance(line, positions) - radii - radii[k]
+    packed = np.zeros(len(positions), dtype=bool)
+    new = crossed & (gaps < way)
+    new[k] = False
+    while new.any():
+        packed |= new
+        centres, reach = positions[new], radii[new]
+        gaps = np.linalg.norm(positions[:, None] - centres[None], axis=2) - radii[:, None] - reach[None]
+        new = crossed & ~packed & (gaps < way).any(axis=1)
+        new[k] = False
+    return packed

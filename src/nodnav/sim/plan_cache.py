@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult
+from nodnav.compiled import compiled
+from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, interpolate_positions
 from nodnav.scenario.world import World
 from nodnav.sim.parked import packed_crossed
 
@@ -43,14 +44,30 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
+        self._packed: dict[tuple, dict] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
+        self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
         self._plans.clear()
         self._states.clear()
         self._crossed.clear()
+        self._packed.clear()
         self._stacks.clear()
+        self._shared.clear()
+
+    def shared(self, key: tuple, compute, keep: object = None) -> np.ndarray:
+        """``compute()``, an array, computed at most once per round for ``key`` (which must name
+        everything the answer reads) and returned read-only to everyone who asks: the agents of a
+        round that see the same (every agent, with exact sensing) ask alike. ``keep``: an object
+        whose ``id`` is part of ``key``, held with the answer so that the id stays unique."""
+        hit = self._shared.get(key)
+        if hit is None:
+            value = compute()
+            value.flags.writeable = False
+            hit = self._shared[key] = (keep, value)
+        return hit[1]
 
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
@@ -65,6 +82,20 @@ class PlanCache:
             self.hits += 1
         return result
 
+    def plan_order(self, template: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
+        """:meth:`plan` of ``template`` asked in ``order`` (``state``: :func:`state_key` of the
+        template): the request is built only when the round has not answered it yet, since most
+        of an agent's queries were posed by a game player before it."""
+        key = (order, template.entered, template.t0, *state)
+        result = self._plans.get(key)
+        if result is None:
+            self.misses += 1
+            request = template if template.order == order else _in_order(template, order)
+            result = self._plans[key] = self.planner.plan(request)
+        else:
+            self.hits += 1
+        return result
+
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
                        margin: float) -> tuple[int, ...]:
@@ -72,12 +103,16 @@ class PlanCache:
         once per round for the same arguments: robots that see the same and plan the same robots
         (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
         their bytes, ``planning`` as a set: only membership counts)."""
-        args = (world, positions, destinations, radii, known, sorted(planning), goal_tolerance, margin)
-        key = tuple(_hashable(a) for a in args)
+        state = tuple(_hashable(a) for a in (world, positions, destinations, radii, known, goal_tolerance, margin))
+        key = (*state, tuple(sorted(planning)))
         hit = self._crossed.get(key)
         if hit is None:
+            # What is packed round each robot's way does not depend on who plans: shared by every
+            # planning set of the same state.
+            packed = self._packed.setdefault(state, {})
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
-                                                            list(planning), goal_tolerance, margin, self.graphs))
+                                                            list(planning), goal_tolerance, margin, self.graphs,
+                                                            packed))
         return hit
 
     def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
@@ -104,9 +139,44 @@ class PlanCache:
         key = (id(traj), times.tobytes())
         hit = self._states.get(key)
         if hit is None:
-            states = np.concatenate([traj.positions_at(times), traj.velocities_at(times)], axis=-1).transpose(1, 0, 2)
+            states = trajectory_states(traj.times, traj.positions, traj.velocities, np.asarray(times, dtype=float))
             hit = self._states[key] = (traj, states)  # holding the trajectory keeps its id unique
         return hit[1]
+
+
+def trajectory_states_plain(trajectory: JointTrajectory, times: np.ndarray) -> np.ndarray:
+    """Planned states (px, py, vx, vy) of every robot of ``trajectory`` at ``times``, ``(n, M, 4)``:
+    :meth:`~nodnav.planning.base.JointTrajectory.positions_at` and ``velocities_at``, the
+    reference :func:`trajectory_states` is tested against."""
+    return np.concatenate([trajectory.positions_at(times), trajectory.velocities_at(times)], axis=-1).transpose(1, 0, 2)
+
+
+@compiled
+def trajectory_states(times, positions, velocities, query):
+    """:func:`trajectory_states_plain` in one compiled call: the positions by the same
+    interpolation (:func:`~nodnav.planning.base.interpolate_positions`), the velocities of the
+    segment each query time falls in (zero from the last sample on), ``(n, M, 4)``."""
+    at = interpolate_positions(times, positions, query)
+    k, n, m = times.shape[0], positions.shape[1], query.shape[0]
+    out = np.empty((n, m, 4))
+    for q in range(m):
+        i = min(max(np.searchsorted(times, query[q], side="right") - 1, 0), k - 1)
+        end = query[q] >= times[k - 1]
+        for r in range(n):
+            out[r, q, 0] = at[q, r, 0]
+            out[r, q, 1] = at[q, r, 1]
+            out[r, q, 2] = 0.0 if end else velocities[i, r, 0]
+            out[r, q, 3] = 0.0 if end else velocities[i, r, 1]
+    return out
+
+
+def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
+    """``dataclasses.replace(template, order=order)`` without its field-by-field rebuild (a
+    :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class."""
+    request = object.__new__(PlanRequest)
+    request.__dict__.update(template.__dict__)
+    object.__setattr__(request, "order", order)
+    return request
 
 
 def _hashable(value):

@@ -23,7 +23,7 @@ from nodnav.decision.strategies import strategy_index
 from nodnav.geometry import piece_clearance
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, clearance_of, distance_to_go
-from nodnav.sim.agent import RobotView, approach_sides
+from nodnav.sim.agent import RobotView, approach_sides, robot_arrays
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
@@ -190,6 +190,8 @@ class Simulation:
         self.dt = ctrl.dt
         self.steps_per_decision = int(round(scenario.opinion.T / ctrl.dt))
         self.sides = approach_sides(scenario)
+        # The scenario builds these anew at every access: once per trial, read-only.
+        self._destinations, self._radii, self._max_speeds, _ = robot_arrays(scenario)
         self.k = 0
         self.t = 0.0
         self.positions = scenario.origins.copy()
@@ -206,15 +208,24 @@ class Simulation:
                          if noisy and sensing.filter == "kalman" else None)
         """Each robot's Kalman filters of the others (:class:`~nodnav.sim.sensing.Tracker`); None
         without noise or loss, or with ``sensing.filter: none``."""
+        self._exact = not noisy and self.sight is None
+        """Whether every robot observes exactly the truth (the paper's sensing): then all observe
+        the same states, computed once a step and shared (read-only) by every robot's record."""
         self.observed: list[list[np.ndarray]] = [[] for _ in range(n)]
         # Each robot's own record of what it observed (noisy for the others), newest last.
         for i in range(n):
-            self.observed[i].append(self._observe(i))
+            self.observed[i].append(self.observed[0][-1] if self._exact and i else self._observe(i))
         # Each robot's window of the last opinion period (N_r, M, 4), shifted by one sample a
         # step rather than stacked anew; before one whole period has passed it is padded with
-        # the first sample. Read-only: every view of a step shares it.
+        # the first sample. Read-only: every view of a step shares it (and with exact sensing
+        # every robot's is the same array).
         m = self.steps_per_decision + 1
-        self._windows = [_frozen(np.repeat(obs[0][:, None], m, axis=1)) for obs in self.observed]
+        firsts = [obs[0] for obs in self.observed[:1 if self._exact else n]]
+        self._windows = [_frozen(np.repeat(first[:, None], m, axis=1)) for first in firsts]
+        if self._exact:
+            self._windows = self._windows * n
+        self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
+        self._last_truth: list[np.ndarray | None] = [None] * len(scenario.world.passages)
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
@@ -275,15 +286,29 @@ class Simulation:
         corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
-        seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
-        for passage, approach, (true_log, seen_logs) in zip(self.scenario.world.passages, self._passage_sides,
-                                                            self.entered_by):
+        seen = None
+        for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
+                self.scenario.world.passages, self._passage_sides, self.entered_by)):
+            if self._exact:  # everyone sees the truth: the records change only when its sides do
+                truth = passage.side_of_along(passage.along(self.positions))
+                last_truth = self._last_truth[number]
+                if last_truth is not None and np.array_equal(last_truth, truth):
+                    continue
+                self._last_truth[number] = truth
+            if seen is None:
+                seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
             s = passage.along(seen)
-            left_ahead = np.where(approach == RIGHT, s - passage.s_start, passage.s_end - s)
             sides = passage.side_of_along(s)
             if self.sight is not None:  # a robot's record changes only with what it sees now
                 sides = sides.copy()
                 sides[1:][~self.sight.visible] = UNSEEN
+            # Each record takes in the robots seen inside and not in it and drops those seen back
+            # on their approach side: after one update with these sides, another changes nothing.
+            last = self._last_sides[number]
+            if last is not None and np.array_equal(last, sides):
+                continue
+            self._last_sides[number] = sides
+            left_ahead = np.where(approach == RIGHT, s - passage.s_start, passage.s_end - s)
             for log_, side, ahead in zip([true_log] + seen_logs, sides.tolist(), left_ahead):
                 new = [k for k in range(n) if side[k] == INSIDE and k not in log_]
                 log_.extend(sorted(new, key=lambda k: (ahead[k], k)))
@@ -295,7 +320,7 @@ class Simulation:
         """Distance each robot still has to go (m): through the passage's entrances with one
         passage, along its route with several."""
         if self.routes is None:
-            return distance_to_go(self.scenario.world, self.positions, self.scenario.destinations, self.sides)
+            return distance_to_go(self.scenario.world, self.positions, self._destinations, self.sides)
         return np.array([route.to_go(p) for route, p in zip(self.routes, self.positions)])
 
     def views(self) -> dict[int, RobotView]:
@@ -338,11 +363,20 @@ class Simulation:
         self.t = self.k * self.dt
         if self.sight is not None:
             self.sight.update(self.t, self.positions)
-        for i in range(self.scenario.n_robots):
-            seen = self._observe(i)
-            self.observed[i].append(seen)
-            del self.observed[i][: -(self.steps_per_decision + 2)]
-            self._windows[i] = _frozen(np.concatenate((self._windows[i][:, 1:], seen[:, None]), axis=1))
+        if self._exact:  # everyone observes the same: one observation and one window for all
+            seen = self._observe(0)
+            window = _frozen(np.concatenate((self._windows[0][:, 1:], seen[:, None]), axis=1))
+            keep = -(self.steps_per_decision + 2)
+            for i in range(self.scenario.n_robots):
+                self.observed[i].append(seen)
+                del self.observed[i][:keep]
+                self._windows[i] = window
+        else:
+            for i in range(self.scenario.n_robots):
+                seen = self._observe(i)
+                self.observed[i].append(seen)
+                del self.observed[i][: -(self.steps_per_decision + 2)]
+                self._windows[i] = _frozen(np.concatenate((self._windows[i][:, 1:], seen[:, None]), axis=1))
         self._update_entries()
         self._record_state()
         self._judge(path)
@@ -394,15 +428,15 @@ class Simulation:
         s, world = self.scenario, self.scenario.world
         if self.people is None and world.wall_grid is not None:  # a map's many boxes: through the index
             clear = world.clearance(np.ascontiguousarray(path.reshape(-1, 2)))
-            pair_hits, wall_hits = contact_tally(path, s.radii, s.sim.collision_tolerance, clear)
+            pair_hits, wall_hits = contact_tally(path, self._radii, s.sim.collision_tolerance, clear)
             kind = collision_kind(pair_hits, wall_hits)
         elif self.people is None:
-            pair_hits, wall_hits = contact_counts(path, s.radii, s.sim.collision_tolerance, world.bounds_array,
+            pair_hits, wall_hits = contact_counts(path, self._radii, s.sim.collision_tolerance, world.bounds_array,
                                                   world.obstacle_array, world.piece_array)
             kind = collision_kind(pair_hits, wall_hits)
         else:  # robots among themselves and with walls as always; contacts with people are attributed
             robots = ~self.pedestrians
-            pair_hits, wall_hits = contact_counts(np.ascontiguousarray(path[:, robots]), s.radii[robots],
+            pair_hits, wall_hits = contact_counts(np.ascontiguousarray(path[:, robots]), self._radii[robots],
                                                   s.sim.collision_tolerance, world.bounds_array, world.obstacle_array,
                                                   world.piece_array)
             kind = collision_kind(pair_hits, wall_hits)
@@ -416,7 +450,7 @@ class Simulation:
             self._finish("collision")
             return
         to_go = self._to_go()
-        arrived = np.linalg.norm(self.positions - s.destinations, axis=1) <= s.sim.goal_tolerance
+        arrived = np.linalg.norm(self.positions - self._destinations, axis=1) <= s.sim.goal_tolerance
         self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
         if arrived.all():
             self._finish("success")
@@ -424,7 +458,7 @@ class Simulation:
         improved = to_go < self.best_to_go - s.sim.progress_epsilon
         self.best_to_go = np.where(improved, to_go, self.best_to_go)
         if self.plan_progress is not None:  # or along the plan it follows (backing out, ...)
-            improved |= self.plan_progress.advanced(self.positions, 2.0 * s.max_speeds * self.dt + 0.1)
+            improved |= self.plan_progress.advanced(self.positions, 2.0 * self._max_speeds * self.dt + 0.1)
         if improved.any():
             self.last_progress = self.t
         if self.t - self.last_progress >= s.sim.deadlock_time:

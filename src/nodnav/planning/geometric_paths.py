@@ -13,11 +13,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, segment_is_clear
 from nodnav.planning.fast_state import Cut, Route, Track
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import entry_cell, polyline_segments
-from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, corner_cuts_close
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 
@@ -87,8 +87,8 @@ class GeometricPaths:
         ok2 = cut.ok2
         if len(cut.corners) and len(route.centres):
             a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
-            keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
-            bad = (segment_point_distance(a, b, route.centres) < keep - TOL).any(axis=1)
+            bad = corner_cuts_close(route.path.points, a, b, np.ascontiguousarray(route.centres, dtype=float),
+                                    np.ascontiguousarray(route.radii, dtype=float))
             if bad.any():
                 ok2 = ok2.copy()
                 ok2[cut.corners[bad]] = False

@@ -148,6 +148,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._tracks: dict[tuple, Track] = {}
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
+        self._rows_by_id: dict[tuple, tuple] = {}
         self._states: dict[tuple, State] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
@@ -305,16 +306,21 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         dirs = state.directions
         heads = dict(layout.heads)  # grows as robots get out of the way
         evasions: dict[int, Motion] = {}
+        seen: list = [layout]  # the layout as of the last call of now(), while heads is unchanged
 
         def now() -> Layout:
-            return replace(layout, heads=dict(heads))
+            last = seen[0]
+            if len(last.heads) != len(heads) or any(last.heads.get(j) is not m for j, m in heads.items()):
+                last = seen[0] = Layout(layout.plans, dict(heads), layout.later)
+            return last
 
         def evade(j: int) -> None:
             moves = self._get_out_of_way(world, state, j, k, now())
             if not moves and k not in heads:
                 back = self._make_room(world, state, k, j, now())
                 if back:
-                    moves = self._get_out_of_way(world, state, j, k, replace(layout, heads={**heads, **back}))
+                    moves = self._get_out_of_way(world, state, j, k, Layout(layout.plans, {**heads, **back},
+                                                                                layout.later))
                     moves = {**back, **moves} if moves else {}
             if k in moves:
                 heads[k] = moves.pop(k)
@@ -345,7 +351,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             retreat = self._back_out(world, state, k, here)
             if retreat.success:
                 attempt = retreat
-        return replace(attempt, evasions=tuple(sorted(evasions.items())))
+        return Attempt(attempt.success, attempt.reason, attempt.plan, attempt.trapped, tuple(sorted(evasions.items())))
 
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:
         """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
@@ -414,13 +420,22 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
         the same path meets the same motion in many orders, and equal motions in others)."""
+        # First by identity (the same motion object meets the same cells in many orders), then
+        # by value; the objects are kept with the bits so that their ids stay theirs.
+        same = (id(cells), id(motion), required)
+        hit = self._rows_by_id.get(same)
+        if hit is not None:
+            return hit[2]
         key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
         hit = self._rows.get(key)
-        if hit is None:
+        if hit is not None:
+            remember(self._rows_by_id, same, (cells, motion, hit[1]))
+        else:
             bits = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [required])])
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)
+            remember(self._rows_by_id, same, (cells, motion, bits))
         return hit[1]
 
     def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear, segment_point_distance
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.scenario.world import World
@@ -256,6 +256,8 @@ class VisibilityGraph:
             return path
         centres = np.asarray(discs, dtype=float).reshape(-1, 2)
         radii = np.asarray(disc_radii, dtype=float).reshape(-1)
+        if not _crosses_any(path.points, centres, radii, start, goal):
+            return path  # the common case, in one compiled call: the path among the walls will do
         keep = radii > TOL
         centres, radii = centres[keep], radii[keep]
         d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
@@ -409,6 +411,66 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
     return np.asarray((d < limit - TOL).any(axis=0))
+
+
+@_compiled
+def _crosses_any(poly, centres, radii, start, goal):
+    """Whether ``poly`` violates one of the discs (those of radius above :data:`TOL`) in the
+    sense of :func:`disc_violations`, with ``d_start`` and ``d_goal`` the distances of the
+    discs' centres from ``start`` and ``goal``: the same float operations as that function and
+    :meth:`VisibilityGraph.shortest_path`'s first check, as loops without their arrays."""
+    n_seg = max(poly.shape[0] - 1, 1)
+    for j in range(centres.shape[0]):
+        r = radii[j]
+        if not r > TOL:
+            continue
+        cx, cy = centres[j, 0], centres[j, 1]
+        d_start = math.hypot(cx - start[0], cy - start[1])
+        d_goal = math.hypot(cx - goal[0], cy - goal[1])
+        for s in range(n_seg):
+            a = poly[min(s, poly.shape[0] - 1)]
+            b = poly[min(s + 1, poly.shape[0] - 1)]
+            limit = r
+            if s == 0:
+                limit = min(limit, d_start)
+            if s == n_seg - 1:
+                limit = min(limit, d_goal)
+            d = math.sqrt(_segment_point_d2_one(a[0], a[1], b[0] - a[0], b[1] - a[1], cx, cy))
+            if d < limit - TOL:
+                return True
+    return False
+
+
+@_compiled
+def corner_cuts_close(path, a, b, centres, radii):
+    """Which chords ``a[c] -> b[c]`` come closer than ``min(radii[j], distance of centre j
+    from path) - TOL`` to a centre ``j``: the corner check of the fast planner's tracks
+    (:meth:`~nodnav.planning.geometric_paths.GeometricPaths._prepare`) as loops, with the
+    float operations of :func:`polyline_point_distance` and :func:`segment_point_distance`."""
+    m = centres.shape[0]
+    keep = np.empty(m)
+    for j in range(m):
+        cx, cy = centres[j, 0], centres[j, 1]
+        if path.shape[0] == 1:
+            dx, dy = cx - path[0, 0], cy - path[0, 1]
+            near = math.sqrt(dx * dx + dy * dy)
+        else:
+            near = math.inf
+            for s in range(path.shape[0] - 1):
+                d = math.sqrt(_segment_point_d2_one(path[s, 0], path[s, 1], path[s + 1, 0] - path[s, 0],
+                                                    path[s + 1, 1] - path[s, 1], cx, cy))
+                if d < near:
+                    near = d
+        keep[j] = min(radii[j], near)
+    bad = np.zeros(a.shape[0], dtype=np.bool_)
+    for c in range(a.shape[0]):
+        for j in range(m):
+            d = math.sqrt(_segment_point_d2_one(a[c, 0], a[c, 1], b[c, 0] - a[c, 0], b[c, 1] - a[c, 1],
+                                                centres[j, 0], centres[j, 1]))
+            if d < keep[j] - TOL:
+                bad[c] = True
+                break
+    return bad
 
 
 def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,

@@ -149,6 +149,10 @@ def state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str
         return (f"robot {k}: destination ({dest[k, 0]:.3f}, {dest[k, 1]:.3f}) is not in free space "
                 f"(clearance {clear[k]:.3f} m < radius {radii[k]:.3f} m)")
     gaps = np.linalg.norm(dest[:, None] - dest[None], axis=2)
+    close = gaps < radii[:, None] + radii[None, :] - TOL
+    np.fill_diagonal(close, False)
+    if not close.any():  # the pairs below, at once
+        return ""
     for a, b in zip(*np.triu_indices(len(dest), 1)):
         if gaps[a, b] < radii[a] + radii[b] - TOL:
             return (f"robots {a} and {b}: destinations overlap ({gaps[a, b]:.3f} m apart, "

@@ -104,9 +104,9 @@ from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import (
     Motion,
+    _conflicts_with,
     blocked_bits,
     close_gates,
-    conflict_intervals,
     join_motions,
     mask_words,
     relaxed_bits,
@@ -144,7 +144,9 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     def __init__(self, world: World, params: FastPlannerParams | None = None):
         self.world = world
         self.params = params if params is not None else FastPlannerParams()
-        self._graphs: dict[tuple[World, float], VisibilityGraph] = {}
+        self._graphs: dict[tuple[int, float], VisibilityGraph] = {}
+        self._world_ids: dict[int, tuple[World, int]] = {}
+        self._world_tokens: dict[World, int] = {}
         self._tracks: dict[tuple, Track] = {}
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
@@ -266,7 +268,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         """What every order planned from this state shares (memoised; checked when first seen,
         ``order`` is only quoted in the error). With ``vel`` and ``accels`` the paths are timed
         within the acceleration limits, from the present velocities."""
-        key: tuple = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
+        key: tuple = (self.world_token(world), pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
         if accels is not None and vel is not None:
             key += (vel.tobytes(), accels.tobytes())
         state = self._states.get(key)
@@ -359,8 +361,13 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         dest, req = state.destinations, state.required
         later, earlier = list(layout.later), sorted(layout.plans)
         start = self._start(state, k, layout)
-        centres = np.vstack([np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2), dest[earlier]])
-        rads = np.concatenate([req[k, later], req[k, earlier]])
+        heads = layout.heads
+        if any(j in heads for j in later):
+            stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
+        else:  # nobody after it has moved: where they stand now (the same values, one indexing)
+            stand = state.positions[later]
+        centres = np.concatenate((stand, dest[earlier]))
+        rads = req[k, later + earlier]
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))
 
@@ -431,7 +438,9 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if hit is not None:
             remember(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
-            bits = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [required])])
+            # conflict_intervals for one motion, without its lists: the same intervals.
+            bits = blocked_bits(len(cells), motion.last_step + 1,
+                                [_conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))])
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)

@@ -362,7 +362,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         later, earlier = list(layout.later), sorted(layout.plans)
         start = self._start(state, k, layout)
         heads = layout.heads
-        if any(j in heads for j in later):
+        if not heads.keys().isdisjoint(later):
             stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
         else:  # nobody after it has moved: where they stand now (the same values, one indexing)
             stand = state.positions[later]
@@ -402,17 +402,20 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         cells, n = track.cells, len(track.cells)
         n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
         closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
+        x0, y0 = float(cells[0, 0]), float(cells[0, 1])
+        required = state.required
         for j, m in fixed:
-            r = float(state.required[j, k])
-            here = m.samples[min(t0, m.last_step)]
-            gap = math.hypot(here[0] - cells[0, 0], here[1] - cells[0, 1])
+            r = float(required[j, k])
+            hx, hy = m.samples[min(t0, m.last_step)].tolist()
+            gap = math.hypot(hx - x0, hy - y0)
             bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
             # Rows past the motion's last step repeat it: it stands still from then on.
             part = bits[min(t0, len(bits) - 1):]
             closed[:len(part)] |= part
-            closed[len(part):] |= part[-1]
+            if len(part) < n_rows:
+                closed[len(part):] |= part[-1]
         close_gates(closed, n, t0, gates)
-        free = ~closed
+        free = np.invert(closed, out=closed)
         free[:, -1] &= mask_words(n, 0)[-1]
         timing = earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
         if timing.success and state.accels is not None and state.velocities is not None:

@@ -139,7 +139,10 @@ def points_at(cells: np.ndarray, cell_arc: np.ndarray, arc: np.ndarray) -> np.nd
     """Points at arc lengths ``arc`` along a path given by its cells (every vertex is a cell, so
     interpolating between cells stays on the path)."""
     a = np.asarray(arc, dtype=float)
-    return np.stack([np.interp(a, cell_arc, cells[:, 0]), np.interp(a, cell_arc, cells[:, 1])], axis=-1)
+    out = np.empty(a.shape + (2,))
+    out[..., 0] = np.interp(a, cell_arc, cells[:, 0])
+    out[..., 1] = np.interp(a, cell_arc, cells[:, 1])
+    return out
 
 
 def retimed(timing: "Timing", cell_arc: np.ndarray, free: np.ndarray, v0: float, vmax: float, accel: float,

@@ -22,6 +22,7 @@ without discs (keyed by the discs the path had to go around).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -359,7 +360,7 @@ class VisibilityGraph:
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])
         nb = len(base)
-        i, j = np.triu_indices(len(nodes), 1)
+        i, j = _pairs(len(nodes))
         # Edges between two wall vertices were checked against the walls once, at construction.
         known = (i >= 2) & (j < 2 + nb)
         ok = np.zeros(len(i), dtype=bool)
@@ -381,6 +382,15 @@ class VisibilityGraph:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(_without_repeats(nodes[chain]))
+
+
+@functools.lru_cache(maxsize=256)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n, 1)``, remembered (read-only): the disc searches ask for the same few sizes."""
+    i, j = np.triu_indices(n, 1)
+    i.setflags(write=False)
+    j.setflags(write=False)
+    return i, j
 
 
 def _without_repeats(points: np.ndarray) -> np.ndarray:

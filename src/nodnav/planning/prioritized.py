@@ -154,6 +154,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._states: dict[tuple, State] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
+        self._orders: dict[tuple, tuple] = {}
 
     def plan(self, request: PlanRequest) -> PlanResult:
         """Plan every robot of the request through the corridor in its (feasible) passing order."""
@@ -171,9 +172,16 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             vel = np.asarray(request.velocities, dtype=float).reshape(-1, 2)
             accels = np.asarray(request.max_accels, dtype=float).reshape(-1)
         state = self._state(world, pos, dest, radii, vmax, order, vel, accels)
-        entered = tuple(int(k) for k in request.entered)
-        entered += tuple(k for k in order if state.inside[k] and k not in entered)
-        planned = feasible_order(order, entered, state.directions if self.params.inside == "back-out" else None)
+        # The same few (order, entered) pairs come back for every robot: remembered per state.
+        asked = (state.key, order, tuple(request.entered))
+        known = self._orders.get(asked)
+        if known is None:
+            entered = tuple(int(k) for k in request.entered)
+            entered += tuple(k for k in order if state.inside[k] and k not in entered)
+            known = (entered, feasible_order(order, entered,
+                                             state.directions if self.params.inside == "back-out" else None))
+            remember(self._orders, asked, known)
+        entered, planned = known
 
         def failure(reason: str) -> PlanResult:
             logger.debug("fast planner: order %s failed: %s", planned, reason)

@@ -316,13 +316,12 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         dirs = state.directions
         heads = dict(layout.heads)  # grows as robots get out of the way
         evasions: dict[int, Motion] = {}
-        seen: list = [layout]  # the layout as of the last call of now(), while heads is unchanged
+        seen: list = [layout]  # the layout now; None once evade() has changed heads
 
         def now() -> Layout:
-            last = seen[0]
-            if len(last.heads) != len(heads) or any(last.heads.get(j) is not m for j, m in heads.items()):
-                last = seen[0] = Layout(layout.plans, dict(heads), layout.later)
-            return last
+            if seen[0] is None:
+                seen[0] = Layout(layout.plans, dict(heads), layout.later)
+            return seen[0]
 
         def evade(j: int) -> None:
             moves = self._get_out_of_way(world, state, j, k, now())
@@ -336,6 +335,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 heads[k] = moves.pop(k)
             heads.update(moves)
             evasions.update(moves)
+            seen[0] = None
 
         if dirs[k] != 0:
             for j in layout.later:

@@ -104,8 +104,8 @@ from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import (
     Motion,
+    _close_kernel,
     _conflicts_with,
-    blocked_bits,
     close_gates,
     join_motions,
     mask_words,
@@ -450,8 +450,9 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             remember(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
             # conflict_intervals for one motion, without its lists: the same intervals.
-            bits = blocked_bits(len(cells), motion.last_step + 1,
-                                [_conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))])
+            cols, firsts, lasts = _conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))
+            bits = np.zeros((motion.last_step + 1, (len(cells) + 63) // 64), dtype=np.uint64)
+            _close_kernel(bits, cols, firsts, lasts)  # blocked_bits of these intervals, without its checks
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)

@@ -157,7 +157,19 @@ def retimed(timing: "Timing", cell_arc: np.ndarray, free: np.ndarray, v0: float,
     kept (the plan stays clear of every earlier robot; the controller copes with the jump).
     """
     upper = cell_arc[timing.cells]
-    arc, _ = feasible_profile(upper, float(cell_arc[-1]), v0, vmax, accel, dt)
-    if profile_clear(arc, cell_arc, free) >= 0:
+    if not len(upper):
+        upper = np.array([float(cell_arc[-1])])
+    arc, clash = _retimed_kernel(np.ascontiguousarray(upper, dtype=float), float(cell_arc[-1]), float(v0), float(vmax),
+                                 float(accel) * float(dt), float(dt), np.ascontiguousarray(cell_arc, dtype=float),
+                                 np.ascontiguousarray(free, dtype=np.uint64))
+    if clash >= 0:
         return timing
     return replace(timing, arc=arc)
+
+
+@_compiled
+def _retimed_kernel(up, goal, v0, vmax, alpha, dt, cell_arc, free):
+    """:func:`feasible_profile` then :func:`profile_clear` in one compiled call (the planner
+    retimes every robot it plans): the profile, and the first step it is not clear at or -1."""
+    arc, _ = _profile_kernel(up, goal, v0, vmax, alpha, dt)
+    return arc, _clear_kernel(arc, cell_arc, free)

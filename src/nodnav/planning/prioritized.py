@@ -101,7 +101,7 @@ from nodnav.planning.fast_state import (
 )
 from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
-from nodnav.planning.memo import remember
+from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import (
     Motion,
     _close_kernel,
@@ -180,7 +180,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             entered += tuple(k for k in order if state.inside[k] and k not in entered)
             known = (entered, feasible_order(order, entered,
                                              state.directions if self.params.inside == "back-out" else None))
-            remember(self._orders, asked, known)
+            remember_briefly(self._orders, asked, known)
         entered, planned = known
 
         def failure(reason: str) -> PlanResult:
@@ -447,7 +447,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
         hit = self._rows.get(key)
         if hit is not None:
-            remember(self._rows_by_id, same, (cells, motion, hit[1]))
+            remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
             # conflict_intervals for one motion, without its lists: the same intervals.
             cols, firsts, lasts = _conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))
@@ -456,7 +456,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)
-            remember(self._rows_by_id, same, (cells, motion, bits))
+            remember_briefly(self._rows_by_id, same, (cells, motion, bits))
         return hit[1]
 
     def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,

@@ -656,3 +656,33 @@ def test_a_robot_that_would_park_in_the_way_waits_aside_until_the_robots_after_i
     exit_1 = np.flatnonzero(p[:, 1, 0] > 3.0)[0]
     assert np.linalg.norm(p[exit_1, 0] - dest0) > 0.45
     assert min_gap(res, [0.2, 0.2]) >= 0.05 - 1e-6  # the planner's margin
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_plan_stays_compiled_match_the_world_functions(turned):
+    """RobotPlan's corridor and door stays (one compiled pass) against World.on_line and
+    in_door_zone with corridor_passage (the plain twin), on random walks through the paper's
+    corridor and through a passage turned by 40 degrees; samples exactly on the mouths and on
+    the door-zone circles included."""
+    from nodnav.planning.fast_state import RobotPlan, plain_stays
+    from nodnav.planning.occupancy import Motion
+    from nodnav.scenario.world import Passage, World, paper_world
+
+    if turned:
+        c, s = math.cos(0.7), math.sin(0.7)
+        world = World(bounds=(-10.0, -10.0, 10.0, 10.0), obstacles=(),
+                      passages=(Passage(start=(-3 * c, -3 * s), end=(3 * c, 3 * s), width=1.2),))
+    else:
+        world = paper_world()
+    rng = np.random.default_rng(11)
+    ent = np.asarray(world.entrances, dtype=float)
+    for _ in range(300):
+        n = int(rng.integers(1, 60))
+        a, b = rng.uniform(-5, 5, 2), rng.uniform(-5, 5, 2)
+        samples = a + np.linspace(0, 1, n)[:, None] * (b - a) + rng.normal(0, 0.3, (n, 2))
+        if n > 3:
+            samples[1] = ent[0]
+            samples[2] = ent[1] + [1.0, 0.0]  # on the right door zone's circle
+        plan = RobotPlan(Motion(samples.copy(), samples, np.zeros(n)), world, 1.0)
+        want = plain_stays(world, samples, 1.0)
+        assert (plan.passage, plan.doors) == ((want[0], want[1]), ((want[2], want[3]), (want[4], want[5])))

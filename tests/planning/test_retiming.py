@@ -175,3 +175,28 @@ def test_plans_timed_within_slow_accelerations_stay_valid(name):
         speed = np.linalg.norm(np.diff(tr.positions, axis=0), axis=2) / DT
         assert np.all(speed <= scenario.max_speeds + 1e-9)
         assert np.allclose(tr.positions[-1], scenario.destinations, atol=1e-6)
+
+
+def test_retimed_is_the_profile_kept_only_where_it_is_clear():
+    """:func:`retimed` (one compiled call) against its definition from the two public steps:
+    the profile of :func:`feasible_profile` when :func:`profile_clear` finds no clash, else the
+    search's own cells; random reservations, speeds and blocked cells."""
+    from nodnav.planning.timing import Timing
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(2, 40))
+        cell_arc = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, n - 1))])
+        steps = np.sort(rng.integers(0, n, int(rng.integers(1, 30))))
+        cells = np.concatenate([[0], steps, [n - 1]])
+        free = rng.integers(0, 2**63, (int(rng.integers(1, 40)), (n + 63) // 64), dtype=np.uint64)
+        if rng.random() < 0.5:
+            free[:] = np.uint64(2**64 - 1)
+        v0, vmax, accel, dt = rng.uniform(0, 1), rng.uniform(0.2, 1.5), rng.uniform(0.1, 3), 0.1
+        timing = Timing(True, "", cells)
+        got = retimed(timing, cell_arc, free, v0, vmax, accel, dt)
+        arc, _ = feasible_profile(cell_arc[cells], float(cell_arc[-1]), v0, vmax, accel, dt)
+        if profile_clear(arc, cell_arc, free) >= 0:
+            assert got is timing
+        else:
+            assert got.arc is not None and np.array_equal(got.arc, arc) and got.cells is cells

@@ -339,3 +339,42 @@ def test_compiled_chain_is_the_python_heaps_chain_ties_included(seed):
     w = rng.integers(1, 4, len(i)).astype(float)
     for target in range(1, n):
         assert shortest_chain(n, i, j, w, 0, target) == _python_chain(n, i, j, w, 0, target)
+
+
+def test_compiled_disc_checks_match_their_numpy_forms():
+    """The compiled checks of the fast planner's paths against the NumPy expressions they
+    replace, on random polylines and discs (also single points, starts inside discs, radii at
+    and below TOL): the same decisions."""
+    from nodnav.geometry import TOL, segment_point_distance
+    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations, polyline_point_distance
+
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        poly = rng.uniform(-3, 3, (int(rng.integers(1, 6)), 2))
+        m = int(rng.integers(0, 5))
+        centres = rng.uniform(-3, 3, (m, 2))
+        if m and rng.random() < 0.3:
+            centres[0] = poly[0] + rng.normal(0, 0.05, 2)  # a disc holding the start
+        radii = rng.choice([0.0, TOL / 2, 0.3, 0.8, 1.5], m)
+        start, goal = poly[0], poly[-1]
+        keep = radii > TOL
+        c, r = centres[keep], radii[keep]
+        want = bool(disc_violations(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)).any())
+        assert _crosses_any(poly, centres, radii, start, goal) == want
+        k = int(rng.integers(1, 6))
+        a, b = rng.uniform(-3, 3, (k, 2)), rng.uniform(-3, 3, (k, 2))
+        near = np.minimum(radii, polyline_point_distance(poly, centres))
+        want_bad = (segment_point_distance(a, b, centres) < near - TOL).any(axis=1)
+        assert np.array_equal(corner_cuts_close(poly, a, b, centres, radii), want_bad)
+
+
+def test_polyline_length_is_the_sum_of_segment_norms():
+    """polyline_length against np.linalg.norm of the differences, summed (bit for bit)."""
+    from nodnav.planning.visibility import polyline_length
+
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 8, 9, 17, 40):
+        for _ in range(50):
+            p = rng.normal(size=(n, 2)) * rng.uniform(0.01, 100)
+            assert polyline_length(p) == float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+    assert polyline_length(np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 0.0]])) == 9.0

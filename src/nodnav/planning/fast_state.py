@@ -10,9 +10,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
-from nodnav.planning.occupancy import Motion, corridor_passage
+from nodnav.planning.occupancy import Motion, _passage_kernel, corridor_passage
 from nodnav.planning.retiming import points_at
 from nodnav.planning.visibility import GeometricPath
 from nodnav.planning.waiting_spots import in_door_zone
@@ -88,16 +89,58 @@ class RobotPlan:
         return self.motion.last_step
 
     @cached_property
+    def _stays(self) -> tuple[int, int, int, int, int, int]:
+        """:attr:`passage` and :attr:`doors` in one compiled pass over the samples."""
+        w = self.world
+        p = w.passage
+        (e0x, e0y), (e1x, e1y) = w.entrances[0], w.entrances[1]
+        out = _stays_kernel(np.ascontiguousarray(self.motion.samples, dtype=float), p.along_x, p.axis[0], p.axis[1],
+                            p.normal[0], p.normal[1], p.s_start, p.s_end, p.t_centre, 0.5 * p.width,
+                            float(e0x), float(e0y), float(e1x), float(e1y), float(self.door_clearance))
+        return tuple(int(v) for v in out)  # type: ignore[return-value]
+
+    @property
     def passage(self) -> tuple[int, int]:
         """``(entry, exit)`` samples of its last stay in the corridor, see :func:`corridor_passage`."""
-        return corridor_passage(self.world.on_line(self.motion.samples))
+        s = self._stays
+        return s[0], s[1]
 
-    @cached_property
+    @property
     def doors(self) -> tuple[tuple[int, int], tuple[int, int]]:
         """``(entry, exit)`` samples of its last stay in the door zone of the left and of the right entrance."""
-        s = self.motion.samples
-        left, right = (corridor_passage(in_door_zone(self.world, s, e, self.door_clearance)) for e in (0, 1))
-        return left, right
+        s = self._stays
+        return (s[2], s[3]), (s[4], s[5])
+
+
+def plain_stays(world: World, samples: np.ndarray, door_clearance: float) -> tuple[int, int, int, int, int, int]:
+    """What :attr:`RobotPlan.passage` and :attr:`RobotPlan.doors` compute, with ``World.on_line``
+    and :func:`in_door_zone` (the plain twin of :func:`_stays_kernel`, for the tests)."""
+    e, x = corridor_passage(world.on_line(samples))
+    (l0, l1), (r0, r1) = (corridor_passage(in_door_zone(world, samples, k, door_clearance)) for k in (0, 1))
+    return e, x, l0, l1, r0, r1
+
+
+@_compiled
+def _stays_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_width, e0x, e0y, e1x, e1y, radius):
+    """The last stays of the samples ``s`` in the single-file line (``World.on_line``: between
+    the mouths along the axis, and within half the width of the centreline across it) and in
+    the two door zones (``in_door_zone``: nearer than ``radius`` to the entrance), with those
+    functions' operations; each as ``(entry, exit)`` of :func:`corridor_passage`."""
+    n = s.shape[0]
+    line = np.empty(n, dtype=np.bool_)
+    left = np.empty(n, dtype=np.bool_)
+    right = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        px, py = s[i, 0], s[i, 1]
+        a = px if along_x else px * ax + py * ay
+        between = not a < s_start and not a > s_end
+        line[i] = between and abs(px * nx + py * ny - t_centre) - half_width < 0.0
+        left[i] = math.hypot(px - e0x, py - e0y) < radius
+        right[i] = math.hypot(px - e1x, py - e1y) < radius
+    e, x = _passage_kernel(line)
+    l0, l1 = _passage_kernel(left)
+    r0, r1 = _passage_kernel(right)
+    return e, x, l0, l1, r0, r1
 
 
 @dataclass(frozen=True)
@@ -149,6 +192,10 @@ def state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str
         return (f"robot {k}: destination ({dest[k, 0]:.3f}, {dest[k, 1]:.3f}) is not in free space "
                 f"(clearance {clear[k]:.3f} m < radius {radii[k]:.3f} m)")
     gaps = np.linalg.norm(dest[:, None] - dest[None], axis=2)
+    close = gaps < radii[:, None] + radii[None, :] - TOL
+    np.fill_diagonal(close, False)
+    if not close.any():  # the pairs below, at once
+        return ""
     for a, b in zip(*np.triu_indices(len(dest), 1)):
         if gaps[a, b] < radii[a] + radii[b] - TOL:
             return (f"robots {a} and {b}: destinations overlap ({gaps[a, b]:.3f} m apart, "

@@ -13,11 +13,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, segment_is_clear
 from nodnav.planning.fast_state import Cut, Route, Track
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import entry_cell, polyline_segments
-from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, corner_cuts_close
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 
@@ -30,9 +30,22 @@ class GeometricPaths:
 
     if TYPE_CHECKING:  # set by PrioritizedPlanner.__init__
         params: FastPlannerParams
-        _graphs: dict[tuple[World, float], VisibilityGraph]
+        _graphs: dict[tuple[int, float], VisibilityGraph]
         _tracks: dict[tuple, Track]
         _cuts: dict[tuple, Cut]
+        _world_ids: dict[int, tuple[World, int]]
+        _world_tokens: dict[World, int]
+
+    def world_token(self, world: World) -> int:
+        """A small integer standing for ``world`` in the memos' keys (equal worlds share one):
+        a World hashes all its walls, and the keys are hashed thousands of times per round."""
+        hit = self._world_ids.get(id(world))
+        if hit is not None and hit[0] is world:
+            return hit[1]
+        tokens = self._world_tokens
+        token = tokens.setdefault(world, len(tokens))  # never forgotten: a trial has a few worlds
+        self._world_ids[id(world)] = (world, token)  # holding the world keeps its id its own
+        return token
 
     @property
     def wall_margin(self) -> float:
@@ -41,7 +54,7 @@ class GeometricPaths:
 
     def graph(self, world: World, radius: float) -> VisibilityGraph:
         """The visibility graph for robots of ``radius`` in ``world`` (built once, then kept)."""
-        key = (world, float(radius))
+        key = (self.world_token(world), float(radius))
         g = self._graphs.get(key)
         if g is None:
             # The wall margin where there is room: in a passage that leaves a robot less than
@@ -54,7 +67,8 @@ class GeometricPaths:
     def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
                centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track:
         """The robot's prepared path (memoised: the closed loop asks the same from every order)."""
-        key = (world, radius, step, start.tobytes(), goal.tobytes(), centres.tobytes(), rads.tobytes(), n_later)
+        key = (self.world_token(world), radius, step, start.tobytes(), goal.tobytes(), centres.tobytes(),
+               rads.tobytes(), n_later)
         track = self._tracks.get(key)
         if track is None:
             route = self._route(world, radius, start, goal, centres, rads, n_later)
@@ -87,8 +101,8 @@ class GeometricPaths:
         ok2 = cut.ok2
         if len(cut.corners) and len(route.centres):
             a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
-            keep = np.minimum(route.radii, polyline_point_distance(route.path.points, route.centres))
-            bad = (segment_point_distance(a, b, route.centres) < keep - TOL).any(axis=1)
+            bad = corner_cuts_close(route.path.points, a, b, np.ascontiguousarray(route.centres, dtype=float),
+                                    np.ascontiguousarray(route.radii, dtype=float))
             if bad.any():
                 ok2 = ok2.copy()
                 ok2[cut.corners[bad]] = False
@@ -105,7 +119,7 @@ class GeometricPaths:
         from the polyline than the corner is from the chord (``h``), so ``g - h >= radius``
         settles most corners without computing distances.
         """
-        key = (world, radius, step, path.tobytes())
+        key = (self.world_token(world), radius, step, path.tobytes())
         cut = self._cuts.get(key)
         if cut is not None:
             return cut

@@ -23,7 +23,6 @@ may wait (rings, the fine grid, bays, door zones) is :mod:`nodnav.planning.waiti
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
 
 import numpy as np
 
@@ -116,11 +115,11 @@ class MakingWay(FastPlannerHooks):
         for other, in_the_way in zip(movable, crossed[len(pinned):]):
             if in_the_way:
                 moves.update(self._get_out_of_way(world, state, other, planned,
-                                                  replace(layout, heads={**layout.heads, **moves}),
+                                                  Layout(layout.plans, {**layout.heads, **moves}, layout.later),
                                                   ((way.points, state.required[mover, other]),), depth + 1))
         if not moves:
             return {}
-        after = replace(layout, heads={**layout.heads, **moves})
+        after = Layout(layout.plans, {**layout.heads, **moves}, layout.later)
         head = next(self._escape_motions(world, state, mover, after, others, keep(after), door), None)
         return {**moves, mover: head} if head is not None else {}
 
@@ -131,7 +130,8 @@ class MakingWay(FastPlannerHooks):
         door = dirs[planned] != 0 and any(dirs[before] == -dirs[planned] for before in layout.plans)
         reason = "cornered by an earlier robot, and no spot nearby to back out to"
         for head in self._escape_motions(world, state, planned, layout, list(layout.later), [], door):
-            track = self._track_for(world, state, planned, replace(layout, heads={**layout.heads, planned: head}))
+            moved = Layout(layout.plans, {**layout.heads, planned: head}, layout.later)
+            track = self._track_for(world, state, planned, moved)
             if not track.route.path.success:
                 continue
             attempt = self._time(world, state, planned, track, layout, head)

@@ -13,3 +13,16 @@ def remember(memo: dict, key: Any, value: Any) -> None:
     if len(memo) >= MEMO_SIZE:
         del memo[next(iter(memo))]
     memo[key] = value
+
+
+#: How many entries the memos that only serve the requests of one state keep (the closed loop
+#: asks every order of a round from one state, and a few states interleave when robots plan
+#: different groups): small, so that they hold few objects for the garbage collector to scan.
+ROUND_MEMO_SIZE = 128
+
+
+def remember_briefly(memo: dict, key: Any, value: Any) -> None:
+    """:func:`remember` with room for :data:`ROUND_MEMO_SIZE` entries."""
+    if len(memo) >= ROUND_MEMO_SIZE:
+        del memo[next(iter(memo))]
+    memo[key] = value

@@ -10,6 +10,7 @@ between every pair, relaxed for pairs that start too close (:func:`relaxed_separ
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -316,11 +317,15 @@ def close_gates(bits: np.ndarray, n_cells: int, t0: int, gates) -> None:
             bits[:allowed - t0] |= mask_words(n_cells, int(cell))
 
 
+@functools.lru_cache(maxsize=4096)
 def mask_words(n_cells: int, since: int) -> np.ndarray:
-    """The cells ``since..n_cells-1`` as a row of 64-bit words."""
+    """The cells ``since..n_cells-1`` as a row of 64-bit words (read-only: remembered, the
+    planner asks for the same few masks at every step)."""
     words = (n_cells + 63) // 64
     mask = ((1 << n_cells) - 1) ^ ((1 << since) - 1)
-    return np.frombuffer(mask.to_bytes(8 * words, "little"), dtype="<u8").astype(np.uint64)
+    row = np.frombuffer(mask.to_bytes(8 * words, "little"), dtype="<u8").astype(np.uint64)
+    row.setflags(write=False)
+    return row
 
 
 def relaxed_bits(cells: np.ndarray, motion: Motion, required: float, gap: float) -> np.ndarray:

@@ -101,12 +101,12 @@ from nodnav.planning.fast_state import (
 )
 from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
-from nodnav.planning.memo import remember
+from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import (
     Motion,
-    blocked_bits,
+    _close_kernel,
+    _conflicts_with,
     close_gates,
-    conflict_intervals,
     join_motions,
     mask_words,
     relaxed_bits,
@@ -144,13 +144,17 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     def __init__(self, world: World, params: FastPlannerParams | None = None):
         self.world = world
         self.params = params if params is not None else FastPlannerParams()
-        self._graphs: dict[tuple[World, float], VisibilityGraph] = {}
+        self._graphs: dict[tuple[int, float], VisibilityGraph] = {}
+        self._world_ids: dict[int, tuple[World, int]] = {}
+        self._world_tokens: dict[World, int] = {}
         self._tracks: dict[tuple, Track] = {}
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
+        self._rows_by_id: dict[tuple, tuple] = {}
         self._states: dict[tuple, State] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
+        self._orders: dict[tuple, tuple] = {}
 
     def plan(self, request: PlanRequest) -> PlanResult:
         """Plan every robot of the request through the corridor in its (feasible) passing order."""
@@ -168,9 +172,16 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             vel = np.asarray(request.velocities, dtype=float).reshape(-1, 2)
             accels = np.asarray(request.max_accels, dtype=float).reshape(-1)
         state = self._state(world, pos, dest, radii, vmax, order, vel, accels)
-        entered = tuple(int(k) for k in request.entered)
-        entered += tuple(k for k in order if state.inside[k] and k not in entered)
-        planned = feasible_order(order, entered, state.directions if self.params.inside == "back-out" else None)
+        # The same few (order, entered) pairs come back for every robot: remembered per state.
+        asked = (state.key, order, tuple(request.entered))
+        known = self._orders.get(asked)
+        if known is None:
+            entered = tuple(int(k) for k in request.entered)
+            entered += tuple(k for k in order if state.inside[k] and k not in entered)
+            known = (entered, feasible_order(order, entered,
+                                             state.directions if self.params.inside == "back-out" else None))
+            remember_briefly(self._orders, asked, known)
+        entered, planned = known
 
         def failure(reason: str) -> PlanResult:
             logger.debug("fast planner: order %s failed: %s", planned, reason)
@@ -265,7 +276,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         """What every order planned from this state shares (memoised; checked when first seen,
         ``order`` is only quoted in the error). With ``vel`` and ``accels`` the paths are timed
         within the acceleration limits, from the present velocities."""
-        key: tuple = (world, pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
+        key: tuple = (self.world_token(world), pos.tobytes(), dest.tobytes(), radii.tobytes(), vmax.tobytes())
         if accels is not None and vel is not None:
             key += (vel.tobytes(), accels.tobytes())
         state = self._states.get(key)
@@ -305,21 +316,26 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         dirs = state.directions
         heads = dict(layout.heads)  # grows as robots get out of the way
         evasions: dict[int, Motion] = {}
+        seen: list = [layout]  # the layout now; None once evade() has changed heads
 
         def now() -> Layout:
-            return replace(layout, heads=dict(heads))
+            if seen[0] is None:
+                seen[0] = Layout(layout.plans, dict(heads), layout.later)
+            return seen[0]
 
         def evade(j: int) -> None:
             moves = self._get_out_of_way(world, state, j, k, now())
             if not moves and k not in heads:
                 back = self._make_room(world, state, k, j, now())
                 if back:
-                    moves = self._get_out_of_way(world, state, j, k, replace(layout, heads={**heads, **back}))
+                    moves = self._get_out_of_way(world, state, j, k, Layout(layout.plans, {**heads, **back},
+                                                                                layout.later))
                     moves = {**back, **moves} if moves else {}
             if k in moves:
                 heads[k] = moves.pop(k)
             heads.update(moves)
             evasions.update(moves)
+            seen[0] = None
 
         if dirs[k] != 0:
             for j in layout.later:
@@ -345,7 +361,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             retreat = self._back_out(world, state, k, here)
             if retreat.success:
                 attempt = retreat
-        return replace(attempt, evasions=tuple(sorted(evasions.items())))
+        return Attempt(attempt.success, attempt.reason, attempt.plan, attempt.trapped, tuple(sorted(evasions.items())))
 
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:
         """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
@@ -353,8 +369,13 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         dest, req = state.destinations, state.required
         later, earlier = list(layout.later), sorted(layout.plans)
         start = self._start(state, k, layout)
-        centres = np.vstack([np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2), dest[earlier]])
-        rads = np.concatenate([req[k, later], req[k, earlier]])
+        heads = layout.heads
+        if not heads.keys().isdisjoint(later):
+            stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
+        else:  # nobody after it has moved: where they stand now (the same values, one indexing)
+            stand = state.positions[later]
+        centres = np.concatenate((stand, dest[earlier]))
+        rads = req[k, later + earlier]
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))
 
@@ -389,17 +410,20 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         cells, n = track.cells, len(track.cells)
         n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
         closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
+        x0, y0 = float(cells[0, 0]), float(cells[0, 1])
+        required = state.required
         for j, m in fixed:
-            r = float(state.required[j, k])
-            here = m.samples[min(t0, m.last_step)]
-            gap = math.hypot(here[0] - cells[0, 0], here[1] - cells[0, 1])
+            r = float(required[j, k])
+            hx, hy = m.samples[min(t0, m.last_step)].tolist()
+            gap = math.hypot(hx - x0, hy - y0)
             bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
             # Rows past the motion's last step repeat it: it stands still from then on.
             part = bits[min(t0, len(bits) - 1):]
             closed[:len(part)] |= part
-            closed[len(part):] |= part[-1]
+            if len(part) < n_rows:
+                closed[len(part):] |= part[-1]
         close_gates(closed, n, t0, gates)
-        free = ~closed
+        free = np.invert(closed, out=closed)
         free[:, -1] &= mask_words(n, 0)[-1]
         timing = earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
         if timing.success and state.accels is not None and state.velocities is not None:
@@ -414,13 +438,25 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
         the same path meets the same motion in many orders, and equal motions in others)."""
+        # First by identity (the same motion object meets the same cells in many orders), then
+        # by value; the objects are kept with the bits so that their ids stay theirs.
+        same = (id(cells), id(motion), required)
+        hit = self._rows_by_id.get(same)
+        if hit is not None:
+            return hit[2]
         key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
         hit = self._rows.get(key)
-        if hit is None:
-            bits = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [required])])
+        if hit is not None:
+            remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
+        else:
+            # conflict_intervals for one motion, without its lists: the same intervals.
+            cols, firsts, lasts = _conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))
+            bits = np.zeros((motion.last_step + 1, (len(cells) + 63) // 64), dtype=np.uint64)
+            _close_kernel(bits, cols, firsts, lasts)  # blocked_bits of these intervals, without its checks
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)
+            remember_briefly(self._rows_by_id, same, (cells, motion, bits))
         return hit[1]
 
     def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,

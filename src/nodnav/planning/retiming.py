@@ -139,7 +139,10 @@ def points_at(cells: np.ndarray, cell_arc: np.ndarray, arc: np.ndarray) -> np.nd
     """Points at arc lengths ``arc`` along a path given by its cells (every vertex is a cell, so
     interpolating between cells stays on the path)."""
     a = np.asarray(arc, dtype=float)
-    return np.stack([np.interp(a, cell_arc, cells[:, 0]), np.interp(a, cell_arc, cells[:, 1])], axis=-1)
+    out = np.empty(a.shape + (2,))
+    out[..., 0] = np.interp(a, cell_arc, cells[:, 0])
+    out[..., 1] = np.interp(a, cell_arc, cells[:, 1])
+    return out
 
 
 def retimed(timing: "Timing", cell_arc: np.ndarray, free: np.ndarray, v0: float, vmax: float, accel: float,
@@ -154,7 +157,19 @@ def retimed(timing: "Timing", cell_arc: np.ndarray, free: np.ndarray, v0: float,
     kept (the plan stays clear of every earlier robot; the controller copes with the jump).
     """
     upper = cell_arc[timing.cells]
-    arc, _ = feasible_profile(upper, float(cell_arc[-1]), v0, vmax, accel, dt)
-    if profile_clear(arc, cell_arc, free) >= 0:
+    if not len(upper):
+        upper = np.array([float(cell_arc[-1])])
+    arc, clash = _retimed_kernel(np.ascontiguousarray(upper, dtype=float), float(cell_arc[-1]), float(v0), float(vmax),
+                                 float(accel) * float(dt), float(dt), np.ascontiguousarray(cell_arc, dtype=float),
+                                 np.ascontiguousarray(free, dtype=np.uint64))
+    if clash >= 0:
         return timing
     return replace(timing, arc=arc)
+
+
+@_compiled
+def _retimed_kernel(up, goal, v0, vmax, alpha, dt, cell_arc, free):
+    """:func:`feasible_profile` then :func:`profile_clear` in one compiled call (the planner
+    retimes every robot it plans): the profile, and the first step it is not clear at or -1."""
+    arc, _ = _profile_kernel(up, goal, v0, vmax, alpha, dt)
+    return arc, _clear_kernel(arc, cell_arc, free)

@@ -22,6 +22,7 @@ without discs (keyed by the discs the path had to go around).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -29,7 +30,7 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear, segment_point_distance
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.scenario.world import World
@@ -124,7 +125,10 @@ def polyline_point_distance(polyline: np.ndarray, points: np.ndarray) -> np.ndar
 def polyline_length(polyline: np.ndarray) -> float:
     """Length of a polyline ``(V, 2)`` (m)."""
     poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
-    return float(np.linalg.norm(np.diff(poly, axis=0), axis=1).sum())
+    # np.linalg.norm(np.diff(poly, axis=0), axis=1).sum() without its checks: the same operations.
+    d = poly[1:] - poly[:-1]
+    d *= d
+    return float(np.sqrt(d[:, 0] + d[:, 1]).sum())
 
 
 @dataclass(frozen=True)
@@ -256,6 +260,8 @@ class VisibilityGraph:
             return path
         centres = np.asarray(discs, dtype=float).reshape(-1, 2)
         radii = np.asarray(disc_radii, dtype=float).reshape(-1)
+        if not _crosses_any(path.points, centres, radii, start, goal):
+            return path  # the common case, in one compiled call: the path among the walls will do
         keep = radii > TOL
         centres, radii = centres[keep], radii[keep]
         d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
@@ -354,7 +360,7 @@ class VisibilityGraph:
         ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])
         nb = len(base)
-        i, j = np.triu_indices(len(nodes), 1)
+        i, j = _pairs(len(nodes))
         # Edges between two wall vertices were checked against the walls once, at construction.
         known = (i >= 2) & (j < 2 + nb)
         ok = np.zeros(len(i), dtype=bool)
@@ -376,6 +382,15 @@ class VisibilityGraph:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(_without_repeats(nodes[chain]))
+
+
+@functools.lru_cache(maxsize=256)
+def _pairs(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n, 1)``, remembered (read-only): the disc searches ask for the same few sizes."""
+    i, j = np.triu_indices(n, 1)
+    i.setflags(write=False)
+    j.setflags(write=False)
+    return i, j
 
 
 def _without_repeats(points: np.ndarray) -> np.ndarray:
@@ -409,6 +424,66 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
     return np.asarray((d < limit - TOL).any(axis=0))
+
+
+@_compiled
+def _crosses_any(poly, centres, radii, start, goal):
+    """Whether ``poly`` violates one of the discs (those of radius above :data:`TOL`) in the
+    sense of :func:`disc_violations`, with ``d_start`` and ``d_goal`` the distances of the
+    discs' centres from ``start`` and ``goal``: the same float operations as that function and
+    :meth:`VisibilityGraph.shortest_path`'s first check, as loops without their arrays."""
+    n_seg = max(poly.shape[0] - 1, 1)
+    for j in range(centres.shape[0]):
+        r = radii[j]
+        if not r > TOL:
+            continue
+        cx, cy = centres[j, 0], centres[j, 1]
+        d_start = math.hypot(cx - start[0], cy - start[1])
+        d_goal = math.hypot(cx - goal[0], cy - goal[1])
+        for s in range(n_seg):
+            a = poly[min(s, poly.shape[0] - 1)]
+            b = poly[min(s + 1, poly.shape[0] - 1)]
+            limit = r
+            if s == 0:
+                limit = min(limit, d_start)
+            if s == n_seg - 1:
+                limit = min(limit, d_goal)
+            d = math.sqrt(_segment_point_d2_one(a[0], a[1], b[0] - a[0], b[1] - a[1], cx, cy))
+            if d < limit - TOL:
+                return True
+    return False
+
+
+@_compiled
+def corner_cuts_close(path, a, b, centres, radii):
+    """Which chords ``a[c] -> b[c]`` come closer than ``min(radii[j], distance of centre j
+    from path) - TOL`` to a centre ``j``: the corner check of the fast planner's tracks
+    (:meth:`~nodnav.planning.geometric_paths.GeometricPaths._prepare`) as loops, with the
+    float operations of :func:`polyline_point_distance` and :func:`segment_point_distance`."""
+    m = centres.shape[0]
+    keep = np.empty(m)
+    for j in range(m):
+        cx, cy = centres[j, 0], centres[j, 1]
+        if path.shape[0] == 1:
+            dx, dy = cx - path[0, 0], cy - path[0, 1]
+            near = math.sqrt(dx * dx + dy * dy)
+        else:
+            near = math.inf
+            for s in range(path.shape[0] - 1):
+                d = math.sqrt(_segment_point_d2_one(path[s, 0], path[s, 1], path[s + 1, 0] - path[s, 0],
+                                                    path[s + 1, 1] - path[s, 1], cx, cy))
+                if d < near:
+                    near = d
+        keep[j] = min(radii[j], near)
+    bad = np.zeros(a.shape[0], dtype=np.bool_)
+    for c in range(a.shape[0]):
+        for j in range(m):
+            d = math.sqrt(_segment_point_d2_one(a[c, 0], a[c, 1], b[c, 0] - a[c, 0], b[c, 1] - a[c, 1],
+                                                centres[j, 0], centres[j, 1]))
+            if d < keep[j] - TOL:
+                bad[c] = True
+                break
+    return bad
 
 
 def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,

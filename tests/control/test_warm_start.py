@@ -119,3 +119,20 @@ def test_solver_effort_starts_each_kind_from_its_last_solution(monkeypatch):
     assert seen[0] is None and seen[2] is None
     # x_0 >= 0 binds at the minimiser (g pushes it below), x_1 >= 0 does not.
     assert list(seen[1]) == [0] and np.allclose(first.x, [0.0, 1.0])
+
+
+def test_solver_effort_falls_back_to_a_like_kind(monkeypatch):
+    seen = []
+
+    def spy(*args):
+        seen.append(args[7])
+        return solve_qp(*args)
+
+    monkeypatch.setattr(qp, "solve_qp", spy)
+    effort = SolverEffort(starts={})
+    h, g = np.eye(2), np.array([1.0, -1.0])
+    rows, lower = np.eye(2), np.zeros(2)
+    effort.solve(h, g, rows, lower, TOL, kind="a")
+    effort.solve(h, g, rows, lower, TOL, kind="b", like="a")  # none of its own yet: a's
+    effort.solve(h, g, rows, lower, TOL, kind="c", like="d")  # neither: cold
+    assert list(seen[1]) == [0] and seen[2] is None

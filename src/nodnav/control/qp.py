@@ -175,11 +175,16 @@ class SolverEffort:
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
               bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
-              kind: object = None) -> QPSolution:
-        """:func:`solve_qp`, counted; started from the last solution of the same ``kind`` (a key
-        that names the same rows in the same order, e.g. the problem object), if any."""
+              kind: object = None, like: object = None) -> QPSolution:
+        """:func:`solve_qp`, counted, and warm-started from the last solution of the same
+        ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
+        object), else from that of the kind ``like`` (the same rows and variables, other data)."""
         starts = self.starts
-        warm = None if starts is None or kind is None else starts.get(kind)
+        warm = None
+        if starts is not None and kind is not None:
+            warm = starts.get(kind)
+            if warm is None and like is not None:
+                warm = starts.get(like)
         t = time.perf_counter()
         sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, warm)
         self.qp_time += time.perf_counter() - t

@@ -372,6 +372,7 @@ class BSplineMPC:
         self.setup = dataclasses.replace(self._all_setup, obstacles=kept)
         self.obstacles = self.setup.obstacles
         self._problems, self._last_problem = {}, None
+        self._starts.clear()  # they name the old problems' rows (and would keep them alive)
         self._anchor, self._local_radius = p0.copy(), radius
 
     def _problem(self, n_others: int, times: np.ndarray) -> MPCProblem:

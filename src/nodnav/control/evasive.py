@@ -101,7 +101,8 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
         var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
         rows[:, :n] = prob.rows
         sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
-                           start_active=start_active)
+                           start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
+                           like=(prob, robots.tobytes(), not keep_arrangement))
         if sol.success:
             c = prob.control_points(data, sol.x[:n])
             return (None if prob.violation(data, c, separation=False) else c), soft

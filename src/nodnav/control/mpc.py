@@ -129,6 +129,9 @@ class BSplineMPC:
         self._committed: Committed | None = None
         self._following = False  # whether the last step followed the committed trajectory
         self._expected = (np.zeros(2), np.zeros(2))  # its position and velocity one step on
+        # DAQP's warm starts: the constraints active at the last solution of each kind of QP
+        # (:class:`~nodnav.control.qp.SolverEffort`); the same problem has the same rows.
+        self._starts: dict = {}
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
@@ -136,6 +139,7 @@ class BSplineMPC:
         self._braking = None
         self._committed = None
         self._following = False
+        self._starts.clear()
 
     def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
         """The motion chosen at the last control step, ``times`` after it: positions (``order`` 0)
@@ -176,7 +180,7 @@ class BSplineMPC:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii)
-        effort = SolverEffort()
+        effort = SolverEffort(starts=self._starts)
         committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = data.clearance_now
@@ -294,7 +298,7 @@ class BSplineMPC:
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = prob.write_separation(data, lin, cold, data.need)
-            sol = effort.solve(prob.hessian, gradient, prob.rows, lower, self.settings.qp_tolerance)
+            sol = effort.solve(prob.hessian, gradient, prob.rows, lower, self.settings.qp_tolerance, kind=prob)
             if not sol.success:
                 why = f"tracking QP {sol.reason}"
                 # DAQP can also stop cycling on an infeasible degenerate QP; the LP decides.
@@ -368,6 +372,7 @@ class BSplineMPC:
         self.setup = dataclasses.replace(self._all_setup, obstacles=kept)
         self.obstacles = self.setup.obstacles
         self._problems, self._last_problem = {}, None
+        self._starts.clear()  # they name the old problems' rows (and would keep them alive)
         self._anchor, self._local_radius = p0.copy(), radius
 
     def _problem(self, n_others: int, times: np.ndarray) -> MPCProblem:

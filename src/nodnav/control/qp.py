@@ -43,10 +43,14 @@ class QPSolution:
     """The minimiser (unspecified on failure)."""
     iterations: int
     """Active-set changes the solver made."""
+    multipliers: np.ndarray | None = None
+    """DAQP's multipliers of the constraints (the bounds, then the rows): nonzero (negative) on
+    those active at the minimiser, which :func:`start_from` makes a later solve's start."""
 
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
-             bounds: np.ndarray | None = None, start_active: np.ndarray | None = None) -> QPSolution:
+             bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
+             start: np.ndarray | None = None) -> QPSolution:
     """Minimise ``x^T H x / 2 + g^T x`` subject to ``rows @ x >= lower`` and ``x >= bounds`` (DAQP).
 
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
@@ -54,20 +58,44 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     violated by up to ``tol`` (DAQP's primal tolerance), so callers tighten their rows by it.
     ``start_active`` (a mask over ``bounds``) makes those bounds DAQP's initial working set: a
     guess of the constraints active at the minimiser saves the iterations that would add them.
+    ``start`` (indices of constraints, the bounds then the rows, :func:`start_from`) makes
+    those constraints DAQP's initial working set instead (those at ``-inf`` left out: DAQP would
+    activate them and return NaN), e.g. the constraints active at the minimiser of the previous
+    control step's QP (a warm start). The QP is strictly convex, so a start changes only
+    DAQP's path to its unique minimiser: DAQP drops constraints of the start whose multipliers
+    have the wrong sign and stops adding them at the first linearly dependent one. A
+    warm-started solve that fails for any reason but infeasibility (which DAQP proves from a
+    dual ray, whatever the start) is solved again cold.
     """
     if bounds is None:
         low = lower if _plain(lower) else np.ascontiguousarray(lower, dtype=float)
     else:
         low = np.concatenate([np.asarray(bounds, dtype=float), np.asarray(lower, dtype=float)])
     # DAQP's constraint flags: 1 active, 2 at the lower bound.
-    sense = None if start_active is None else np.concatenate(
+    cold = None if start_active is None else np.concatenate(
         [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
-    x, _, flag, info = daqp.solve(hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float),
-                                  gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float),
-                                  rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float),
-                                  _no_upper(len(low)), low, sense, primal_tol=tol)
+    sense = cold
+    if start is not None and len(start) and start[-1] < len(low):
+        sense = np.zeros(len(low), dtype=np.intc)
+        sense[start[np.isfinite(low[start])]] = 3
+    h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
+    g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
+    a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
+    x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, sense, primal_tol=tol)
+    iterations = int(info["iterations"])
+    if sense is not cold and flag not in (1, -1):
+        x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, cold, primal_tol=tol)
+        iterations += int(info["iterations"])
     return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
-                      x=x, iterations=int(info["iterations"]))
+                      x=x, iterations=iterations, multipliers=info["lam"])
+
+
+def start_from(solution: QPSolution) -> np.ndarray | None:
+    """The constraints active at ``solution`` (indices, the bounds then the rows, increasing),
+    a later solve's ``start`` (:func:`solve_qp`), or None if it failed."""
+    if not solution.success or solution.multipliers is None:
+        return None
+    return np.flatnonzero(solution.multipliers)
 
 
 def _plain(a: np.ndarray) -> bool:
@@ -76,6 +104,9 @@ def _plain(a: np.ndarray) -> bool:
 
 
 _UPPER: dict[int, np.ndarray] = {}
+
+#: How many kinds of QP a :class:`SolverEffort`'s ``starts`` remembers (the oldest goes first).
+MAX_STARTS = 16
 
 
 def _no_upper(n: int) -> np.ndarray:
@@ -138,17 +169,33 @@ class SolverEffort:
     """Time inside the QP and LP solvers (s)."""
     constraints: int = 0
     """Most constraints (rows and finite bounds) of one QP."""
+    starts: dict | None = None
+    """Warm starts by kind of QP (the controller's, kept between steps): the flags
+    (:func:`start_from`) of the last solution of each kind; None: every solve starts cold."""
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
-              bounds: np.ndarray | None = None, start_active: np.ndarray | None = None) -> QPSolution:
-        """:func:`solve_qp`, counted."""
+              bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
+              kind: object = None, like: object = None) -> QPSolution:
+        """:func:`solve_qp`, counted, and warm-started from the last solution of the same
+        ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
+        object), else from that of the kind ``like`` (the same rows and variables, other data)."""
+        starts = self.starts
+        warm = None
+        if starts is not None and kind is not None:
+            warm = starts.get(kind)
+            if warm is None and like is not None:
+                warm = starts.get(like)
         t = time.perf_counter()
-        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active)
+        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, warm)
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations
         self.constraints = max(self.constraints,
                                len(lower) + (0 if bounds is None else int(np.isfinite(bounds).sum())))
+        if starts is not None and kind is not None and sol.success:
+            if len(starts) >= MAX_STARTS and kind not in starts:
+                starts.pop(next(iter(starts)))
+            starts[kind] = start_from(sol)
         return sol
 
     def certificate(self, rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -308,9 +308,7 @@ class BSplineMPC:
                 if certified is not None and certified.size:
                     conflict = certified
                 break
-            c = prob.control_points(data, sol.x)
-            post = prob.evaluate(c)
-            why = prob.violation(data, c, separation=True, post=post)
+            c, post, why = prob.checked_plan(data, sol.x, separation=True)
             if why:
                 break
             best, best_post = c, post

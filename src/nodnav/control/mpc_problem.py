@@ -33,6 +33,7 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
+from nodnav.control.mpc_plan import plan_after_qp
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
@@ -390,14 +391,29 @@ class MPCProblem:
     def violation(self, data: StepData, c: np.ndarray, separation: bool, post: tuple | None = None) -> str:
         """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
         exactly (true clearances and distances at the check times, speed and acceleration on
-        points whose hulls hold them), else what it violates. ``post``: :meth:`evaluate`'s values of ``c``."""
+        points whose hulls hold them), else what it violates. ``post``: :meth:`evaluate`'s values of ``c``.
+        A step checks its QPs' plans within one compiled call instead (:meth:`checked_plan`)."""
         setup = self.setup
-        tol = setup.settings.check_tolerance
         check_rates, tail_end = (post or self.evaluate(c))[:2]
-        clear, short, j, speed, accel, tail = plan_check(
+        return self._verdict(data, separation, *plan_check(
             check_rates, len(self.check_times), setup.n_speed, setup.obstacles, setup.pieces,
             setup.world_bounds, data.pred_check, data.need[self.n_walls:], tail_end,
-            self.tail_decel if data.tail_weight > 0.0 else 0.0)
+            self.tail_decel if data.tail_weight > 0.0 else 0.0))
+
+    def checked_plan(self, data: StepData, z: np.ndarray, separation: bool) -> tuple[np.ndarray, tuple, str]:
+        """The plan of the QP's solution ``z``: :meth:`control_points`, :meth:`evaluate`'s values and
+        :meth:`violation`'s verdict, in one compiled call (:func:`~nodnav.control.mpc_plan.plan_after_qp`)."""
+        setup, (a, b, o, _) = self.setup, self.post_slices
+        c, post, *checks = plan_after_qp(
+            z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
+            setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
+            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0)
+        return c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, separation, *checks)
+
+    def _verdict(self, data: StepData, separation: bool, clear: float, short: float, j: int, speed: float,
+                 accel: float, tail: float) -> str:
+        setup = self.setup
+        tol = setup.settings.check_tolerance
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
         if separation and self.n_others and short > tol:

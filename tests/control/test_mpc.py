@@ -7,8 +7,9 @@ import pytest
 from scipy.optimize import linprog
 
 from nodnav.control import ControlRequest, bspline
+from nodnav.control.interpolation import interpolation_matrix, slope_matrix
 from nodnav.control.mpc import BSplineMPC, braking_profile
-from nodnav.control.mpc_problem import initial_state_nullspace, interpolation_matrix, slope_matrix
+from nodnav.control.mpc_problem import initial_state_nullspace
 from nodnav.control.mpc_rows import chord_inflation, constraint_grid, plan_extremes, polygon_normals, stopping_rows
 from nodnav.control.qp import infeasibility_certificate, solve_qp
 from nodnav.scenario.params import MPCParams, RobotSpec

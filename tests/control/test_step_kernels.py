@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from nodnav.control import bspline
 from nodnav.control.braking import tail_clearance, tail_rows
 from nodnav.control.mpc import BSplineMPC
 from nodnav.control.mpc_rows import all_finite, group_state, plan_check, plan_extremes, separation_rows, step_state
@@ -124,3 +125,19 @@ def test_step_data_static_bounds_are_static_lower():
         others = np.array([[1.5, 0.0]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
         data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2]))
         assert np.array_equal(data.static_lower, prob.static_lower(p0, v0, data.box_low, data.box_high))
+
+
+@pytest.mark.parametrize("n_others", [0, 1, 3])
+def test_evaluate_is_the_separate_products_bit_for_bit(n_others):
+    """One stacked product of a plan gives each row block exactly as its own product did."""
+    rng = np.random.default_rng(n_others)
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob, setup = ctl._problem(n_others, TIMES), ctl.setup
+    for scale in (1e-3, 1.0, 1e3):
+        c = rng.normal(0.0, scale, (setup.greville.size, 2))
+        check_rates, tail, out, sub = prob.evaluate(c)
+        assert np.array_equal(check_rates, np.vstack([prob.b_check, setup.rates]) @ c)
+        assert np.array_equal(tail, np.vstack([bspline.basis_derivative([setup.horizon], setup.knots, 3, 0),
+                                               bspline.basis_derivative([setup.horizon], setup.knots, 3, 1)]) @ c)
+        assert np.array_equal(out, np.vstack([setup.b_step, setup.bv_step, prob.b_samples]) @ c)
+        assert np.array_equal(sub, setup.b_substeps @ c)

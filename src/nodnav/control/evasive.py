@@ -104,8 +104,8 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
                            start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
                            like=(prob, robots.tobytes(), not keep_arrangement))
         if sol.success:
-            c = prob.control_points(data, sol.x[:n])
-            return (None if prob.violation(data, c, separation=False) else c), soft
+            c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
+            return (None if why else c), soft
         hard = np.where(prob.softened_rows(soft), -np.inf, lower)
         certified = prob.certified_conflict(prob.rows, hard, effort)
         if certified is None:

@@ -198,10 +198,10 @@ class BSplineMPC:
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
         else:
-            best, why, conflict = self._track(prob, data, lin, cold, effort)
+            best, post, why, conflict = self._track(prob, data, lin, cold, effort)
             if best is not None:
-                self._accept(best, prob)
-                return self._result(True, "", best, prob, data, start, {"fallback": "", **effort.as_info()})
+                self._accept(best, prob, post)
+                return self._result(True, "", post, data, start, {"fallback": "", **effort.as_info()})
         logger.debug("MPC at %s: %s", p0, why)
         # With no other robot the evasive QP would be the tracking QP again.
         plan, firm_softened = None, False
@@ -221,17 +221,19 @@ class BSplineMPC:
             if committed is not None and straight < r - self.settings.check_tolerance:
                 return self._follow(committed, prob, start, effort, why)
             return self._brake(request, prob, start, effort, why)
-        self._accept(plan, prob)
-        return self._result(False, f"infeasible: evasive: {why}", plan, prob, data, start,
+        post = prob.evaluate(plan)
+        self._accept(plan, prob, post)
+        return self._result(False, f"infeasible: evasive: {why}", post, data, start,
                             {"fallback": "evasive", "intrusion": intrusion, "intruded": intruded.tolist(),
                              "firm_softened": firm_softened, **effort.as_info()})
 
     # -- internals ---------------------------------------------------------------------------
 
-    def _accept(self, c: np.ndarray, prob: MPCProblem) -> None:
-        """Make the plan ``c`` (its braking tail checked clear) the committed trajectory."""
+    def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
+        """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,
+        :meth:`MPCProblem.evaluate`) the committed trajectory."""
         self._previous, self._braking, self._following = c, None, False
-        end = prob.b_tail @ c
+        end = post[1]
         self._committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
                                     end_velocity=end[1], decel=prob.tail_decel)
 
@@ -274,9 +276,9 @@ class BSplineMPC:
             self._fit_map = np.linalg.pinv(bspline.basis(fit, self.setup.knots, DEGREE))
         return self._fit_map @ committed.motion(offset + self._fit_times)
 
-    def _result(self, success: bool, reason: str, c: np.ndarray, prob: MPCProblem, data: StepData, start: float,
+    def _result(self, success: bool, reason: str, post: tuple, data: StepData, start: float,
                 info: dict) -> ControlResult:
-        out = prob.b_out @ c
+        out = post[2]
         self._expected = (out[0], out[1])
         return ControlResult(
             success=success, reason=reason,
@@ -285,7 +287,7 @@ class BSplineMPC:
             planned_positions=out[2:],
             solve_time=time.perf_counter() - start,
             info=info,
-            step_positions=self.setup.b_substeps @ c,
+            step_positions=post[3],
         )
 
     def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort):
@@ -294,7 +296,7 @@ class BSplineMPC:
         Returns (control points or None, why not, the other robots involved in the failure: those
         owning rows of an infeasibility certificate (:func:`infeasibility_certificate`), else all).
         """
-        best, why, conflict = None, "", np.arange(prob.n_others)
+        best, best_post, why, conflict = None, None, "", np.arange(prob.n_others)
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = prob.write_separation(data, lin, cold, data.need)
@@ -306,18 +308,17 @@ class BSplineMPC:
                 if certified is not None and certified.size:
                     conflict = certified
                 break
-            c = prob.control_points(data, sol.x)
-            why = prob.violation(data, c, separation=True)
+            c, post, why = prob.checked_plan(data, sol.x, separation=True)
             if why:
                 break
-            best = c
+            best, best_post = c, post
             if not cold:
                 break
             moved = prob.b_ends @ c
             if np.max(np.hypot(*(moved - lin).T)) <= self.settings.sqp_tolerance:
                 break
             lin, cold = moved, False
-        return best, why, conflict
+        return best, best_post, why, conflict
 
     def _validated(self, request: ControlRequest):
         p0 = np.asarray(request.position, dtype=float).reshape(2)

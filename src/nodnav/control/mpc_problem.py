@@ -28,11 +28,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
+from nodnav.control.interpolation import interpolation_matrix, slope_matrix
+from nodnav.control.mpc_plan import plan_after_qp
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
@@ -47,41 +48,6 @@ from nodnav.scenario.world import World
 
 DEGREE = 3
 """The paper's third-order (cubic) B-spline."""
-
-
-def interpolation_matrix(times: ArrayLike, query: ArrayLike) -> np.ndarray:
-    """Weights ``W`` (``(len(query), K)``) with ``W @ values`` the piecewise-linear interpolant.
-
-    Linear through ``(times, values)``; before the first sample it continues the first segment
-    (the request gives no value at ``tau = 0``), after the last it holds the last value (a plan
-    that has ended stands still, as :class:`~nodnav.planning.base.JointTrajectory` does).
-    """
-    times = np.asarray(times, dtype=float)
-    q = np.atleast_1d(np.asarray(query, dtype=float))
-    k = len(times)
-    w = np.zeros((q.size, k))
-    if k == 1:
-        w[:, 0] = 1.0
-        return w
-    qq = np.minimum(q, times[-1])
-    idx = np.clip(np.searchsorted(times, qq, side="right") - 1, 0, k - 2)
-    frac = (qq - times[idx]) / (times[idx + 1] - times[idx])
-    rows = np.arange(q.size)
-    w[rows, idx] = 1.0 - frac
-    w[rows, idx + 1] += frac
-    return w
-
-
-def slope_matrix(times: ArrayLike, t: float) -> np.ndarray:
-    """Weights ``(K,)`` giving the left derivative at ``t`` of the interpolant of :func:`interpolation_matrix`."""
-    times = np.asarray(times, dtype=float)
-    w = np.zeros(len(times))
-    if len(times) == 1 or t > times[-1]:
-        return w
-    i = int(np.clip(np.searchsorted(times, t, side="left") - 1, 0, len(times) - 2))
-    w[i], w[i + 1] = -1.0, 1.0
-    return w / (times[i + 1] - times[i])
-
 
 
 def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
@@ -225,10 +191,6 @@ class MPCProblem:
         self.b_ends = bspline.basis(self.ends, knots, DEGREE)
         self.b_check = bspline.basis(self.check_times, knots, DEGREE)
         self.b_samples = bspline.basis(sample_times, knots, DEGREE)
-        # A plan's next position and velocity and its samples; its check points and the points
-        # whose hulls hold its velocity and acceleration.
-        self.b_out = np.vstack([setup.b_step, setup.bv_step, self.b_samples])
-        self.b_check_rates = np.vstack([self.b_check, setup.rates])
         self.check_weights = horizon / self.check_times
 
         # Linear functionals on the control points used by constraint rows: positions at the
@@ -290,7 +252,15 @@ class MPCProblem:
                               bspline.basis_derivative([horizon], knots, DEGREE, 1)])
         self.tail_phi = np.ascontiguousarray(phi_tail @ self.free_map)
         self.tail_line = phi_tail @ setup.greville
-        self.b_tail = phi_tail
+        # One product of a plan (:meth:`evaluate`): its check points and the points whose hulls hold
+        # its velocity and acceleration, p(T) and v(T), its next position, velocity and samples, and
+        # its positions within the step (each row as its own product, bit for bit: tested).
+        self.b_post = np.vstack([self.b_check, setup.rates, phi_tail, setup.b_step, setup.bv_step, self.b_samples,
+                                 setup.b_substeps])
+        n_cr = len(self.b_check) + len(setup.rates)
+        self.post_slices = (slice(0, n_cr), slice(n_cr, n_cr + 2), slice(n_cr + 2, len(self.b_post) - 4),
+                            slice(len(self.b_post) - 4, None))
+        self.b_check_rates, self.b_tail, self.b_out, _ = (self.b_post[k] for k in self.post_slices)
         self.tail_decel = tail_decel(robot.max_accel, s.terminal_decel, s.accel_polygon_sides)
         # The group of every row (-1: static and tail rows).
         self.row_group = np.concatenate([np.full(self.n_static, -1),
@@ -412,17 +382,38 @@ class MPCProblem:
             return f"plan's braking tail comes {1e3 * short:.2f} mm too close to a wall"
         return ""
 
-    def violation(self, data: StepData, c: np.ndarray, separation: bool) -> str:
+    def evaluate(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The plan ``c``'s values in one product: its check points and rates (:meth:`violation`),
+        ``p(T), v(T)``, its next position, velocity and samples, its positions within the step."""
+        post, (a, b, o, _) = self.b_post @ c, self.post_slices
+        return post[a], post[b], post[o], post[-4:]
+
+    def violation(self, data: StepData, c: np.ndarray, separation: bool, post: tuple | None = None) -> str:
         """Empty if ``c`` satisfies every constraint (``separation``: the others' too) when checked
         exactly (true clearances and distances at the check times, speed and acceleration on
-        points whose hulls hold them), else what it violates."""
+        points whose hulls hold them), else what it violates. ``post``: :meth:`evaluate`'s values of ``c``.
+        A step checks its QPs' plans within one compiled call instead (:meth:`checked_plan`)."""
+        setup = self.setup
+        check_rates, tail_end = (post or self.evaluate(c))[:2]
+        return self._verdict(data, separation, *plan_check(
+            check_rates, len(self.check_times), setup.n_speed, setup.obstacles, setup.pieces,
+            setup.world_bounds, data.pred_check, data.need[self.n_walls:], tail_end,
+            self.tail_decel if data.tail_weight > 0.0 else 0.0))
+
+    def checked_plan(self, data: StepData, z: np.ndarray, separation: bool) -> tuple[np.ndarray, tuple, str]:
+        """The plan of the QP's solution ``z``: :meth:`control_points`, :meth:`evaluate`'s values and
+        :meth:`violation`'s verdict, in one compiled call (:func:`~nodnav.control.mpc_plan.plan_after_qp`)."""
+        setup, (a, b, o, _) = self.setup, self.post_slices
+        c, post, *checks = plan_after_qp(
+            z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
+            setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
+            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0)
+        return c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, separation, *checks)
+
+    def _verdict(self, data: StepData, separation: bool, clear: float, short: float, j: int, speed: float,
+                 accel: float, tail: float) -> str:
         setup = self.setup
         tol = setup.settings.check_tolerance
-        tail_end = self.b_tail @ c
-        clear, short, j, speed, accel, tail = plan_check(
-            self.b_check_rates @ c, len(self.check_times), setup.n_speed, setup.obstacles, setup.pieces,
-            setup.world_bounds, data.pred_check, data.need[self.n_walls:], tail_end,
-            self.tail_decel if data.tail_weight > 0.0 else 0.0)
         if clear < data.need_clear - tol:
             return f"plan comes {1e3 * (data.need_clear - clear):.2f} mm too close to a wall"
         if separation and self.n_others and short > tol:

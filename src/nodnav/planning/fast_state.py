@@ -175,6 +175,9 @@ class State:
 def timed_motion(track: Track, timing: "Timing") -> Motion:
     """The motion along ``track`` that ``timing`` gives: at its cells, or at its retimed arc lengths."""
     path = track.route.path.points
+    if timing.samples is not None:  # computed with the timing (the same values)
+        return Motion(path, timing.samples, track.arc[timing.cells] if timing.arc is None else timing.arc,
+                      track.segments)
     if timing.arc is None:
         steps = timing.cells
         return Motion(path, track.cells[steps], track.arc[steps], track.segments)

@@ -106,15 +106,13 @@ from nodnav.planning.occupancy import (
     Motion,
     _close_kernel,
     _conflicts_with,
-    close_gates,
     join_motions,
-    mask_words,
     relaxed_bits,
     separation_requirements,
 )
 from nodnav.planning.parking import DeferredParking
-from nodnav.planning.retiming import retimed
-from nodnav.planning.timing import Timing, earliest_arrival_bits
+from nodnav.planning.retiming import _search_kernel
+from nodnav.planning.timing import Timing, timing_of
 from nodnav.planning.visibility import VisibilityGraph, disc_violations
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.registry import register_planner
@@ -422,18 +420,19 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             closed[:len(part)] |= part
             if len(part) < n_rows:
                 closed[len(part):] |= part[-1]
-        close_gates(closed, n, t0, gates)
-        free = np.invert(closed, out=closed)
-        free[:, -1] &= mask_words(n, 0)[-1]
-        timing = earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
-        if timing.success and state.accels is not None and state.velocities is not None:
+        # The gates, the search, the retiming and the motion's samples in one compiled call.
+        retime = state.accels is not None and state.velocities is not None
+        v0 = vmax = alpha = 0.0
+        if retime:
             # Moving now only if it starts where it stands now (not after getting out of the way).
-            v0 = 0.0
             if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
-            timing = retimed(timing, track.arc, free, v0, float(state.max_speeds[k]), float(state.accels[k]),
-                             float(self.params.dt))
-        return timing
+            vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
+        ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
+        status, step, steps, arc, samples = _search_kernel(
+            closed, n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, self.params.waiting == "early", retime,
+            track.arc, cells, v0, vmax, alpha, float(self.params.dt))
+        return timing_of(status, step, steps, arc if len(arc) else None, samples)
 
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:

@@ -1,0 +1,95 @@
+"""The fast planner's fused timing call against the plain steps it replaces, bit for bit: the
+compiled twin of ``np.interp`` against NumPy itself, and ``_search_kernel`` (gates, search,
+retiming, samples) against ``close_gates``, ``earliest_arrival_bits``, ``retimed`` and
+``points_at`` run one after the other, on random tables."""
+
+import numpy as np
+import pytest
+
+from nodnav.planning.occupancy import close_gates, mask_words
+from nodnav.planning.retiming import _search_kernel, interp_twin, points_at, retimed
+from nodnav.planning.timing import earliest_arrival_bits, timing_of
+
+
+def _knots(rng, n):
+    """Non-decreasing knots with repeated values now and then."""
+    steps = rng.uniform(0.0, 0.2, n - 1)
+    steps[rng.random(n - 1) < 0.2] = 0.0
+    return np.concatenate([[0.0], np.cumsum(steps)]) + rng.uniform(-1, 1)
+
+
+def test_interp_twin_is_numpy_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        n = int(rng.integers(1, 30))
+        xp = _knots(rng, n)
+        fp = rng.normal(size=n) * rng.choice([1e-6, 1.0, 1e6])
+        lo, hi = xp[0], xp[-1]
+        x = np.concatenate([
+            rng.uniform(lo - 0.5, hi + 0.5, 20),  # inside and beyond both ends
+            xp,  # on the knots (repeated ones included)
+            [lo, hi, np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf), np.nextafter(hi, -np.inf), lo - 1e9, hi + 1e9],
+        ])
+        rng.shuffle(x)
+        expected = np.interp(x, xp, fp)
+        got = interp_twin(x, xp, fp)
+        assert got.tobytes() == expected.tobytes()
+
+
+def test_interp_twin_by_hand():
+    # Halfway between (0, 0) and (2, 4): 2; clamped to the end values outside; the knot's value on a knot.
+    xp, fp = np.array([0.0, 2.0, 2.0, 3.0]), np.array([0.0, 4.0, 5.0, 5.0])
+    assert interp_twin(np.array([1.0, -1.0, 9.0, 2.0, 2.5]), xp, fp).tolist() == [2.0, 0.0, 5.0, 5.0, 5.0]
+
+
+def _plain(closed, n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0, vmax, accel, dt):
+    """The planner's former Python path (``_timing``'s end and ``timed_motion``)."""
+    close_gates(closed, n, t0, gates)
+    free = np.invert(closed, out=closed)
+    free[:, -1] &= mask_words(n, 0)[-1]
+    timing = earliest_arrival_bits(free, n, ok2, wait_early)
+    if timing.success and retime:
+        timing = retimed(timing, cell_arc, free, v0, vmax, accel, dt)
+    if not timing.success:
+        return timing, None
+    if timing.arc is None:
+        return timing, cells_xy[timing.cells]
+    return timing, points_at(cells_xy, cell_arc, timing.arc)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_search_kernel_is_the_plain_path(seed):
+    rng = np.random.default_rng(seed)
+    outcomes = set()
+    for _ in range(300):
+        n = int(rng.integers(2, 150))
+        words = (n + 63) // 64
+        rows = int(rng.integers(1, 60))
+        density = rng.choice([0.0, 0.02, 0.1, 0.3])
+        closed_bool = rng.random((rows, n)) < density
+        packed = np.zeros((rows, 8 * words), dtype=np.uint8)
+        p = np.packbits(closed_bool, axis=1, bitorder="little")
+        packed[:, :p.shape[1]] = p
+        closed = packed.view("<u8").astype(np.uint64)
+        t0 = int(rng.integers(0, 5))
+        gates = [(int(rng.integers(-1, n)), int(rng.integers(0, rows + t0 + 5))) for _ in range(int(rng.integers(0, 4)))]
+        ok2 = rng.random(n + int(rng.integers(0, 3))) < 0.7
+        cell_arc = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, n - 1))])
+        cells_xy = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
+        wait_early, retime = bool(rng.random() < 0.7), bool(rng.random() < 0.7)
+        v0, vmax, accel, dt = float(rng.uniform(0, 1)), float(rng.uniform(0.2, 1.5)), float(rng.uniform(0.1, 3)), 0.1
+        expected, samples = _plain(closed.copy(), n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0,
+                                   vmax, accel, dt)
+        status, step, steps, arc, got_samples = _search_kernel(
+            closed.copy(), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, wait_early, retime,
+            cell_arc, cells_xy, v0, vmax, accel * dt, dt)
+        got = timing_of(status, step, steps, arc if len(arc) else None, got_samples)
+        outcomes.add((got.success, got.arc is not None))
+        assert (got.success, got.reason, got.trapped_at) == (expected.success, expected.reason, expected.trapped_at)
+        assert got.cells.tobytes() == expected.cells.tobytes()
+        assert (got.arc is None) == (expected.arc is None)
+        if got.arc is not None:
+            assert got.arc.tobytes() == expected.arc.tobytes()
+        if got.success:
+            assert got.samples.tobytes() == np.ascontiguousarray(samples).tobytes()
+    assert outcomes >= {(True, True), (True, False), (False, False)}  # every branch was taken

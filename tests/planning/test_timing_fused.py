@@ -3,12 +3,17 @@ compiled twin of ``np.interp`` against NumPy itself, and ``_search_kernel`` (gat
 retiming, samples) against ``close_gates``, ``earliest_arrival_bits``, ``retimed`` and
 ``points_at`` run one after the other, on random tables."""
 
+import math
+
 import numpy as np
 import pytest
 
+from nodnav.planning.fast_state import plain_stays
+from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
 from nodnav.planning.occupancy import close_gates, mask_words
-from nodnav.planning.retiming import _search_kernel, interp_twin, points_at, retimed
+from nodnav.planning.retiming import interp_twin, points_at, retimed
 from nodnav.planning.timing import earliest_arrival_bits, timing_of
+from nodnav.scenario.world import Passage, World, paper_world
 
 
 def _knots(rng, n):
@@ -28,7 +33,8 @@ def test_interp_twin_is_numpy_bit_for_bit():
         x = np.concatenate([
             rng.uniform(lo - 0.5, hi + 0.5, 20),  # inside and beyond both ends
             xp,  # on the knots (repeated ones included)
-            [lo, hi, np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf), np.nextafter(hi, -np.inf), lo - 1e9, hi + 1e9],
+            [lo, hi, np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf), np.nextafter(hi, -np.inf),
+             lo - 1e9, hi + 1e9],
         ])
         rng.shuffle(x)
         expected = np.interp(x, xp, fp)
@@ -72,7 +78,8 @@ def test_search_kernel_is_the_plain_path(seed):
         packed[:, :p.shape[1]] = p
         closed = packed.view("<u8").astype(np.uint64)
         t0 = int(rng.integers(0, 5))
-        gates = [(int(rng.integers(-1, n)), int(rng.integers(0, rows + t0 + 5))) for _ in range(int(rng.integers(0, 4)))]
+        gates = [(int(rng.integers(-1, n)), int(rng.integers(0, rows + t0 + 5)))
+                 for _ in range(int(rng.integers(0, 4)))]
         ok2 = rng.random(n + int(rng.integers(0, 3))) < 0.7
         cell_arc = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, n - 1))])
         cells_xy = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
@@ -80,9 +87,9 @@ def test_search_kernel_is_the_plain_path(seed):
         v0, vmax, accel, dt = float(rng.uniform(0, 1)), float(rng.uniform(0.2, 1.5)), float(rng.uniform(0.1, 3)), 0.1
         expected, samples = _plain(closed.copy(), n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0,
                                    vmax, accel, dt)
-        status, step, steps, arc, got_samples = _search_kernel(
+        status, step, steps, arc, got_samples, stays = _search_kernel(
             closed.copy(), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, wait_early, retime,
-            cell_arc, cells_xy, v0, vmax, accel * dt, dt)
+            cell_arc, cells_xy, v0, vmax, accel * dt, dt, NO_GEOMETRY)
         got = timing_of(status, step, steps, arc if len(arc) else None, got_samples)
         outcomes.add((got.success, got.arc is not None))
         assert (got.success, got.reason, got.trapped_at) == (expected.success, expected.reason, expected.trapped_at)
@@ -93,3 +100,35 @@ def test_search_kernel_is_the_plain_path(seed):
         if got.success:
             assert got.samples.tobytes() == np.ascontiguousarray(samples).tobytes()
     assert outcomes >= {(True, True), (True, False), (False, False)}  # every branch was taken
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_search_kernel_stays_are_plain_stays(turned):
+    """The stays the fused call computes for a plan against ``plain_stays`` (``World.on_line``
+    and ``in_door_zone``) on random walks across the paper's corridor and across a passage
+    turned by 40 degrees; a sample on a door zone's circle in every walk."""
+    world = paper_world()
+    if turned:
+        c, s = math.cos(0.7), math.sin(0.7)
+        world = World(bounds=(-10.0, -10.0, 10.0, 10.0), obstacles=(),
+                      passages=(Passage(start=(-3 * c, -3 * s), end=(3 * c, 3 * s), width=1.2),))
+    geometry = stay_geometry(world, 1.0)
+    rng = np.random.default_rng(11)
+    (e0x, e0y), (e1x, e1y) = world.entrances[0], world.entrances[1]
+    seen = set()
+    for _ in range(200):
+        n = int(rng.integers(2, 80))
+        a, b = np.array([e0x, e0y]), np.array([e1x, e1y])
+        start, end = a + (a - b) * rng.uniform(0.0, 0.6), b + (b - a) * rng.uniform(-1.2, 0.6)
+        cells_xy = start + (end - start) * np.linspace(0, 1, n)[:, None] + rng.normal(size=(n, 2)) * 0.1
+        cells_xy[rng.integers(0, n)] = (e0x + 1.0, e0y)  # on a door zone's circle
+        cell_arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(cells_xy, axis=0).T))])
+        closed = np.zeros((1, (n + 63) // 64), dtype=np.uint64)
+        status, _, steps, arc, samples, stays = _search_kernel(
+            closed, n, np.zeros((0, 2), dtype=np.int64), 0, np.ones(n, dtype=bool), True, bool(rng.random() < 0.5),
+            cell_arc, cells_xy, 0.0, 0.5, 0.05, 0.1, geometry)
+        assert status == 0
+        expected = plain_stays(world, samples, 1.0)
+        assert tuple(int(v) for v in stays) == tuple(int(v) for v in expected)
+        seen.add(stays[0] >= 0)
+    assert seen == {True, False}

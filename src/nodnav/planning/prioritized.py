@@ -99,6 +99,7 @@ from nodnav.planning.fast_state import (
     state_problem,
     timed_motion,
 )
+from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
 from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember, remember_briefly
@@ -111,7 +112,6 @@ from nodnav.planning.occupancy import (
     separation_requirements,
 )
 from nodnav.planning.parking import DeferredParking
-from nodnav.planning.retiming import _search_kernel
 from nodnav.planning.timing import Timing, timing_of
 from nodnav.planning.visibility import VisibilityGraph, disc_violations
 from nodnav.planning.waiting_spots import in_door_zone
@@ -149,6 +149,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
         self._rows_by_id: dict[tuple, tuple] = {}
+        self._geometries: dict[int, tuple] = {}
         self._states: dict[tuple, State] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
@@ -399,12 +400,14 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                     gates.append((track.doors[door], min(out_i, p.arrival) + 1))
         return gates, ""
 
-    def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing:
+    def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0,
+                world: World | None = None) -> Timing:
         """Velocity tuning of robot ``k`` along ``track`` from step ``t0`` among the ``fixed``
         ``(robot, motion)`` pairs, under the ``gates`` (absolute steps); the timing's step 0 is
         step ``t0``. A pair that starts closer than required keeps the relaxed separation until
         the other robot's motion is required distance away from this one's start for good
-        (:func:`relaxed_separation`)."""
+        (:func:`relaxed_separation`). With ``world``, the timing also holds its samples' stays
+        in that world's corridor and door zones (``RobotPlan._stays``)."""
         cells, n = track.cells, len(track.cells)
         n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
         closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
@@ -429,10 +432,21 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
             vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
         ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
-        status, step, steps, arc, samples = _search_kernel(
+        geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
+        status, step, steps, arc, samples, stays = _search_kernel(
             closed, n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, self.params.waiting == "early", retime,
-            track.arc, cells, v0, vmax, alpha, float(self.params.dt))
-        return timing_of(status, step, steps, arc if len(arc) else None, samples)
+            track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
+        return timing_of(status, step, steps, arc if len(arc) else None, samples,
+                         None if world is None else tuple(int(v) for v in stays))
+
+    def _stay_geometry(self, world: World) -> np.ndarray:
+        """:func:`stay_geometry` of ``world`` (remembered by identity; the world is held so that
+        its id stays its own)."""
+        hit = self._geometries.get(id(world))
+        if hit is None:
+            hit = (world, stay_geometry(world, self.params.door_clearance))
+            self._geometries[id(world)] = hit
+        return hit[1]
 
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
@@ -467,10 +481,10 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if problem:
             return Attempt(False, problem)
         t0 = head.last_step if head is not None else 0
-        timing = self._timing(state, k, track, layout.fixed(k), gates, t0)
+        timing = self._timing(state, k, track, layout.fixed(k), gates, t0, world if head is None else None)
         if not timing.success:
             return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
         motion = timed_motion(track, timing)
-        if head is not None:
+        if head is not None:  # the stays of the joined motion, when asked
             motion = join_motions(head, motion)
-        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None))
+        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, timing.stays))

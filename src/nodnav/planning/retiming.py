@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.planning.timing import _arrival_kernel
 
 if TYPE_CHECKING:
     from nodnav.planning.timing import Timing
@@ -226,54 +225,3 @@ def _points_kernel(cells, cell_arc, arc):
     out[:, 0] = xs
     out[:, 1] = ys
     return out
-
-
-@_compiled
-def _gate_word(n, since, w):
-    """Word ``w`` of the mask of cells ``since..n-1`` (:func:`~nodnav.planning.occupancy.mask_words`)."""
-    lo, hi = max(since - 64 * w, 0), min(n - 64 * w, 64)
-    if lo >= hi:
-        return np.uint64(0)
-    top = ~np.uint64(0) if hi == 64 else (np.uint64(1) << np.uint64(hi)) - np.uint64(1)
-    return top ^ ((np.uint64(1) << np.uint64(lo)) - np.uint64(1))
-
-
-@_compiled
-def _search_kernel(closed, n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0, vmax,
-                   alpha, dt):
-    """The end of the fast planner's ``_timing`` and the motion in one compiled call: close the
-    gates (``close_gates``), invert ``closed`` in place into the free cells (``mask_words``'
-    last word), search (``_arrival_kernel``), retime when ``retime`` (``_retimed_kernel``) and
-    take the motion's samples (``timed_motion``); ``gates`` ``(k, 2)`` holds ``(cell, allowed)``
-    rows. Returns ``(outcome, step cornered at, cells,
-    arc, samples)``; ``arc`` is empty when the search's own timing is kept."""
-    n_rows, words = closed.shape
-    for g in range(gates.shape[0]):
-        cell, allowed = gates[g, 0], gates[g, 1]
-        if cell >= 0 and allowed > t0:
-            for w in range(words):
-                word = _gate_word(n, cell, w)
-                for t in range(min(allowed - t0, n_rows)):
-                    closed[t, w] |= word
-    last = _gate_word(n, 0, words - 1)
-    for t in range(n_rows):
-        for w in range(words):
-            closed[t, w] = ~closed[t, w]
-        closed[t, words - 1] &= last
-    status, step, cells = _arrival_kernel(closed, n, ok2, wait_early)
-    arc = np.empty(0)
-    samples = np.empty((0, 2))
-    if status != 0:
-        return status, step, cells, arc, samples
-    if retime:
-        up = np.empty(cells.shape[0])
-        for i in range(cells.shape[0]):
-            up[i] = cell_arc[cells[i]]
-        arc, clash = _retimed_kernel(up, cell_arc[cell_arc.shape[0] - 1], v0, vmax, alpha, dt, cell_arc, closed)
-        if clash < 0:
-            return status, step, cells, arc, _points_kernel(cells_xy, cell_arc, arc)
-        arc = np.empty(0)
-    samples = np.empty((cells.shape[0], 2))
-    for i in range(cells.shape[0]):
-        samples[i, 0], samples[i, 1] = cells_xy[cells[i], 0], cells_xy[cells[i], 1]
-    return status, step, cells, arc, samples

@@ -132,3 +132,26 @@ def test_search_kernel_stays_are_plain_stays(turned):
         assert tuple(int(v) for v in stays) == tuple(int(v) for v in expected)
         seen.add(stays[0] >= 0)
     assert seen == {True, False}
+
+
+def test_blocked_rows_are_blocked_bits_of_the_intervals():
+    """``blocked_rows`` (one compiled call) against ``blocked_bits`` of ``conflict_intervals``
+    for one motion, on random polylines driven at random speeds, standing still and parked."""
+    from nodnav.planning.occupancy import Motion, blocked_bits, blocked_rows, conflict_intervals
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        m = int(rng.integers(1, 6))
+        path = np.cumsum(rng.normal(size=(m, 2)), axis=0)
+        knots = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+        steps = int(rng.integers(0, 40))
+        arc = np.sort(rng.uniform(0.0, knots[-1], steps + 1))
+        arc[0] = 0.0
+        if rng.random() < 0.5:
+            arc[-1] = knots[-1]
+        motion = Motion(path, points_at(path, knots, arc), arc)
+        cells = rng.uniform(path.min(axis=0) - 1, path.max(axis=0) + 1, (int(rng.integers(1, 140)), 2))
+        r = float(rng.uniform(0.05, 1.0))
+        expected = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [r])])
+        got = blocked_rows(np.ascontiguousarray(cells), motion, r)
+        assert got.dtype == expected.dtype and got.tobytes() == expected.tobytes()

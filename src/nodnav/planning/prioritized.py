@@ -105,8 +105,7 @@ from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import (
     Motion,
-    _close_kernel,
-    _conflicts_with,
+    blocked_rows,
     join_motions,
     relaxed_bits,
     separation_requirements,
@@ -462,10 +461,8 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if hit is not None:
             remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
-            # conflict_intervals for one motion, without its lists: the same intervals.
-            cols, firsts, lasts = _conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))
-            bits = np.zeros((motion.last_step + 1, (len(cells) + 63) // 64), dtype=np.uint64)
-            _close_kernel(bits, cols, firsts, lasts)  # blocked_bits of these intervals, without its checks
+            # conflict_intervals for one motion and blocked_bits of them, in one compiled call.
+            bits = blocked_rows(np.ascontiguousarray(cells, dtype=float), motion, float(required))
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)

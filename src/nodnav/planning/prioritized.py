@@ -150,6 +150,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._rows_by_id: dict[tuple, tuple] = {}
         self._geometries: dict[int, tuple] = {}
         self._states: dict[tuple, State] = {}
+        self._fixed_parts: dict[tuple, tuple] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
         self._orders: dict[tuple, tuple] = {}
@@ -285,7 +286,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 reject_request(order, pos, dest, radii, vmax)
             # Copies: the memos keep them, and the caller may reuse its arrays.
             pos, dest, radii, vmax = pos.copy(), dest.copy(), radii.copy(), vmax.copy()
-            clear = world.clearance(dest)
+            fixed = self._fixed_part(world, key, dest, radii, vmax)
             dirs = crossing_directions(world, pos, dest)
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
             in_door = (door >= 0) & in_door_zone(world, pos, np.maximum(door, 0), self.params.door_clearance)
@@ -294,13 +295,26 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 group = np.flatnonzero(radii == radius)
                 for k, path in zip(group, self.graph(world, radius).shortest_paths(pos[group], dest[group])):
                     natural[k] = path.points
-            state = State(key, pos, dest, radii, vmax,
-                           separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin),
-                           dirs, world.in_corridor(pos), door, in_door,
-                           tuple(natural), state_problem(dest, clear, radii),
+            state = State(key, pos, dest, radii, vmax, fixed[0], dirs, world.in_corridor(pos), door, in_door,
+                           tuple(natural), fixed[1],
                            None if vel is None else vel.copy(), None if accels is None else accels.copy())
             remember(self._states, key, state)
         return state
+
+    def _fixed_part(self, world: World, key: tuple, dest: np.ndarray, radii: np.ndarray,
+                    vmax: np.ndarray) -> tuple[np.ndarray, str]:
+        """The separations and the destinations' problem of a state: they depend on the world,
+        the destinations, radii and speeds only, the same in every round of a trial (remembered;
+        ``key`` is the state's, whose first, third, fourth and fifth entries name them). The
+        separations are read-only: every state of the trial shares them."""
+        part = (key[0], key[2], key[3], key[4])
+        hit = self._fixed_parts.get(part)
+        if hit is None:
+            required = separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin)
+            required.setflags(write=False)
+            hit = (required, state_problem(dest, world.clearance(dest), radii))
+            remember(self._fixed_parts, part, hit)
+        return hit
 
     def _start(self, state: State, k: int, layout: Layout) -> np.ndarray:
         """Where robot ``k`` stands once it has got out of the way (its position if it need not)."""

@@ -151,6 +151,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._geometries: dict[int, tuple] = {}
         self._states: dict[tuple, State] = {}
         self._fixed_parts: dict[tuple, tuple] = {}
+        self._repairs: dict[tuple, tuple] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
         self._orders: dict[tuple, tuple] = {}
@@ -177,8 +178,14 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if known is None:
             entered = tuple(int(k) for k in request.entered)
             entered += tuple(k for k in order if state.inside[k] and k not in entered)
-            known = (entered, feasible_order(order, entered,
-                                             state.directions if self.params.inside == "back-out" else None))
+            dirs = state.directions if self.params.inside == "back-out" else None
+            # The repair depends on these three only: the same few come back round after round.
+            repair = (order, entered, None if dirs is None else dirs.tobytes())
+            planned = self._repairs.get(repair)
+            if planned is None:
+                planned = feasible_order(order, entered, dirs)
+                remember_briefly(self._repairs, repair, planned)
+            known = (entered, planned)
             remember_briefly(self._orders, asked, known)
         entered, planned = known
 

@@ -94,7 +94,7 @@ class RobotPlan:
     def _stays(self) -> tuple[int, int, int, int, int, int]:
         """:attr:`passage` and :attr:`doors` in one compiled pass over the samples."""
         if self.stays is not None:
-            return self.stays  # type: ignore[return-value]
+            return self.stays
         w = self.world
         p = w.passage
         (e0x, e0y), (e1x, e1y) = w.entrances[0], w.entrances[1]

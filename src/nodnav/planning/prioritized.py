@@ -444,9 +444,10 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             if len(part) < n_rows:
                 closed[len(part):] |= part[-1]
         # The gates, the search, the retiming and the motion's samples in one compiled call.
-        retime = state.accels is not None and state.velocities is not None
+        retime = False
         v0 = vmax = alpha = 0.0
-        if retime:
+        if state.accels is not None and state.velocities is not None:
+            retime = True
             # Moving now only if it starts where it stands now (not after getting out of the way).
             if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))

@@ -83,6 +83,8 @@ class RobotPlan:
     """Radius of the door zones (m)."""
     retreat: bool = False
     """Whether it backs out of the way first."""
+    stays: tuple | None = field(default=None, repr=False, compare=False)
+    """:attr:`_stays` when computed with the motion (the fused timing call), else None."""
 
     @property
     def arrival(self) -> int:
@@ -91,6 +93,8 @@ class RobotPlan:
     @cached_property
     def _stays(self) -> tuple[int, int, int, int, int, int]:
         """:attr:`passage` and :attr:`doors` in one compiled pass over the samples."""
+        if self.stays is not None:
+            return self.stays
         w = self.world
         p = w.passage
         (e0x, e0y), (e1x, e1y) = w.entrances[0], w.entrances[1]
@@ -175,6 +179,9 @@ class State:
 def timed_motion(track: Track, timing: "Timing") -> Motion:
     """The motion along ``track`` that ``timing`` gives: at its cells, or at its retimed arc lengths."""
     path = track.route.path.points
+    if timing.samples is not None:  # computed with the timing (the same values)
+        return Motion(path, timing.samples, track.arc[timing.cells] if timing.arc is None else timing.arc,
+                      track.segments)
     if timing.arc is None:
         steps = timing.cells
         return Motion(path, track.cells[steps], track.arc[steps], track.segments)
@@ -267,7 +274,8 @@ class FastPlannerHooks:
         def _track(self, world: World, radius: float, step: float, start: np.ndarray, goal: np.ndarray,
                    centres: np.ndarray, rads: np.ndarray, n_later: int) -> Track: ...
         def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track: ...
-        def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing: ...
+        def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0,
+                    world: World | None = None) -> Timing: ...
         def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
                   head: Motion | None = None) -> Attempt: ...
         def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,

@@ -233,6 +233,25 @@ def _conflicts_with(cells: np.ndarray, motion: Motion, required: float) -> tuple
                              motion.last_step, required, (required - TOL) ** 2)
 
 
+def blocked_rows(cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
+    """:func:`blocked_bits` of :func:`_conflicts_with`'s intervals, one row per step of
+    ``motion`` (``cells`` contiguous ``(N, 2)``), in one compiled call: the same bits."""
+    basis, offset, s0, length, step, chord_a, chord_b = motion.sweep
+    frame = cells @ basis - offset if motion.last_step > 0 and len(length) else np.zeros((len(cells), 0))
+    return _blocked_kernel(cells, frame, motion.samples[-1], motion.arc, s0, length, step, chord_a, chord_b,
+                           motion.last_step, required, (required - TOL) ** 2)
+
+
+@_compiled
+def _blocked_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
+    """:func:`_intervals_kernel`, then :func:`_close_kernel` into a new table of ``last_step + 1`` rows."""
+    cols, firsts, lasts = _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step,
+                                            required, parked2)
+    bits = np.zeros((last_step + 1, (cells.shape[0] + 63) // 64), dtype=np.uint64)
+    _close_kernel(bits, cols, firsts, lasts)
+    return bits
+
+
 @_compiled
 def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
     """The loops of :func:`_conflicts_with`: ``frame`` holds each cell's coordinates along

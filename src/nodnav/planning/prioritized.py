@@ -99,22 +99,19 @@ from nodnav.planning.fast_state import (
     state_problem,
     timed_motion,
 )
+from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
 from nodnav.planning.geometric_paths import GeometricPaths
 from nodnav.planning.making_way import MakingWay
 from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import (
     Motion,
-    _close_kernel,
-    _conflicts_with,
-    close_gates,
+    blocked_rows,
     join_motions,
-    mask_words,
     relaxed_bits,
     separation_requirements,
 )
 from nodnav.planning.parking import DeferredParking
-from nodnav.planning.retiming import retimed
-from nodnav.planning.timing import Timing, earliest_arrival_bits
+from nodnav.planning.timing import Timing, timing_of
 from nodnav.planning.visibility import VisibilityGraph, disc_violations
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.registry import register_planner
@@ -151,7 +148,10 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
         self._rows_by_id: dict[tuple, tuple] = {}
+        self._geometries: dict[int, tuple] = {}
         self._states: dict[tuple, State] = {}
+        self._fixed_parts: dict[tuple, tuple] = {}
+        self._repairs: dict[tuple, tuple] = {}
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
         self._orders: dict[tuple, tuple] = {}
@@ -178,8 +178,14 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if known is None:
             entered = tuple(int(k) for k in request.entered)
             entered += tuple(k for k in order if state.inside[k] and k not in entered)
-            known = (entered, feasible_order(order, entered,
-                                             state.directions if self.params.inside == "back-out" else None))
+            dirs = state.directions if self.params.inside == "back-out" else None
+            # The repair depends on these three only: the same few come back round after round.
+            repair = (order, entered, None if dirs is None else dirs.tobytes())
+            planned = self._repairs.get(repair)
+            if planned is None:
+                planned = feasible_order(order, entered, dirs)
+                remember_briefly(self._repairs, repair, planned)
+            known = (entered, planned)
             remember_briefly(self._orders, asked, known)
         entered, planned = known
 
@@ -287,7 +293,7 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 reject_request(order, pos, dest, radii, vmax)
             # Copies: the memos keep them, and the caller may reuse its arrays.
             pos, dest, radii, vmax = pos.copy(), dest.copy(), radii.copy(), vmax.copy()
-            clear = world.clearance(dest)
+            fixed = self._fixed_part(world, key, dest, radii, vmax)
             dirs = crossing_directions(world, pos, dest)
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
             in_door = (door >= 0) & in_door_zone(world, pos, np.maximum(door, 0), self.params.door_clearance)
@@ -296,13 +302,26 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                 group = np.flatnonzero(radii == radius)
                 for k, path in zip(group, self.graph(world, radius).shortest_paths(pos[group], dest[group])):
                     natural[k] = path.points
-            state = State(key, pos, dest, radii, vmax,
-                           separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin),
-                           dirs, world.in_corridor(pos), door, in_door,
-                           tuple(natural), state_problem(dest, clear, radii),
+            state = State(key, pos, dest, radii, vmax, fixed[0], dirs, world.in_corridor(pos), door, in_door,
+                           tuple(natural), fixed[1],
                            None if vel is None else vel.copy(), None if accels is None else accels.copy())
             remember(self._states, key, state)
         return state
+
+    def _fixed_part(self, world: World, key: tuple, dest: np.ndarray, radii: np.ndarray,
+                    vmax: np.ndarray) -> tuple[np.ndarray, str]:
+        """The separations and the destinations' problem of a state: they depend on the world,
+        the destinations, radii and speeds only, the same in every round of a trial (remembered;
+        ``key`` is the state's, whose first, third, fourth and fifth entries name them). The
+        separations are read-only: every state of the trial shares them."""
+        part = (key[0], key[2], key[3], key[4])
+        hit = self._fixed_parts.get(part)
+        if hit is None:
+            required = separation_requirements(dest, radii, vmax, self.params.dt, self.params.margin)
+            required.setflags(write=False)
+            hit = (required, state_problem(dest, world.clearance(dest), radii))
+            remember(self._fixed_parts, part, hit)
+        return hit
 
     def _start(self, state: State, k: int, layout: Layout) -> np.ndarray:
         """Where robot ``k`` stands once it has got out of the way (its position if it need not)."""
@@ -401,12 +420,14 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
                     gates.append((track.doors[door], min(out_i, p.arrival) + 1))
         return gates, ""
 
-    def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0) -> Timing:
+    def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0,
+                world: World | None = None) -> Timing:
         """Velocity tuning of robot ``k`` along ``track`` from step ``t0`` among the ``fixed``
         ``(robot, motion)`` pairs, under the ``gates`` (absolute steps); the timing's step 0 is
         step ``t0``. A pair that starts closer than required keeps the relaxed separation until
         the other robot's motion is required distance away from this one's start for good
-        (:func:`relaxed_separation`)."""
+        (:func:`relaxed_separation`). With ``world``, the timing also holds its samples' stays
+        in that world's corridor and door zones (``RobotPlan._stays``)."""
         cells, n = track.cells, len(track.cells)
         n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
         closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
@@ -422,18 +443,31 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
             closed[:len(part)] |= part
             if len(part) < n_rows:
                 closed[len(part):] |= part[-1]
-        close_gates(closed, n, t0, gates)
-        free = np.invert(closed, out=closed)
-        free[:, -1] &= mask_words(n, 0)[-1]
-        timing = earliest_arrival_bits(free, n, track.ok2, self.params.waiting == "early")
-        if timing.success and state.accels is not None and state.velocities is not None:
+        # The gates, the search, the retiming and the motion's samples in one compiled call.
+        retime = False
+        v0 = vmax = alpha = 0.0
+        if state.accels is not None and state.velocities is not None:
+            retime = True
             # Moving now only if it starts where it stands now (not after getting out of the way).
-            v0 = 0.0
             if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
-            timing = retimed(timing, track.arc, free, v0, float(state.max_speeds[k]), float(state.accels[k]),
-                             float(self.params.dt))
-        return timing
+            vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
+        ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
+        geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
+        status, step, steps, arc, samples, stays = _search_kernel(
+            closed, n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, self.params.waiting == "early", retime,
+            track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
+        return timing_of(status, step, steps, arc if len(arc) else None, samples,
+                         None if world is None else tuple(int(v) for v in stays))
+
+    def _stay_geometry(self, world: World) -> np.ndarray:
+        """:func:`stay_geometry` of ``world`` (remembered by identity; the world is held so that
+        its id stays its own)."""
+        hit = self._geometries.get(id(world))
+        if hit is None:
+            hit = (world, stay_geometry(world, self.params.door_clearance))
+            self._geometries[id(world)] = hit
+        return hit[1]
 
     def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
         """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
@@ -449,10 +483,8 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if hit is not None:
             remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
-            # conflict_intervals for one motion, without its lists: the same intervals.
-            cols, firsts, lasts = _conflicts_with(np.ascontiguousarray(cells, dtype=float), motion, float(required))
-            bits = np.zeros((motion.last_step + 1, (len(cells) + 63) // 64), dtype=np.uint64)
-            _close_kernel(bits, cols, firsts, lasts)  # blocked_bits of these intervals, without its checks
+            # conflict_intervals for one motion and blocked_bits of them, in one compiled call.
+            bits = blocked_rows(np.ascontiguousarray(cells, dtype=float), motion, float(required))
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)
@@ -468,10 +500,10 @@ class PrioritizedPlanner(GeometricPaths, MakingWay, DeferredParking):
         if problem:
             return Attempt(False, problem)
         t0 = head.last_step if head is not None else 0
-        timing = self._timing(state, k, track, layout.fixed(k), gates, t0)
+        timing = self._timing(state, k, track, layout.fixed(k), gates, t0, world if head is None else None)
         if not timing.success:
             return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
         motion = timed_motion(track, timing)
-        if head is not None:
+        if head is not None:  # the stays of the joined motion, when asked
             motion = join_motions(head, motion)
-        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None))
+        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, timing.stays))

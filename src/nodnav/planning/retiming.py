@@ -173,3 +173,55 @@ def _retimed_kernel(up, goal, v0, vmax, alpha, dt, cell_arc, free):
     retimes every robot it plans): the profile, and the first step it is not clear at or -1."""
     arc, _ = _profile_kernel(up, goal, v0, vmax, alpha, dt)
     return arc, _clear_kernel(arc, cell_arc, free)
+
+
+def interp_twin(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """``np.interp(x, xp, fp)`` for non-decreasing ``xp`` and finite values, compiled: the same
+    operations as NumPy's (``tests/planning/test_timing_fused.py`` checks it bit for bit)."""
+    out = np.empty(len(x))
+    _interp_kernel(np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(xp, dtype=float),
+                   np.ascontiguousarray(fp, dtype=float), out)
+    return out
+
+
+@_compiled
+def _interp_kernel(x, xp, fp, out):
+    """NumPy's ``arr_interp`` (numpy/_core/src/multiarray/compiled_base.c): the left or right
+    value beyond the ends, ``fp[j]`` at a knot or on the last one, else ``slope * (x - xp[j]) +
+    fp[j]`` with ``slope = (fp[j+1] - fp[j]) / (xp[j+1] - xp[j])`` and ``j`` the last knot at or
+    below ``x`` (NumPy's guessed binary search finds the same ``j`` on sorted knots)."""
+    n = xp.shape[0]
+    for i in range(x.shape[0]):
+        v = x[i]
+        if n == 1:
+            out[i] = fp[0]
+            continue
+        if v > xp[n - 1]:
+            out[i] = fp[n - 1]
+            continue
+        if v < xp[0]:
+            out[i] = fp[0]
+            continue
+        j = np.searchsorted(xp, v, side="right") - 1
+        if j == n - 1 or xp[j] == v:
+            out[i] = fp[j]
+            continue
+        slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+        r = slope * (v - xp[j]) + fp[j]
+        if math.isnan(r):  # NumPy's fallback: from the other end, then the common value
+            r = slope * (v - xp[j + 1]) + fp[j + 1]
+            if math.isnan(r) and fp[j] == fp[j + 1]:
+                r = fp[j]
+        out[i] = r
+
+
+@_compiled
+def _points_kernel(cells, cell_arc, arc):
+    """:func:`points_at` in one call: both coordinates by :func:`_interp_kernel`."""
+    out = np.empty((arc.shape[0], 2))
+    xs, ys = np.empty(arc.shape[0]), np.empty(arc.shape[0])
+    _interp_kernel(arc, cell_arc, np.ascontiguousarray(cells[:, 0]), xs)
+    _interp_kernel(arc, cell_arc, np.ascontiguousarray(cells[:, 1]), ys)
+    out[:, 0] = xs
+    out[:, 1] = ys
+    return out

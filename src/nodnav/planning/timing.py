@@ -35,6 +35,12 @@ class Timing:
     arc: np.ndarray | None = None
     """Arc length along the path at steps ``0..arrival`` (m) when the cells were retimed within
     the acceleration limit (:mod:`nodnav.planning.retiming`); None: the cells' own arc lengths."""
+    samples: np.ndarray | None = None
+    """The positions at steps ``0..arrival`` ``(T, 2)`` when the search computed them with the
+    timing (the fast planner's fused call), else None."""
+    stays: tuple | None = None
+    """The stays of those positions in the corridor and the door zones (``RobotPlan._stays``)
+    when computed with them, else None."""
 
     @property
     def arrival(self) -> int:
@@ -71,8 +77,14 @@ def earliest_arrival_bits(free: np.ndarray, n_cells: int, ok2: np.ndarray, wait_
     """
     ok2 = np.ascontiguousarray(np.asarray(ok2, dtype=bool)[:n_cells])
     status, step, cells = _arrival_kernel(np.ascontiguousarray(free, dtype=np.uint64), n_cells, ok2, bool(wait_early))
+    return timing_of(status, step, cells)
+
+
+def timing_of(status: int, step: int, cells: np.ndarray, arc: np.ndarray | None = None,
+              samples: np.ndarray | None = None, stays: tuple | None = None) -> Timing:
+    """The :class:`Timing` of an outcome of :func:`_arrival_kernel`."""
     if status == _ARRIVED:
-        return Timing(True, "", cells)
+        return Timing(True, "", cells, -1, arc, samples, stays)
     if status == _PARKED_ON_GOAL:
         return Timing(False, "its destination stays blocked by a robot parked next to it", np.zeros(1, dtype=int))
     if status == _CORNERED:

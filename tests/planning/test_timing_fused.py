@@ -1,0 +1,157 @@
+"""The fast planner's fused timing call against the plain steps it replaces, bit for bit: the
+compiled twin of ``np.interp`` against NumPy itself, and ``_search_kernel`` (gates, search,
+retiming, samples) against ``close_gates``, ``earliest_arrival_bits``, ``retimed`` and
+``points_at`` run one after the other, on random tables."""
+
+import math
+
+import numpy as np
+import pytest
+
+from nodnav.planning.fast_state import plain_stays
+from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
+from nodnav.planning.occupancy import close_gates, mask_words
+from nodnav.planning.retiming import interp_twin, points_at, retimed
+from nodnav.planning.timing import earliest_arrival_bits, timing_of
+from nodnav.scenario.world import Passage, World, paper_world
+
+
+def _knots(rng, n):
+    """Non-decreasing knots with repeated values now and then."""
+    steps = rng.uniform(0.0, 0.2, n - 1)
+    steps[rng.random(n - 1) < 0.2] = 0.0
+    return np.concatenate([[0.0], np.cumsum(steps)]) + rng.uniform(-1, 1)
+
+
+def test_interp_twin_is_numpy_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        n = int(rng.integers(1, 30))
+        xp = _knots(rng, n)
+        fp = rng.normal(size=n) * rng.choice([1e-6, 1.0, 1e6])
+        lo, hi = xp[0], xp[-1]
+        x = np.concatenate([
+            rng.uniform(lo - 0.5, hi + 0.5, 20),  # inside and beyond both ends
+            xp,  # on the knots (repeated ones included)
+            [lo, hi, np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf), np.nextafter(hi, -np.inf),
+             lo - 1e9, hi + 1e9],
+        ])
+        rng.shuffle(x)
+        expected = np.interp(x, xp, fp)
+        got = interp_twin(x, xp, fp)
+        assert got.tobytes() == expected.tobytes()
+
+
+def test_interp_twin_by_hand():
+    # Halfway between (0, 0) and (2, 4): 2; clamped to the end values outside; the knot's value on a knot.
+    xp, fp = np.array([0.0, 2.0, 2.0, 3.0]), np.array([0.0, 4.0, 5.0, 5.0])
+    assert interp_twin(np.array([1.0, -1.0, 9.0, 2.0, 2.5]), xp, fp).tolist() == [2.0, 0.0, 5.0, 5.0, 5.0]
+
+
+def _plain(closed, n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0, vmax, accel, dt):
+    """The planner's former Python path (``_timing``'s end and ``timed_motion``)."""
+    close_gates(closed, n, t0, gates)
+    free = np.invert(closed, out=closed)
+    free[:, -1] &= mask_words(n, 0)[-1]
+    timing = earliest_arrival_bits(free, n, ok2, wait_early)
+    if timing.success and retime:
+        timing = retimed(timing, cell_arc, free, v0, vmax, accel, dt)
+    if not timing.success:
+        return timing, None
+    if timing.arc is None:
+        return timing, cells_xy[timing.cells]
+    return timing, points_at(cells_xy, cell_arc, timing.arc)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_search_kernel_is_the_plain_path(seed):
+    rng = np.random.default_rng(seed)
+    outcomes = set()
+    for _ in range(300):
+        n = int(rng.integers(2, 150))
+        words = (n + 63) // 64
+        rows = int(rng.integers(1, 60))
+        density = rng.choice([0.0, 0.02, 0.1, 0.3])
+        closed_bool = rng.random((rows, n)) < density
+        packed = np.zeros((rows, 8 * words), dtype=np.uint8)
+        p = np.packbits(closed_bool, axis=1, bitorder="little")
+        packed[:, :p.shape[1]] = p
+        closed = packed.view("<u8").astype(np.uint64)
+        t0 = int(rng.integers(0, 5))
+        gates = [(int(rng.integers(-1, n)), int(rng.integers(0, rows + t0 + 5)))
+                 for _ in range(int(rng.integers(0, 4)))]
+        ok2 = rng.random(n + int(rng.integers(0, 3))) < 0.7
+        cell_arc = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, n - 1))])
+        cells_xy = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
+        wait_early, retime = bool(rng.random() < 0.7), bool(rng.random() < 0.7)
+        v0, vmax, accel, dt = float(rng.uniform(0, 1)), float(rng.uniform(0.2, 1.5)), float(rng.uniform(0.1, 3)), 0.1
+        expected, samples = _plain(closed.copy(), n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0,
+                                   vmax, accel, dt)
+        status, step, steps, arc, got_samples, stays = _search_kernel(
+            closed.copy(), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, wait_early, retime,
+            cell_arc, cells_xy, v0, vmax, accel * dt, dt, NO_GEOMETRY)
+        got = timing_of(status, step, steps, arc if len(arc) else None, got_samples)
+        outcomes.add((got.success, got.arc is not None))
+        assert (got.success, got.reason, got.trapped_at) == (expected.success, expected.reason, expected.trapped_at)
+        assert got.cells.tobytes() == expected.cells.tobytes()
+        assert (got.arc is None) == (expected.arc is None)
+        if got.arc is not None:
+            assert got.arc.tobytes() == expected.arc.tobytes()
+        if got.success:
+            assert got.samples.tobytes() == np.ascontiguousarray(samples).tobytes()
+    assert outcomes >= {(True, True), (True, False), (False, False)}  # every branch was taken
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_search_kernel_stays_are_plain_stays(turned):
+    """The stays the fused call computes for a plan against ``plain_stays`` (``World.on_line``
+    and ``in_door_zone``) on random walks across the paper's corridor and across a passage
+    turned by 40 degrees; a sample on a door zone's circle in every walk."""
+    world = paper_world()
+    if turned:
+        c, s = math.cos(0.7), math.sin(0.7)
+        world = World(bounds=(-10.0, -10.0, 10.0, 10.0), obstacles=(),
+                      passages=(Passage(start=(-3 * c, -3 * s), end=(3 * c, 3 * s), width=1.2),))
+    geometry = stay_geometry(world, 1.0)
+    rng = np.random.default_rng(11)
+    (e0x, e0y), (e1x, e1y) = world.entrances[0], world.entrances[1]
+    seen = set()
+    for _ in range(200):
+        n = int(rng.integers(2, 80))
+        a, b = np.array([e0x, e0y]), np.array([e1x, e1y])
+        start, end = a + (a - b) * rng.uniform(0.0, 0.6), b + (b - a) * rng.uniform(-1.2, 0.6)
+        cells_xy = start + (end - start) * np.linspace(0, 1, n)[:, None] + rng.normal(size=(n, 2)) * 0.1
+        cells_xy[rng.integers(0, n)] = (e0x + 1.0, e0y)  # on a door zone's circle
+        cell_arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(cells_xy, axis=0).T))])
+        closed = np.zeros((1, (n + 63) // 64), dtype=np.uint64)
+        status, _, steps, arc, samples, stays = _search_kernel(
+            closed, n, np.zeros((0, 2), dtype=np.int64), 0, np.ones(n, dtype=bool), True, bool(rng.random() < 0.5),
+            cell_arc, cells_xy, 0.0, 0.5, 0.05, 0.1, geometry)
+        assert status == 0
+        expected = plain_stays(world, samples, 1.0)
+        assert tuple(int(v) for v in stays) == tuple(int(v) for v in expected)
+        seen.add(stays[0] >= 0)
+    assert seen == {True, False}
+
+
+def test_blocked_rows_are_blocked_bits_of_the_intervals():
+    """``blocked_rows`` (one compiled call) against ``blocked_bits`` of ``conflict_intervals``
+    for one motion, on random polylines driven at random speeds, standing still and parked."""
+    from nodnav.planning.occupancy import Motion, blocked_bits, blocked_rows, conflict_intervals
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        m = int(rng.integers(1, 6))
+        path = np.cumsum(rng.normal(size=(m, 2)), axis=0)
+        knots = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+        steps = int(rng.integers(0, 40))
+        arc = np.sort(rng.uniform(0.0, knots[-1], steps + 1))
+        arc[0] = 0.0
+        if rng.random() < 0.5:
+            arc[-1] = knots[-1]
+        motion = Motion(path, points_at(path, knots, arc), arc)
+        cells = rng.uniform(path.min(axis=0) - 1, path.max(axis=0) + 1, (int(rng.integers(1, 140)), 2))
+        r = float(rng.uniform(0.05, 1.0))
+        expected = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [r])])
+        got = blocked_rows(np.ascontiguousarray(cells), motion, r)
+        assert got.dtype == expected.dtype and got.tobytes() == expected.tobytes()

@@ -10,6 +10,7 @@ for every strategy.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,6 +129,17 @@ def robot_arrays(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray
     for a in arrays:
         a.flags.writeable = False
     return arrays
+
+
+def weighted_choice(rng: np.random.Generator, p: np.ndarray) -> int:
+    """``int(rng.choice(len(p), p=p))`` for probabilities ``p`` that sum to 1, the same draw
+    and the same index: numpy's ``Generator.choice`` takes ``cdf = p.cumsum()``, divides it by
+    its last element, draws one ``rng.random()`` and returns ``cdf.searchsorted(u, side="right")``
+    (``bisect_right`` of the same sorted list). Without ``choice``'s argument checks, which
+    cost more than the draw (the probabilities come from eq. (3), checked there)."""
+    cdf = np.cumsum(p, dtype=float)
+    cdf /= cdf[-1]
+    return bisect_right(cdf.tolist(), rng.random())
 
 
 def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders,
@@ -447,7 +459,7 @@ class NODAgent:
             by_convention = available & precedence_mask(orders, first, second)
             available = by_convention if by_convention.any() else available
         choice = selection_probabilities(x, available)
-        strategy = int(self.rng.choice(len(x), p=choice))
+        strategy = weighted_choice(self.rng, choice)
         self.selected = strategy
         self.previous = (planning, players, game, plans)
         plan = plans[strategy]

@@ -34,3 +34,24 @@ def test_weighted_choice_draws_what_generator_choice_draws(seed):
             assert p[got] > 0.0  # never an unavailable strategy
     # Both generators consumed the same draws: their next numbers agree.
     assert ours.random() == numpy_s.random()
+
+
+def _players_by_argsort(L, i, k):
+    """Eq. (7) as numpy ranks it: the k largest L_ij, j != i, ties to the lower index."""
+    others = np.delete(np.arange(L.shape[0]), i)
+    ranked = others[np.argsort(-L[i, others], kind="stable")]
+    return tuple(sorted(int(j) for j in ranked[:k]))
+
+
+def test_game_players_rank_as_numpy_argsort_does():
+    from nodnav.decision.players import select_game_players
+    rng = np.random.default_rng(3)
+    for n in (2, 3, 4, 8):
+        for _ in range(200):
+            L = rng.choice([0.0, -0.0, 0.25, 0.5, 1.0, -np.inf], size=(n, n))  # many ties
+            if rng.random() < 0.5:
+                L = rng.random((n, n))
+            i, k = int(rng.integers(n)), int(rng.integers(n))
+            assert select_game_players(L, i, k) == _players_by_argsort(L, i, k)
+    L = np.array([[0.0, np.nan, 0.3], [0.1, 0.0, 0.2], [0.5, 0.5, 0.0]])
+    assert select_game_players(L, 0, 1) == _players_by_argsort(L, 0, 1) == (2,)

@@ -14,7 +14,7 @@ import numpy as np
 from nodnav.compiled import compiled
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, interpolate_positions
 from nodnav.scenario.world import World
-from nodnav.sim.parked import packed_crossed
+from nodnav.sim.parked import crossed_and_arriving, packed_crossed
 
 
 def state_key(request: PlanRequest) -> tuple[bytes | None, ...]:
@@ -44,7 +44,7 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
-        self._packed: dict[tuple, dict] = {}
+        self._packed: dict[tuple, tuple[tuple[np.ndarray, np.ndarray], dict]] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
         self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
 
@@ -109,10 +109,14 @@ class PlanCache:
         if hit is None:
             # What is packed round each robot's way does not depend on who plans: shared by every
             # planning set of the same state.
-            packed = self._packed.setdefault(state, {})
+            shared = self._packed.get(state)
+            if shared is None:
+                masks = crossed_and_arriving(world, positions, destinations, known, goal_tolerance)
+                shared = self._packed[state] = (masks, {})
+            masks, packed = shared
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
                                                             list(planning), goal_tolerance, margin, self.graphs,
-                                                            packed))
+                                                            packed, masks))
         return hit
 
     def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:

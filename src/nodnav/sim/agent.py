@@ -25,7 +25,7 @@ from nodnav.decision.games import carry_opinions, class_size, game_bias, game_or
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
-from nodnav.decision.standoff import progress_beyond_best, standoff_partner
+from nodnav.decision.standoff import STALL_DISTANCE, progress_beyond_best, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
@@ -398,24 +398,26 @@ class NODAgent:
         to_go_now = None
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             planning, _, _, plans = self.previous
-            plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             to_go = self._shared_to_go(ends)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -np.diff(to_go, axis=1)[:, 0]
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
-            planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
-            columns = [planning.index(k) if k in planning else -1 for k in players]
-            players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
-            now = view.positions[list(players)]
-            arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
-                       <= self.scenario.sim.goal_tolerance)
-            found = standoff_partner(progress[self.index], progress[list(players)],
-                                     planned[planning.index(self.index)], players_planned,
-                                     players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
-                                     players_arrived=arrived)
-            partner = players[found] if found >= 0 else -1
+            if progress[self.index] < STALL_DISTANCE:
+                # standoff_partner reads the plan and the players only for a robot that has stalled.
+                plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
+                planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
+                columns = [planning.index(k) if k in planning else -1 for k in players]
+                players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+                now = view.positions[list(players)]
+                arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
+                           <= self.scenario.sim.goal_tolerance)
+                found = standoff_partner(progress[self.index], progress[list(players)],
+                                         planned[planning.index(self.index)], players_planned,
+                                         players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                         players_arrived=arrived)
+                partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
             if to_go_now is None:

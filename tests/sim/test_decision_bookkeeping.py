@@ -55,3 +55,19 @@ def test_game_players_rank_as_numpy_argsort_does():
             assert select_game_players(L, i, k) == _players_by_argsort(L, i, k)
     L = np.array([[0.0, np.nan, 0.3], [0.1, 0.0, 0.2], [0.5, 0.5, 0.0]])
     assert select_game_players(L, 0, 1) == _players_by_argsort(L, 0, 1) == (2,)
+
+
+def test_once_computes_once_per_round():
+    from nodnav.sim.plan_cache import PlanCache
+    cache = PlanCache(planner=None)  # type: ignore[arg-type]
+    calls = []
+    kept = np.zeros(3)
+
+    def compute():
+        calls.append(1)
+        return ("template", len(calls))
+
+    assert cache.once(("k", id(kept)), compute, kept) == ("template", 1)
+    assert cache.once(("k", id(kept)), compute, kept) == ("template", 1)  # the same round: remembered
+    cache.clear()
+    assert cache.once(("k", id(kept)), compute, kept) == ("template", 2)  # a new round: computed again

@@ -352,10 +352,22 @@ class NODAgent:
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
         if not orders:
             return []
-        # The queries of all orders share their state: one request, asked in each order.
-        template = joint_requests(self.scenario, view, planning, orders[:1], self.arrays)[0]
-        state = state_key(template)
+        # The queries of all orders share their state: one request, asked in each order. Every
+        # agent of the round that plans the same robots from the same observed window (with exact
+        # sensing the simulator hands every view the same read-only window) builds the same one:
+        # built once, keyed by what joint_requests reads (the scenario's world and robot_arrays,
+        # the window, the time, the entry records, the robots; its first order is no part of the
+        # queries: plan_order asks each order of it).
+        key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
+        template, state = self.plans.once(key, lambda: self._template(view, planning, orders[0]),
+                                          (self.scenario, view.window_states))
         return [self.plans.plan_order(template, order, state) for order in orders]
+
+    def _template(self, view: RobotView, planning: tuple[int, ...],
+                  order: tuple[int, ...]) -> tuple[PlanRequest, tuple]:
+        """The planning query of ``planning`` in ``order`` from ``view`` and its :func:`state_key`."""
+        template = joint_requests(self.scenario, view, planning, [order], self.arrays)[0]
+        return template, state_key(template)
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order

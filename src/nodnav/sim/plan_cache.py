@@ -9,6 +9,8 @@ so a hit returns exactly what the agent would have computed alone.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from nodnav.compiled import compiled
@@ -47,6 +49,7 @@ class PlanCache:
         self._packed: dict[tuple, tuple[tuple[np.ndarray, np.ndarray], dict]] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
         self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
+        self._once: dict[tuple, tuple[object, Any]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
@@ -56,6 +59,15 @@ class PlanCache:
         self._packed.clear()
         self._stacks.clear()
         self._shared.clear()
+        self._once.clear()
+
+    def once(self, key: tuple, compute, keep: object = None) -> Any:
+        """``compute()``, any object its callers only read, computed at most once per round for
+        ``key`` (which must name everything it reads); ``keep`` as in :meth:`shared`."""
+        hit = self._once.get(key)
+        if hit is None:
+            hit = self._once[key] = (keep, compute())
+        return hit[1]
 
     def shared(self, key: tuple, compute, keep: object = None) -> np.ndarray:
         """``compute()``, an array, computed at most once per round for ``key`` (which must name

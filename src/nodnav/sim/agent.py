@@ -358,8 +358,8 @@ class NODAgent:
         # built once, keyed by what joint_requests reads (the scenario's world and robot_arrays,
         # the window, the time, the entry records, the robots; its first order is no part of the
         # queries: plan_order asks each order of it).
-        key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
-        template, state = self.plans.once(key, lambda: self._template(view, planning, orders[0]),
+        template_key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
+        template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]),
                                           (self.scenario, view.window_states))
         return [self.plans.plan_order(template, order, state) for order in orders]
 

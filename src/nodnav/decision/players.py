@@ -46,9 +46,14 @@ def select_game_players(L: np.ndarray, i: int, k: int) -> tuple[int, ...]:
         raise ValueError(f"robot {i} is not among the {n} robots")
     if not 0 <= k <= n - 1:
         raise ValueError(f"k must be between 0 and {n - 1}, got {k}")
-    others = np.delete(np.arange(n), i)
-    ranked = others[np.argsort(-L[i, others], kind="stable")]
-    return tuple(sorted(int(j) for j in ranked[:k]))
+    row = L[i].tolist()
+    if any(v != v for v in row):  # NaN: numpy's ordering (last), which Python's sort does not keep
+        others = np.delete(np.arange(n), i)
+        ranked = others[np.argsort(-L[i, others], kind="stable")]
+        return tuple(sorted(int(j) for j in ranked[:k]))
+    # The stable sort by -L_ij, as argsort(kind="stable") of the negated row: ties keep the lower index.
+    ranked_list = sorted((j for j in range(n) if j != i), key=lambda j: -row[j])
+    return tuple(sorted(ranked_list[:k]))
 
 
 def game_player_mask(L: np.ndarray, k: int) -> np.ndarray:

@@ -10,6 +10,7 @@ for every strategy.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,7 +25,7 @@ from nodnav.decision.games import carry_opinions, class_size, game_bias, game_or
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
-from nodnav.decision.standoff import progress_beyond_best, standoff_partner
+from nodnav.decision.standoff import STALL_DISTANCE, progress_beyond_best, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
@@ -128,6 +129,17 @@ def robot_arrays(scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray
     for a in arrays:
         a.flags.writeable = False
     return arrays
+
+
+def weighted_choice(rng: np.random.Generator, p: np.ndarray) -> int:
+    """``int(rng.choice(len(p), p=p))`` for probabilities ``p`` that sum to 1, the same draw
+    and the same index: numpy's ``Generator.choice`` takes ``cdf = p.cumsum()``, divides it by
+    its last element, draws one ``rng.random()`` and returns ``cdf.searchsorted(u, side="right")``
+    (``bisect_right`` of the same sorted list). Without ``choice``'s argument checks, which
+    cost more than the draw (the probabilities come from eq. (3), checked there)."""
+    cdf = np.cumsum(p, dtype=float)
+    cdf /= cdf[-1]
+    return bisect_right(cdf.tolist(), rng.random())
 
 
 def joint_requests(scenario: Scenario, view: RobotView, robots: tuple[int, ...], orders,
@@ -340,10 +352,22 @@ class NODAgent:
             orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
         if not orders:
             return []
-        # The queries of all orders share their state: one request, asked in each order.
-        template = joint_requests(self.scenario, view, planning, orders[:1], self.arrays)[0]
-        state = state_key(template)
+        # The queries of all orders share their state: one request, asked in each order. Every
+        # agent of the round that plans the same robots from the same observed window (with exact
+        # sensing the simulator hands every view the same read-only window) builds the same one:
+        # built once, keyed by what joint_requests reads (the scenario's world and robot_arrays,
+        # the window, the time, the entry records, the robots; its first order is no part of the
+        # queries: plan_order asks each order of it).
+        template_key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
+        template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]),
+                                          (self.scenario, view.window_states))
         return [self.plans.plan_order(template, order, state) for order in orders]
+
+    def _template(self, view: RobotView, planning: tuple[int, ...],
+                  order: tuple[int, ...]) -> tuple[PlanRequest, tuple]:
+        """The planning query of ``planning`` in ``order`` from ``view`` and its :func:`state_key`."""
+        template = joint_requests(self.scenario, view, planning, [order], self.arrays)[0]
+        return template, state_key(template)
 
     def committed(self, view: RobotView, players: tuple[int, ...]) -> tuple[int, ...]:
         """Robots that are not game players but join the plan, as robots whose place in the order
@@ -386,24 +410,26 @@ class NODAgent:
         to_go_now = None
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             planning, _, _, plans = self.previous
-            plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             to_go = self._shared_to_go(ends)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -np.diff(to_go, axis=1)[:, 0]
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
-            planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
-            columns = [planning.index(k) if k in planning else -1 for k in players]
-            players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
-            now = view.positions[list(players)]
-            arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
-                       <= self.scenario.sim.goal_tolerance)
-            found = standoff_partner(progress[self.index], progress[list(players)],
-                                     planned[planning.index(self.index)], players_planned,
-                                     players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
-                                     players_arrived=arrived)
-            partner = players[found] if found >= 0 else -1
+            if progress[self.index] < STALL_DISTANCE:
+                # standoff_partner reads the plan and the players only for a robot that has stalled.
+                plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
+                planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
+                columns = [planning.index(k) if k in planning else -1 for k in players]
+                players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+                now = view.positions[list(players)]
+                arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
+                           <= self.scenario.sim.goal_tolerance)
+                found = standoff_partner(progress[self.index], progress[list(players)],
+                                         planned[planning.index(self.index)], players_planned,
+                                         players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                         players_arrived=arrived)
+                partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
             if to_go_now is None:
@@ -447,7 +473,7 @@ class NODAgent:
             by_convention = available & precedence_mask(orders, first, second)
             available = by_convention if by_convention.any() else available
         choice = selection_probabilities(x, available)
-        strategy = int(self.rng.choice(len(x), p=choice))
+        strategy = weighted_choice(self.rng, choice)
         self.selected = strategy
         self.previous = (planning, players, game, plans)
         plan = plans[strategy]

@@ -24,7 +24,8 @@ from nodnav.scenario.world import World
 
 def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                    known: np.ndarray, planning: list[int], goal_tolerance: float, margin: float,
-                   graphs: dict | None = None, packed_round: dict | None = None) -> list[int]:
+                   graphs: dict | None = None, packed_round: dict | None = None,
+                   masks: tuple[np.ndarray, np.ndarray] | None = None) -> list[int]:
     """The robots not in ``planning`` that join it: every robot seen (``known`` ``(N,)``, a mask)
     that has crossed (outside the corridor, on its destination's side) and stands packed round the
     way of a robot that has not arrived (farther than ``goal_tolerance`` from its destination):
@@ -34,12 +35,14 @@ def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray
     pass (its diameter and twice the planner's ``margin`` between the bodies), or, in turn, that
     close to a robot already packed round it. ``graphs`` caches visibility graphs by radius;
     ``packed_round`` (robot -> its packed robots) those found for the same arguments but
-    ``planning``, which they do not read. Increasing index."""
+    ``planning``, which they do not read; ``masks``: :func:`crossed_and_arriving` of the same
+    arguments, which does not read ``planning`` either. Increasing index."""
     graphs = {} if graphs is None else graphs
-    crossed = known & (crossing_directions(world, positions, destinations) == 0) & ~world.in_corridor(positions)
+    if masks is None:
+        masks = crossed_and_arriving(world, positions, destinations, known, goal_tolerance)
+    crossed, arriving = masks
     mine = np.zeros(len(positions), dtype=bool)
     mine[planning] = True
-    arriving = np.linalg.norm(positions - destinations, axis=1) > goal_tolerance
     joining = np.zeros(len(positions), dtype=bool)
     packed_round = {} if packed_round is None else packed_round
     for k in np.flatnonzero(arriving & (mine | crossed)):
@@ -51,6 +54,15 @@ def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray
             joining |= packed
             joining[k] = True
     return np.flatnonzero(joining & ~mine).tolist()
+
+
+def crossed_and_arriving(world: World, positions: np.ndarray, destinations: np.ndarray, known: np.ndarray,
+                         goal_tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    """The robots of :func:`packed_crossed` seen to have crossed, and those that have not
+    arrived, ``(N,)`` masks each."""
+    crossed = known & (crossing_directions(world, positions, destinations) == 0) & ~world.in_corridor(positions)
+    arriving = np.linalg.norm(positions - destinations, axis=1) > goal_tolerance
+    return crossed, arriving
 
 
 def _packed_round(world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,

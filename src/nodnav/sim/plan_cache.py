@@ -9,12 +9,14 @@ so a hit returns exactly what the agent would have computed alone.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.planning.base import JointTrajectory, Planner, PlanRequest, PlanResult, interpolate_positions
 from nodnav.scenario.world import World
-from nodnav.sim.parked import packed_crossed
+from nodnav.sim.parked import crossed_and_arriving, packed_crossed
 
 
 def state_key(request: PlanRequest) -> tuple[bytes | None, ...]:
@@ -44,9 +46,10 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
-        self._packed: dict[tuple, dict] = {}
+        self._packed: dict[tuple, tuple[tuple[np.ndarray, np.ndarray], dict]] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
         self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
+        self._once: dict[tuple, tuple[object, Any]] = {}
 
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on)."""
@@ -56,6 +59,15 @@ class PlanCache:
         self._packed.clear()
         self._stacks.clear()
         self._shared.clear()
+        self._once.clear()
+
+    def once(self, key: tuple, compute, keep: object = None) -> Any:
+        """``compute()``, any object its callers only read, computed at most once per round for
+        ``key`` (which must name everything it reads); ``keep`` as in :meth:`shared`."""
+        hit = self._once.get(key)
+        if hit is None:
+            hit = self._once[key] = (keep, compute())
+        return hit[1]
 
     def shared(self, key: tuple, compute, keep: object = None) -> np.ndarray:
         """``compute()``, an array, computed at most once per round for ``key`` (which must name
@@ -109,10 +121,14 @@ class PlanCache:
         if hit is None:
             # What is packed round each robot's way does not depend on who plans: shared by every
             # planning set of the same state.
-            packed = self._packed.setdefault(state, {})
+            shared = self._packed.get(state)
+            if shared is None:
+                masks = crossed_and_arriving(world, positions, destinations, known, goal_tolerance)
+                shared = self._packed[state] = (masks, {})
+            masks, packed = shared
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
                                                             list(planning), goal_tolerance, margin, self.graphs,
-                                                            packed))
+                                                            packed, masks))
         return hit
 
     def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:

@@ -102,15 +102,20 @@ def test_a_start_of_the_wrong_length_is_ignored():
     assert sol.success and np.allclose(sol.x, 0.0)  # the minimiser of |x + 1|^2 over x >= 0
 
 
-def test_solver_effort_starts_each_kind_from_its_last_solution(monkeypatch):
-    seen = []
+def _spied_effort(monkeypatch) -> tuple[SolverEffort, list]:
+    """A :class:`SolverEffort` that remembers starts, and the list of the start each solve got."""
+    seen: list = []
 
     def spy(*args):
         seen.append(args[7])
         return solve_qp(*args)
 
     monkeypatch.setattr(qp, "solve_qp", spy)
-    effort = SolverEffort(starts={})
+    return SolverEffort(starts={}), seen
+
+
+def test_solver_effort_starts_each_kind_from_its_last_solution(monkeypatch):
+    effort, seen = _spied_effort(monkeypatch)
     h, g = np.eye(2), np.array([1.0, -1.0])
     rows, lower = np.eye(2), np.zeros(2)
     first = effort.solve(h, g, rows, lower, TOL, kind="a")
@@ -122,14 +127,7 @@ def test_solver_effort_starts_each_kind_from_its_last_solution(monkeypatch):
 
 
 def test_solver_effort_falls_back_to_a_like_kind(monkeypatch):
-    seen = []
-
-    def spy(*args):
-        seen.append(args[7])
-        return solve_qp(*args)
-
-    monkeypatch.setattr(qp, "solve_qp", spy)
-    effort = SolverEffort(starts={})
+    effort, seen = _spied_effort(monkeypatch)
     h, g = np.eye(2), np.array([1.0, -1.0])
     rows, lower = np.eye(2), np.zeros(2)
     effort.solve(h, g, rows, lower, TOL, kind="a")

@@ -136,12 +136,14 @@ def recording(into: list[RecordedQP], source: Callable[[], str] = lambda: "") ->
     """
     saved = SolverEffort.__dict__["solve"]
 
-    def solve(self, hessian, gradient, rows, lower, tol, bounds=None, start_active=None):
+    def solve(self, hessian, gradient, rows, lower, tol, bounds=None, start_active=None, kind=None, like=None):
+        # The QP is recorded without the controller's warm start (``kind``, ``like``): the
+        # solvers compared are each given it cold.
         into.append(RecordedQP(
             np.array(hessian, dtype=float), np.array(gradient, dtype=float), np.array(rows, dtype=float),
             np.array(lower, dtype=float), float(tol), None if bounds is None else np.array(bounds, dtype=float),
             None if start_active is None else np.array(start_active, dtype=bool), source()))
-        return saved(self, hessian, gradient, rows, lower, tol, bounds, start_active)
+        return saved(self, hessian, gradient, rows, lower, tol, bounds, start_active, kind=kind, like=like)
 
     functools.update_wrapper(solve, saved)
     name = "solve"  # set by name: the class's method is replaced for the recording only

@@ -101,7 +101,8 @@ class RobotPlan:
         out = _stays_kernel(np.ascontiguousarray(self.motion.samples, dtype=float), p.along_x, p.axis[0], p.axis[1],
                             p.normal[0], p.normal[1], p.s_start, p.s_end, p.t_centre, 0.5 * p.width,
                             float(e0x), float(e0y), float(e1x), float(e1y), float(self.door_clearance))
-        return tuple(int(v) for v in out)  # type: ignore[return-value]
+        a, b, c, d, e, f = (int(v) for v in out)
+        return a, b, c, d, e, f
 
     @property
     def passage(self) -> tuple[int, int]:

@@ -21,9 +21,9 @@ from nodnav.planning.occupancy import (
     relaxed_separation,
     separation_requirements,
 )
+from nodnav.planning.polylines import arc_length_grid
 from nodnav.planning.prioritized import PrioritizedPlanner
 from nodnav.planning.timing import earliest_arrival
-from nodnav.planning.visibility import arc_length_grid
 from nodnav.scenario.params import FastPlannerParams
 from nodnav.scenario.world import paper_world
 

@@ -7,14 +7,12 @@ import pytest
 from scipy.sparse.csgraph import dijkstra
 
 from nodnav.geometry import segment_box_distance
+from nodnav.planning.polylines import arc_length_grid, polyline_length, polyline_point_distance
 from nodnav.planning.visibility import (
     VisibilityGraph,
-    arc_length_grid,
     chamfered_vertices,
     disc_violations,
     octagon_exits,
-    polyline_length,
-    polyline_point_distance,
     shortest_chain,
 )
 from nodnav.scenario.world import Corridor, World, paper_world
@@ -346,7 +344,7 @@ def test_compiled_disc_checks_match_their_numpy_forms():
     replace, on random polylines and discs (also single points, starts inside discs, radii at
     and below TOL): the same decisions."""
     from nodnav.geometry import TOL, segment_point_distance
-    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations, polyline_point_distance
+    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations
 
     rng = np.random.default_rng(3)
     for _ in range(500):
@@ -370,7 +368,6 @@ def test_compiled_disc_checks_match_their_numpy_forms():
 
 def test_polyline_length_is_the_sum_of_segment_norms():
     """polyline_length against np.linalg.norm of the differences, summed (bit for bit)."""
-    from nodnav.planning.visibility import polyline_length
 
     rng = np.random.default_rng(5)
     for n in (1, 2, 3, 8, 9, 17, 40):

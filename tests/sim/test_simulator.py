@@ -8,8 +8,9 @@ import pytest
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import paper_world
+from nodnav.sim.contact_checks import contact_counts, straight_substeps
 from nodnav.sim.history import History
-from nodnav.sim.simulator import Simulation, contact_counts, run_trial, straight_substeps
+from nodnav.sim.simulator import Simulation, run_trial
 
 
 def test_head_on_pair_passes_without_collision():

@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
-from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, polyline_point_distance
+from nodnav.planning.polylines import arc_length_grid, polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph
 from nodnav.planning.waiting_spots import in_door_zone, ring_spots
 from nodnav.scenario.params import PlannerParams
 

@@ -17,7 +17,8 @@ from nodnav.geometry import TOL, segment_is_clear
 from nodnav.planning.fast_state import Cut, Route, Track
 from nodnav.planning.memo import remember
 from nodnav.planning.occupancy import entry_cell, polyline_segments
-from nodnav.planning.visibility import VisibilityGraph, arc_length_grid, corner_cuts_close
+from nodnav.planning.polylines import arc_length_grid
+from nodnav.planning.visibility import VisibilityGraph, corner_cuts_close
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 

@@ -17,7 +17,7 @@ import numpy as np
 from nodnav.geometry import TOL
 from nodnav.planning.fast_state import FastPlannerHooks, RobotPlan, State, timed_motion
 from nodnav.planning.occupancy import join_motions
-from nodnav.planning.visibility import polyline_point_distance
+from nodnav.planning.polylines import polyline_point_distance
 from nodnav.planning.waiting_spots import in_door_zone, ring_spots
 from nodnav.scenario.world import World
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
-from nodnav.planning.visibility import arc_length_grid
+from nodnav.planning.polylines import arc_length_grid
 
 
 @dataclass(frozen=True)

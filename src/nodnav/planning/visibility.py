@@ -1,5 +1,5 @@
-"""Shortest paths of a disc robot among walls (boxes and polygons): visibility graphs, polylines and
-arc-length grids (the distances they are built on are :mod:`nodnav.geometry`'s).
+"""Shortest paths of a disc robot among walls (boxes and polygons): visibility graphs (polylines and
+arc-length grids are :mod:`nodnav.planning.polylines`; the distances they are built on are :mod:`nodnav.geometry`'s).
 
 A disc robot of radius ``r`` fits at a point when the point is at least ``r`` from every wall
 and from the world's boundary, i.e. when it lies outside every wall grown by ``r`` (a rounded
@@ -33,6 +33,7 @@ from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear, segment_point_distance
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
+from nodnav.planning.polylines import polyline_length
 from nodnav.scenario.world import World
 
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
@@ -112,76 +113,6 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, tur
     inside = (d > 0) & (d < boundary)
     scale = np.where(inside, boundary / np.where(d > 0, d, 1.0), 1.0)
     return c + away * scale[:, None]
-
-
-def polyline_point_distance(polyline: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Distance from each point to a polyline ``(V, 2)``, shape ``(P,)``."""
-    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
-    if len(poly) == 1:
-        return np.linalg.norm(np.asarray(points, dtype=float).reshape(-1, 2) - poly[0], axis=1)
-    return segment_point_distance(poly[:-1], poly[1:], points).min(axis=0)
-
-
-def polyline_length(polyline: np.ndarray) -> float:
-    """Length of a polyline ``(V, 2)`` (m)."""
-    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
-    # np.linalg.norm(np.diff(poly, axis=0), axis=1).sum() without its checks: the same operations.
-    d = poly[1:] - poly[:-1]
-    d *= d
-    return float(np.sqrt(d[:, 0] + d[:, 1]).sum())
-
-
-@dataclass(frozen=True)
-class ArcGrid:
-    """Points along a polyline, no farther apart than a given spacing, every vertex included."""
-
-    points: np.ndarray
-    """Grid points ``(N, 2)`` from the start to the end of the polyline (m)."""
-    arc_length: np.ndarray
-    """Arc length of each grid point from the start ``(N,)`` (m)."""
-
-
-def arc_length_grid(polyline: np.ndarray, spacing: float) -> ArcGrid:
-    """Split every segment of ``polyline`` into equal pieces of length at most ``spacing``.
-
-    Keeping the vertices as grid points means that moving between neighbouring grid points
-    never cuts a corner of the polyline.
-    """
-    poly = np.ascontiguousarray(polyline, dtype=float).reshape(-1, 2)
-    return ArcGrid(*_grid_kernel(poly, float(spacing)))
-
-
-@_compiled
-def _grid_kernel(poly, spacing):
-    """The loops of :func:`arc_length_grid`: grid points and their arc lengths. Segments of zero
-    length are skipped; piece ``q`` of ``p`` on a segment sits at fraction ``q / p`` of it."""
-    n_seg = poly.shape[0] - 1
-    lengths = np.empty(max(n_seg, 0))
-    pieces = np.zeros(max(n_seg, 0), dtype=np.int64)
-    total = 0
-    for s in range(n_seg):
-        dx, dy = poly[s + 1, 0] - poly[s, 0], poly[s + 1, 1] - poly[s, 1]
-        lengths[s] = math.sqrt(dx * dx + dy * dy)
-        if lengths[s] > 0:
-            pieces[s] = max(math.ceil(lengths[s] / spacing - 1e-9), 1)
-            total += pieces[s]
-    points = np.empty((total + 1, 2))
-    arc = np.empty(total + 1)
-    k, s0 = 0, 0.0
-    for s in range(n_seg):
-        if pieces[s] == 0:
-            continue
-        dx, dy = poly[s + 1, 0] - poly[s, 0], poly[s + 1, 1] - poly[s, 1]
-        for q in range(pieces[s]):
-            frac = q / pieces[s]
-            points[k, 0] = poly[s, 0] + frac * dx
-            points[k, 1] = poly[s, 1] + frac * dy
-            arc[k] = s0 + frac * lengths[s]
-            k += 1
-        s0 += lengths[s]
-    points[k] = poly[-1] if total else poly[0]
-    arc[k] = s0
-    return points, arc
 
 
 @dataclass(frozen=True)
@@ -459,7 +390,8 @@ def corner_cuts_close(path, a, b, centres, radii):
     """Which chords ``a[c] -> b[c]`` come closer than ``min(radii[j], distance of centre j
     from path) - TOL`` to a centre ``j``: the corner check of the fast planner's tracks
     (:meth:`~nodnav.planning.geometric_paths.GeometricPaths._prepare`) as loops, with the
-    float operations of :func:`polyline_point_distance` and :func:`segment_point_distance`."""
+    float operations of :func:`~nodnav.planning.polylines.polyline_point_distance` and
+    :func:`segment_point_distance`."""
     m = centres.shape[0]
     keep = np.empty(m)
     for j in range(m):

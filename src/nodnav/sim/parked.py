@@ -18,7 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.planning.base import crossing_directions
-from nodnav.planning.visibility import VisibilityGraph, polyline_point_distance
+from nodnav.planning.polylines import polyline_point_distance
+from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.world import World
 
 

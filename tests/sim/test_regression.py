@@ -61,6 +61,7 @@ CASES = [
     ("occluded-mouth-slow-braker.yaml", (417,)),
     ("crossed-rule-with-another-passage-ahead.yaml", (473,)),
     ("press-and-back-off-in-turn.yaml", (5, 24)),
+    ("mirror-abreast-both-first.yaml", (20, 23, 26)),
 ]
 
 

@@ -10,6 +10,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from nodnav.control.mutual_braking import BrakingPartners
+
 #: Points of a control step at which a controller reports the motion it commands: the fractions
 #: 1/4, 2/4, 3/4 and 4/4 of the step (the simulator checks contacts there).
 STEP_FRACTIONS = np.array([0.25, 0.5, 0.75, 1.0])
@@ -34,6 +36,9 @@ class ControlRequest:
     firm: np.ndarray | None = None
     """Which predictions ``(m,)`` a controller that trades intrusions when it cannot keep clear
     of every prediction must still keep clear of, as of a wall; ``None``: none."""
+    braking: BrakingPartners | None = None
+    """The robots whose braking trajectories the robot's own braking from its next step must keep
+    clear of (:mod:`nodnav.control.mutual_braking`); ``None``: no such check."""
 
 
 @dataclass(frozen=True)

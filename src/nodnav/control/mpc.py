@@ -19,7 +19,8 @@ able to stop (:mod:`nodnav.control.mpc_rows`). A second QP, re-linearised about 
 solution (SQP), is solved only after a cold start (no previous plan), when the first moved far
 from its linearisation points; otherwise the next step's re-linearisation continues the
 iteration. Every accepted plan is checked exactly and is safe at every instant with respect to
-the predictions.
+the predictions; where the request names braking partners, braking from the plan's next step must
+also keep clear of theirs (:mod:`nodnav.control.mutual_braking`), or the robot brakes instead.
 
 When the tracking QP has no solution, the robot follows the plan that intrudes least into the
 others' predicted discs (:mod:`nodnav.control.evasive`); if no such plan keeps clear of the
@@ -45,6 +46,7 @@ from nodnav.control.braking import Committed, braking_profile, tail_clearance, t
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
 from nodnav.control.mpc_rows import all_finite, step_state
+from nodnav.control.mutual_braking import braking_slack
 from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -199,9 +201,12 @@ class BSplineMPC:
             conflict = overlapping
         else:
             best, post, why, conflict = self._track(prob, data, lin, cold, effort)
-            if best is not None:
+            unsafe = "" if best is None else self._braking_conflict(request, post)
+            if best is not None and not unsafe:
                 self._accept(best, prob, post)
                 return self._result(True, "", post, data, start, {"fallback": "", **effort.as_info()})
+            if unsafe:  # a plan exists, but braking from its next step is not known to stay apart
+                return self._fallback(request, prob, committed, start, effort, p0, v0, unsafe)
         logger.debug("MPC at %s: %s", p0, why)
         # With no other robot the evasive QP would be the tracking QP again.
         plan, firm_softened = None, False
@@ -213,21 +218,44 @@ class BSplineMPC:
                 plan, intrusion, intruded = evasive_plan(prob, data, lin, cold, conflict, np.zeros_like(firm),
                                                           effort)
         if plan is None:
-            # Braking along the velocity at the limit is what the other robots expect of a robot
-            # that cannot plan (their firm predictions); it is kept wherever it stops clear of the
-            # walls, and the committed trajectory, always clear of them, is followed otherwise.
-            straight = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
-                                      self.setup.world_bounds)
-            if committed is not None and straight < r - self.settings.check_tolerance:
-                return self._follow(committed, prob, start, effort, why)
-            return self._brake(request, prob, start, effort, why)
+            return self._fallback(request, prob, committed, start, effort, p0, v0, why)
         post = prob.evaluate(plan)
+        unsafe = self._braking_conflict(request, post)
+        if unsafe:
+            return self._fallback(request, prob, committed, start, effort, p0, v0, f"{why}; evasive: {unsafe}")
         self._accept(plan, prob, post)
         return self._result(False, f"infeasible: evasive: {why}", post, data, start,
                             {"fallback": "evasive", "intrusion": intrusion, "intruded": intruded.tolist(),
                              "firm_softened": firm_softened, **effort.as_info()})
 
     # -- internals ---------------------------------------------------------------------------
+
+    def _fallback(self, request: ControlRequest, prob: MPCProblem, committed: Committed | None, start: float,
+                  effort: SolverEffort, p0: np.ndarray, v0: np.ndarray, why: str) -> ControlResult:
+        """No plan to follow. Braking along the velocity at the limit is what the other robots
+        expect of a robot that cannot plan (their firm predictions); it is kept wherever it stops
+        clear of the walls, and the committed trajectory, always clear of them, is followed otherwise."""
+        straight = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
+                                  self.setup.world_bounds)
+        if committed is not None and straight < self.robot.radius - self.settings.check_tolerance:
+            return self._follow(committed, prob, start, effort, why)
+        return self._brake(request, prob, start, effort, why)
+
+    def _braking_conflict(self, request: ControlRequest, post: tuple) -> str:
+        """Why braking from the plan's next state (``post``: :meth:`MPCProblem.evaluate`) fails
+        the mutual braking check (:func:`braking_slack`) towards a robot of ``request.braking``;
+        "" when it passes or there is none."""
+        partners = request.braking
+        if partners is None or not len(partners.positions):
+            return ""
+        out = post[2]
+        slack = braking_slack(out[0], out[1], self.robot.max_accel, partners)
+        j = int(np.argmin(slack))
+        if slack[j] >= 0.0:
+            return ""
+        kind = "its reach after one step" if partners.strong[j] else "it"
+        return (f"braking from its next step would come {-slack[j]:.3f} m too close to another robot's "
+                f"braking trajectory (partner {j}, clear of {kind})")
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
         """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,

@@ -276,6 +276,14 @@ class ExecutionParams:
     ``moving`` (default) every robot that moves, that came at this one unexpectedly
     (``unexpected_approach``) within the last second, and every robot while this one cannot
     follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""
+    mutual_braking: Literal["speed", "index", "strong", "none"] = "speed"
+    """Which check a robot's braking from its next step must pass towards each other robot
+    (``nodnav.control.mutual_braking``, docs/safety.md). Of two robots that keep the rule, one
+    takes the weak check (clear of the other's braking trajectory), the other the strong one (clear
+    of wherever that trajectory can move in one step): ``speed`` (default) the faster one takes the
+    weak check, the lower-numbered one at equal speeds; ``index`` the lower-numbered one; ``strong``
+    both the strong one; ``none`` no check (before this setting; the paper has none). Towards a
+    robot that does not keep the rule (another method, a person) the check is always strong."""
     surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as

@@ -226,8 +226,12 @@ def reaction_margin(speeds: np.ndarray, max_accel: np.ndarray, dt: float) -> np.
     braking would leave it, with a velocity up to ``a dt`` off; braking from speed ``v`` covers
     ``v^2 / (2 a)``, which such a change moves by at most ``(|v| + a dt / 2) dt``. Keeping a
     robot's own plan this much farther from every other robot's braking trajectory than contact
-    keeps both able to stop apart at the next step whatever the other chose: when neither can
-    follow its plan, neither squeezes the other.
+    leaves the plans room when the others move: when neither can follow its plan, neither
+    squeezes the other. It constrains the plan, not the robot's own braking from where the plan
+    takes it; that both robots can still stop apart is the mutual braking check's
+    (:mod:`nodnav.control.mutual_braking`). Its bound of the same motion,
+    ``braking_deviation``, counts the velocity change against braking (up to ``2 a dt``) and is
+    larger once the robot has stopped: ``2 (|v| + a dt) dt + a dt^2``.
     """
     v = np.asarray(speeds, dtype=float)
     a = np.asarray(max_accel, dtype=float)

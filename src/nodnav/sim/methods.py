@@ -15,6 +15,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
+from nodnav.control.mutual_braking import BrakingPartners
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
@@ -152,7 +153,7 @@ class PlannedMethod:
         # Where the others would be if they braked now is where they can at least be: an
         # evasive plan may intrude into the other predictions, never into that one.
         self._firm = np.repeat([False, False, True], n - 1)
-        accel = np.array([r.max_accel for r in scenario.robots])
+        accel = self._accel = np.array([r.max_accel for r in scenario.robots])
         self._decel = [np.delete(accel, i) for i in range(n)]
         self.dt = scenario.controller.dt
         ex = scenario.execution
@@ -161,6 +162,11 @@ class PlannedMethod:
             margin=scenario.planner.margin, tolerance=ex.tolerance)
         self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
         self.reactions = ReactionMargins(scenario)
+        self.keeps_rule = np.ones(n, dtype=bool)
+        """Which robots keep the mutual braking rule (:mod:`nodnav.control.mutual_braking`): every
+        robot of a trial run by one planned method; a :class:`Team` narrows it to its planned
+        methods' robots."""
+        self._mutual = ex.mutual_braking
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
@@ -287,10 +293,32 @@ class PlannedMethod:
                 continue
             request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=firm)
+                                     other_radii=radii, firm=firm, braking=self._partners(i, view))
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
+
+    def _partners(self, i: int, view: RobotView) -> BrakingPartners | None:
+        """The robots robot ``i``'s next step is checked against (``execution.mutual_braking``):
+        every other robot it sees now, the weak check towards one that keeps the rule and comes
+        after ``i`` by the convention, the strong one towards the rest."""
+        if self._mutual == "none":
+            return None
+        others = self._others_array[i]
+        if view.age is not None:
+            others = others[view.age[others] == 0.0]
+        strong = np.ones(len(others), dtype=bool)
+        if self._mutual != "strong":  # the same convention as each other robot's, from the same view
+            if self._mutual == "speed":
+                speeds = np.hypot(view.velocities[:, 0], view.velocities[:, 1])
+                first = (speeds[i] > speeds[others]) | ((speeds[i] == speeds[others]) & (others > i))
+            else:
+                first = others > i
+            strong = ~(self.keeps_rule[others] & first)
+        radii = self.scenario.radii
+        return BrakingPartners(positions=view.positions[others], velocities=view.velocities[others],
+                               decels=self._accel[others], contact=radii[i] + radii[others], strong=strong,
+                               dt=self.dt)
 
     def _stay(self, position: np.ndarray) -> ControlResult:
         """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""
@@ -396,6 +424,13 @@ class Team:
         self.names = names
         self.members: dict[str, Method] = {m: make_method(m, scenario, rngs, planner) for m in dict.fromkeys(names)}
         self.robots = {m: [i for i, n in enumerate(names) if n == m] for m in self.members}
+        # The mutual braking rule is kept by every robot a planned method moves (they share the MPC).
+        keeps = np.zeros(len(names), dtype=bool)
+        for m, member in self.members.items():
+            keeps[self.robots[m]] = isinstance(member, PlannedMethod)
+        for member in self.members.values():
+            if isinstance(member, PlannedMethod):
+                member.keeps_rule = keeps
 
     def _split(self, views: dict[int, RobotView]) -> dict[str, dict[int, RobotView]]:
         return {m: {i: views[i] for i in robots if i in views} for m, robots in self.robots.items()}

@@ -1,0 +1,159 @@
+"""Mutual braking: a robot's next step keeps both it and every other robot able to stop apart.
+
+Every robot that cannot plan brakes along its velocity at its limit, and every robot predicts
+the others that way (the *firm* predictions, :mod:`nodnav.sim.methods`). Keeping one's *plan*
+clear of the others' braking trajectories is not enough between two robots that both move: each
+is where its plan took it at the next step, and braking from there (its next fallback) can run
+into the other's braking from where *its* plan took it. Two robots abreast at a mouth, each
+sure it goes first, converged that way until both braked too late (``5r-mixed`` with one game
+player, seeds 20, 23, 26; docs/safety.md, "Mutual braking").
+
+The invariant kept here: *every two robots' braking trajectories, from their present states, never
+touch.* It holds at the start (all at rest, apart). A robot accepts a plan only if its braking
+trajectory from the state the plan's first step reaches, ``B_i(k+1)``, passes a check against
+every other robot ``j``; otherwise it brakes (``B_i(k+1) = B_i(k)``). The check is
+
+* **strong**: ``B_i(k+1)`` keeps contact plus :func:`braking_deviation` from ``j``'s braking
+  trajectory ``B_j(k)`` at every instant, so it is clear of *every* braking trajectory ``j`` can
+  have after its own step, whatever ``j`` does within its acceleration limit;
+* **weak**: ``B_i(k+1)`` keeps contact from ``B_j(k)`` itself.
+
+Of two robots that both keep the rule, one (by a fixed convention, ``execution.mutual_braking``)
+takes the weak check towards the other and the other the strong one. Then after every step: if
+the strong one passed, ``B_j(k+1)`` is clear of whatever ``i`` did; if it braked, ``B_j(k+1) =
+B_j(k)``, from which ``i`` kept clear (weak) or which ``i`` did not change (``i`` braked: the
+invariant at ``k``). Towards a robot that may not keep the rule (a person, another method), the
+check is strong and the guarantee is only this robot's half.
+
+Assumptions: exact observations and exact motion (as the wall guarantee), and braking as the
+only fallback; a robot whose straight braking would reach a wall follows its committed
+trajectory instead (:mod:`nodnav.control.braking`), which the others do not predict.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from nodnav.compiled import compiled
+
+SAMPLE_STEP = 0.01
+"""Time between the samples of the check (s); the minimum between samples is bounded by the
+relative speed (:func:`braking_slack`), so a coarser step is only more careful."""
+
+MAX_SAMPLES = 4000
+"""At most this many samples per pair; a longer stop (very slow braking) spaces them wider."""
+
+
+@dataclass(frozen=True)
+class BrakingPartners:
+    """The other robots a controller's next step is checked against (:mod:`nodnav.control.mutual_braking`)."""
+
+    positions: np.ndarray
+    """Their positions now ``(m, 2)`` (m)."""
+    velocities: np.ndarray
+    """Their velocities now ``(m, 2)`` (m/s)."""
+    decels: np.ndarray
+    """The deceleration each brakes at when it cannot plan, its ``max_accel`` ``(m,)`` (m/s^2)."""
+    contact: np.ndarray
+    """Distance between centres at contact, ``r_i + r_j`` ``(m,)`` (m)."""
+    strong: np.ndarray
+    """Whether the check towards each is strong ``(m,)`` (bool); weak otherwise."""
+    dt: float
+    """The control step (s)."""
+
+
+def braking_deviation(speed: np.ndarray | float, decel: np.ndarray | float, dt: float,
+                      elapsed: np.ndarray | float) -> np.ndarray:
+    """Upper bound (m) on how far a robot's braking trajectory after one control step can be
+    from its braking trajectory now, ``elapsed`` seconds after that step.
+
+    Braking for the step leaves the robot at ``p + v g(|v|, dt) / |v|`` with speed
+    ``max(|v| - a dt, 0)``, where ``g(w, s) = w sigma - a sigma^2 / 2``, ``sigma = min(s, w / a)``.
+    Any other step within the limit ends within ``dp = |v| dt - g(|v|, dt) + a dt^2 / 2`` of that
+    position and ``dv = min(|v|, a dt) + a dt`` of that velocity. Braking from ``(p, v)`` is at
+    ``p + v g(|v|, s) / |v|`` after ``s``, whose Jacobian in ``v`` has norm ``sigma``, at most
+    ``min(s, w / a)`` for speeds up to ``w = |v| + a dt`` on the way. Hence ``dp + dv min(s, (|v| +
+    a dt) / a)``: 0.02 m right after the step and 0.26 m once stopped at 1 m/s and 2 m/s^2 over
+    0.1 s; 0.03 m at most from rest.
+    """
+    speed = np.asarray(speed, dtype=float)
+    decel = np.asarray(decel, dtype=float)
+    dp, dv = _step_deviation(speed, decel, dt)
+    return dp + dv * np.minimum(np.asarray(elapsed, dtype=float), (speed + decel * dt) / decel)
+
+
+def _step_deviation(speed, decel, dt):
+    """``(dp, dv)`` of :func:`braking_deviation` (NumPy arrays or floats alike)."""
+    sigma = np.minimum(dt, speed / decel)
+    dp = speed * dt - (speed * sigma - 0.5 * decel * sigma * sigma) + 0.5 * decel * dt * dt
+    return dp, np.minimum(speed, decel * dt) + decel * dt
+
+
+@compiled
+def _braked(px: float, py: float, vx: float, vy: float, speed: float, decel: float, s: float) -> tuple[float, float]:
+    """Where braking along ``(vx, vy)`` at ``decel`` from ``(px, py)`` is after ``s`` seconds."""
+    if speed == 0.0:
+        return px, py
+    sigma = min(s, speed / decel)
+    g = (speed * sigma - 0.5 * decel * sigma * sigma) / speed
+    return px + vx * g, py + vy * g
+
+
+@compiled
+def _slack_kernel(p_i: np.ndarray, v_i: np.ndarray, a_i: float, positions: np.ndarray, velocities: np.ndarray,
+                  decels: np.ndarray, contact: np.ndarray, strong: np.ndarray, dt: float, step: float,
+                  max_samples: int, out: np.ndarray) -> None:
+    speed_i = math.hypot(v_i[0], v_i[1])
+    stop_i = speed_i / a_i
+    reach_i = speed_i * speed_i / (2.0 * a_i)
+    for j in range(positions.shape[0]):
+        vx, vy = velocities[j, 0], velocities[j, 1]
+        speed_j, a_j = math.hypot(vx, vy), decels[j]
+        # braking_deviation's dp and dv (the margin grows at dv per second until speed_j + a_j dt stops)
+        sigma = min(dt, speed_j / a_j)
+        dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
+        growth = (min(speed_j, a_j * dt) + a_j * dt) if strong[j] else 0.0
+        worst = (dp + growth * (speed_j + a_j * dt) / a_j) if strong[j] else 0.0
+        gap = math.hypot(positions[j, 0] - p_i[0], positions[j, 1] - p_i[1])
+        if gap - reach_i - speed_j * speed_j / (2.0 * a_j) - worst - contact[j] > 1.0:
+            out[j] = gap - contact[j]  # neither braking can come near the other: far enough
+            continue
+        # From the next step on: j's braking is dt further along; the deviation stops growing
+        # once j's fastest alternative has stopped.
+        span = max(stop_i, max(speed_j / a_j - dt, 0.0))
+        if strong[j]:
+            span = max(span, (speed_j + a_j * dt) / a_j)
+        n = min(max_samples, int(math.ceil(span / step)) + 1)
+        h = span / (n - 1) if n > 1 else 0.0
+        best = math.inf
+        for k in range(n):
+            s = k * h
+            xi, yi = _braked(p_i[0], p_i[1], v_i[0], v_i[1], speed_i, a_i, s)
+            xj, yj = _braked(positions[j, 0], positions[j, 1], vx, vy, speed_j, a_j, dt + s)
+            margin = (dp + growth * min(s, (speed_j + a_j * dt) / a_j)) if strong[j] else 0.0
+            best = min(best, math.hypot(xi - xj, yi - yj) - contact[j] - margin)
+        # Between samples the slack changes no faster than both speeds and the margin's growth.
+        out[j] = best - 0.5 * h * (speed_i + speed_j + growth)
+
+
+def braking_slack(position: np.ndarray, velocity: np.ndarray, decel: float, partners: BrakingPartners,
+                  step: float = SAMPLE_STEP) -> np.ndarray:
+    """A lower bound (m) on how far the braking trajectory from ``(position, velocity)`` at
+    ``decel`` (robot ``i`` after its next step) stays outside contact, plus the strong check's
+    :func:`braking_deviation`, from each partner's braking trajectory now (read from one step
+    on) ``(m,)``; the check passes where it is >= 0. Sampled every ``step`` seconds (at most
+    :data:`MAX_SAMPLES` per pair) until both have stopped, the minimum between samples bounded
+    by the relative speed."""
+    out = np.empty(len(partners.positions))
+    if len(out):
+        _slack_kernel(np.asarray(position, dtype=float), np.asarray(velocity, dtype=float), float(decel),
+                      np.ascontiguousarray(partners.positions, dtype=float),
+                      np.ascontiguousarray(partners.velocities, dtype=float),
+                      np.ascontiguousarray(partners.decels, dtype=float),
+                      np.ascontiguousarray(partners.contact, dtype=float),
+                      np.ascontiguousarray(partners.strong, dtype=np.bool_), float(partners.dt), float(step),
+                      MAX_SAMPLES, out)
+    return out

@@ -247,8 +247,8 @@ def group_state_into(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps
             qx, qy = pred[j, 0, 0], pred[j, 0, 1]
             for e in range(n_end):
                 x_now[g, e, 0], x_now[g, e, 1] = pred[j, e + 1, 0], pred[j, e + 1, 1]
-                delta[e] = speed[e] * intervals[e] + np.hypot(pred[j, e + 1, 0] - pred[j, e, 0],
-                                                              pred[j, e + 1, 1] - pred[j, e, 1])
+                delta[e] = speed[e] * intervals[e] + hypot_axis(pred[j, e + 1, 0] - pred[j, e, 0],
+                                                                pred[j, e + 1, 1] - pred[j, e, 1])
         ax, ay = p0[0] - qx, p0[1] - qy
         dist = np.hypot(ax, ay)
         if dist > 1e-9:

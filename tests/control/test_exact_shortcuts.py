@@ -133,7 +133,7 @@ def test_tail_rows_beside_a_face_are_the_searchs_bit_for_bit(monkeypatch, cold):
 
 def test_plan_extremes_closest_distances_are_every_hypots_minimum():
     rng = np.random.default_rng(4)
-    for trial in range(300):
+    for _ in range(300):
         n = int(rng.integers(1, 60))
         points = rng.normal(0.0, 2.0, (n, 2))
         preds = points[None] + rng.normal(0.0, 10.0 ** rng.uniform(-3, 1), (4, n, 2))

@@ -45,6 +45,16 @@ def test_hypot_axis_is_the_librarys_hypot_bit_for_bit():
         assert np.array_equal(got, want)
         assert np.array_equal(np.signbit(got), np.signbit(want))  # no -0.0 where hypot gives +0.0
         assert all(math.hypot(x, y) == g for x, y, g in zip(a[::97], b[::97], got[::97]))
+        # Compiled code called np.hypot where it now calls hypot_axis (group_state, plan_extremes).
+        assert np.array_equal(_compiled_np_hypot(a, b), got)
+
+
+@numba.njit
+def _compiled_np_hypot(a, b):
+    out = np.empty(a.shape[0])
+    for i in range(a.shape[0]):
+        out[i] = np.hypot(a[i], b[i])
+    return out
 
 
 def _segments(rng: np.random.Generator, n: int) -> np.ndarray:

@@ -1,8 +1,8 @@
 """The MPC step's shortcuts that must give the same numbers bit for bit (docs/performance-8-control.md).
 
 Each is compared with ``array_equal`` or ``==`` against the computation it skips: the library's
-``hypot``, the golden-section search for a segment's nearest point of a wall, and every closest
-distance of a plan to a prediction.
+``hypot``, the golden-section search for a segment's nearest point of a wall, every closest
+distance of a plan to a prediction, and the NumPy expressions of DAQP's start flags.
 """
 
 import math
@@ -20,6 +20,7 @@ from nodnav.control.braking import (
     tail_rows,
 )
 from nodnav.control.mpc_rows import plan_extremes
+from nodnav.control.qp import QPSolution, start_flags, start_from
 from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
@@ -152,3 +153,18 @@ def test_plan_extremes_closest_distances_are_every_hypots_minimum():
         values = np.vstack([points, rng.normal(size=(6, 2))])
         closest = plan_extremes(values, n, 3, BOXES, PIECES, np.asarray(WORLD.bounds, dtype=float), preds)[1]
         assert np.array_equal(closest, np.hypot(*(points[None] - preds).transpose(2, 0, 1)).min(axis=1))
+
+
+def test_start_flags_are_numpys_and_the_start_is_flatnonzero():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n = int(rng.integers(1, 600))
+        low = rng.normal(size=n)
+        low[rng.random(n) < 0.2] = -np.inf
+        start = np.sort(rng.choice(n, size=int(rng.integers(1, min(n, 40) + 1)), replace=False))
+        want = np.zeros(n, dtype=np.intc)
+        want[start[np.isfinite(low[start])]] = 3
+        got = start_flags(low, start)
+        assert got.dtype == np.intc and np.array_equal(got, want)
+        lam = np.where(rng.random(n) < 0.05, -rng.random(n), 0.0)
+        assert np.array_equal(start_from(QPSolution(True, "", np.zeros(2), 1, lam)), np.flatnonzero(lam))

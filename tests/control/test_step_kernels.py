@@ -43,9 +43,12 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     n_end, r, margin, eps0, reach, tol = len(prob.ends), ROBOT.radius, PARAMS.safety_margin, prob.eps[0], 3.0, 1e-3
     bounds = np.asarray(WORLD.bounds, dtype=float)
     static = prob.static_lower_base(v0)
-    out = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends, prob.intervals,
-                     WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0, reach, tol, static,
-                     prob.eps_end)
+    # Into buffers full of garbage (NaN), as a problem's scratch state is between steps: every entry is written.
+    state = [np.full_like(a, np.nan) if a.dtype == float else np.ones_like(a) for a in prob.state]
+    scalars = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends,
+                         prob.intervals, WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0,
+                         reach, tol, static, prob.eps_end, *state)
+    out = (*state, *scalars)
     m_w = prob.n_walls
     full = np.concatenate([np.full(m_w, r), r + radii + margin])
     contact = np.concatenate([np.full(m_w, 1e-12), r + radii])

@@ -47,11 +47,24 @@ def stopping_distance(speed: float, decel: float) -> float:
 
 
 @compiled
+def hypot_axis(a, b):
+    """``math.hypot(a, b)`` bit for bit, without the library call (about 30 ns) where either is
+    zero: then it is the other's magnitude, exactly (IEEE 754's hypot; tested). Outside a wall
+    rectangle's corner regions one of the two offsets to it is zero, so the clearances, the
+    exact check and the tail's rows mostly skip the call."""
+    if a == 0.0:
+        return abs(b)
+    if b == 0.0:
+        return abs(a)
+    return math.hypot(a, b)
+
+
+@compiled
 def _box_distance(x, y, box):
     """Signed distance from ``(x, y)`` to the rectangle ``(x0, y0, x1, y1)`` (negative inside)."""
     dx = max(box[0] - x, x - box[2])
     dy = max(box[1] - y, y - box[3])
-    return math.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0)
+    return hypot_axis(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0)
 
 
 @compiled
@@ -96,6 +109,35 @@ def _closest_on_segment(ax, ay, bx, by, g, boxes, pieces):
     return best, dist
 
 
+#: How far (m) within a face's span both ends of a segment must be for :func:`_beside_face`:
+#: far above the rounding of a point between them (about 1e-15 m).
+FACE_SPAN_MARGIN = 1e-9
+#: How far (m) out from the face both ends must be: far above :func:`tail_rows`' 1e-9 m, below
+#: which a point counts as on the wall.
+FACE_OUT_MARGIN = 1e-6
+
+
+@compiled
+def _beside_face(ax, ay, bx, by, g, boxes):
+    """Whether the segment ``a -> b`` lies beside one face of wall ``g``, a rectangle: both ends
+    (and so, with room for rounding, every point ``a + s (b - a)`` with ``s`` in ``[0, 1]``)
+    within the face's span by :data:`FACE_SPAN_MARGIN` and out from it by more than
+    :data:`FACE_OUT_MARGIN`. Every such point has its nearest point of the wall straight across
+    the face: the offset along the face is exactly zero and the unit normal exactly the face's
+    (``(0, +-1)`` or ``(+-1, 0)``), whatever the point. So :func:`tail_rows` writes the same row,
+    bit for bit, at whichever point of the segment it takes, and needs no search for the
+    nearest one (tested against the search)."""
+    if g >= boxes.shape[0]:
+        return False
+    x0, y0, x1, y1 = boxes[g, 0], boxes[g, 1], boxes[g, 2], boxes[g, 3]
+    span, out = FACE_SPAN_MARGIN, FACE_OUT_MARGIN
+    if x0 + span <= min(ax, bx) and max(ax, bx) <= x1 - span:  # across a horizontal face
+        return min(ay, by) > y1 + out or max(ay, by) < y0 - out
+    if y0 + span <= min(ay, by) and max(ay, by) <= y1 - span:  # across a vertical face
+        return min(ax, bx) > x1 + out or max(ax, bx) < x0 - out
+    return False
+
+
 @compiled
 def segment_clearance(a, b, boxes, pieces, bounds):
     """Smallest signed clearance of the segment ``a -> b`` from the rectangles ``boxes`` ``(M, 4)``,
@@ -119,12 +161,24 @@ def segment_clearance(a, b, boxes, pieces, bounds):
         else:
             piece = pieces[g - n_boxes]
             wx0, wy0, wx1, wy1 = piece[:, 0].min(), piece[:, 1].min(), piece[:, 0].max(), piece[:, 1].max()
-        gap[g] = math.hypot(max(max(wx0 - hi_x, lo_x - wx1), 0.0), max(max(wy0 - hi_y, lo_y - wy1), 0.0))
+        gap[g] = hypot_axis(max(max(wx0 - hi_x, lo_x - wx1), 0.0), max(max(wy0 - hi_y, lo_y - wy1), 0.0))
     for g in np.argsort(gap):
         if gap[g] > 0.0 and gap[g] > clear + 1e-9:
             break
-        clear = min(clear, _closest_on_segment(a[0], a[1], b[0], b[1], g, boxes, pieces)[1])
+        clear = min(clear, _segment_wall_distance(a[0], a[1], b[0], b[1], g, boxes, pieces))
     return clear
+
+
+@compiled
+def _segment_wall_distance(ax, ay, bx, by, g, boxes, pieces):
+    """``_closest_on_segment(...)[1]``, bit for bit. Beside a face (:func:`_beside_face`) the
+    wall's distance at ``a + s (b - a)`` is the computed offset across the face, which rounding
+    keeps monotone in ``s``: the search's value (the least of the distances at 0, at its last
+    middle point and at 1) is then the lesser of the two ends', computed as the search does."""
+    if _beside_face(ax, ay, bx, by, g, boxes):
+        return min(_wall_distance(ax, ay, g, boxes, pieces),
+                   _wall_distance(ax + 1.0 * (bx - ax), ay + 1.0 * (by - ay), g, boxes, pieces))
+    return _closest_on_segment(ax, ay, bx, by, g, boxes, pieces)[1]
 
 
 def braking_profile(position: np.ndarray, velocity: np.ndarray, max_accel: float,
@@ -199,11 +253,14 @@ def tail_rows(lin_p, lin_v, weight, p0, v0, x_now, away, dist_now, need, reach, 
                 rows[i0, k] = 0.0
                 rows[i0 + 1, k] = 0.0
             continue
-        s, d = _closest_on_segment(lin_p[0], lin_p[1], ex, ey, g, boxes, pieces)
-        if d < need[g]:
-            # The linearisation's tail comes too close: the half-plane of its start, the one the
-            # last end's row uses, pushes the tail out of the wall on the side the plan is on.
-            s = 0.0
+        if _beside_face(lin_p[0], lin_p[1], ex, ey, g, boxes):
+            s = 0.0  # every point of the segment gives this row, bit for bit (see _beside_face)
+        else:
+            s, d = _closest_on_segment(lin_p[0], lin_p[1], ex, ey, g, boxes, pieces)
+            if d < need[g]:
+                # The linearisation's tail comes too close: the half-plane of its start, the one the
+                # last end's row uses, pushes the tail out of the wall on the side the plan is on.
+                s = 0.0
         px, py = lin_p[0] + s * (ex - lin_p[0]), lin_p[1] + s * (ey - lin_p[1])
         qx, qy = _wall_closest_point(px, py, g, boxes, pieces)
         vx, vy = px - qx, py - qy

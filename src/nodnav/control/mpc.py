@@ -80,7 +80,8 @@ class SharedSetups:
     controllers of one trial whose robots have the same body and limits in the same world.
 
     One object per trial (the method builds it with its controllers), never per process: a
-    problem's rows are scratch space that a step writes before it reads them, which is safe only
+    problem's rows and step state are scratch space that a step writes before it reads them (and
+    reads no more once it returns), which is safe only
     while the controllers sharing it step one after another, as one trial's do.
     """
 
@@ -430,12 +431,12 @@ class BSplineMPC:
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         static = prob.static_lower_base(v0)
         # The robot's own displacement over an interval: at most its reachable speed times it.
-        (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
-         clear_now, overlap) = (
-            step_state(pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends,
-                       prob.intervals, self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii,
-                       self.params.safety_margin, prob.eps[0], self._reach, self.settings.contact_tolerance, static,
-                       prob.eps_end))
+        state = prob.state
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = state
+        need_clear, clear_now, overlap = step_state(
+            pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends, prob.intervals,
+            self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii, self.params.safety_margin,
+            prob.eps[0], self._reach, self.settings.contact_tolerance, static, prob.eps_end, *state)
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).

@@ -301,6 +301,13 @@ class MPCProblem:
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
         self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
+        # A step's per-group state (:func:`~nodnav.control.mpc_rows.step_state` writes it; scratch
+        # space like :attr:`rows`): x_now, away, dist_now, need, delta_sq, far, full, contact, then
+        # the box's gap, need_box, box_low, box_high.
+        g = self.n_groups
+        self.state = (np.empty((g, n_end, 2)), np.empty((g, 2)), np.empty(g), np.empty(g), np.empty((g, n_end)),
+                      np.zeros(g, dtype=bool), np.empty(g), np.empty(g), np.empty(4), np.empty(4), np.empty(2),
+                      np.empty(2))
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:

@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.compiled import compiled
-from nodnav.control.braking import _tail_clearance_kernel, tail_rows
+from nodnav.control.braking import _tail_clearance_kernel, hypot_axis, tail_rows
 from nodnav.geometry import piece_closest_point_one, piece_signed_distance_one
 
 
@@ -173,14 +173,27 @@ def plan_extremes(values, n_points, n_speed, boxes, pieces, bounds, preds):
         for b in range(boxes.shape[0]):
             dx = max(boxes[b, 0] - x, x - boxes[b, 2])
             dy = max(boxes[b, 1] - y, y - boxes[b, 3])
-            c = min(c, np.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0))
+            c = min(c, hypot_axis(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0))
         for b in range(pieces.shape[0]):
             c = min(c, piece_signed_distance_one(x, y, pieces[b]))
         clear = min(clear, c)
     closest = np.full(preds.shape[0], np.inf)
     for j in range(preds.shape[0]):
+        # The minimum of the distances, exactly; a distance is at least its larger coordinate
+        # difference, so starting from the point nearest in squares, most need no hypot call.
+        first, least = 0, np.inf
         for i in range(n_points):
-            closest[j] = min(closest[j], np.hypot(values[i, 0] - preds[j, i, 0], values[i, 1] - preds[j, i, 1]))
+            dx, dy = values[i, 0] - preds[j, i, 0], values[i, 1] - preds[j, i, 1]
+            sq = dx * dx + dy * dy
+            if sq < least:
+                first, least = i, sq
+        best = np.inf
+        for k in range(n_points):
+            i = (first + k) % n_points
+            dx, dy = values[i, 0] - preds[j, i, 0], values[i, 1] - preds[j, i, 1]
+            if max(abs(dx), abs(dy)) < best:
+                best = min(best, np.hypot(dx, dy))
+        closest[j] = best
     fastest, hardest = 0.0, 0.0
     for i in range(n_points, values.shape[0]):
         if i < n_points + n_speed:
@@ -199,15 +212,25 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, re
     ``(G, N, 2)``, the unit vectors ``away`` ``(G, 2)``, ``dist_now`` ``(G,)``, ``need`` ``(G,)``,
     ``delta_sq`` ``(G, N)`` and ``far`` ``(G,)`` as documented on :class:`~nodnav.control.mpc_problem.StepData`.
     """
-    n_boxes, n_others = boxes.shape[0], pred.shape[0]
-    n_walls = n_boxes + pieces.shape[0]
-    n_groups = n_walls + n_others
+    n_groups = boxes.shape[0] + pieces.shape[0] + pred.shape[0]
     x_now = np.empty((n_groups, n_end, 2))
     away = np.empty((n_groups, 2))
     dist_now = np.empty(n_groups)
     need = np.empty(n_groups)
     delta_sq = np.empty((n_groups, n_end))
     far = np.zeros(n_groups, dtype=np.bool_)
+    group_state_into(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, reach, x_now, away, dist_now, need,
+                     delta_sq, far)
+    return x_now, away, dist_now, need, delta_sq, far
+
+
+@compiled
+def group_state_into(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, reach, x_now, away, dist_now, need,
+                     delta_sq, far):
+    """:func:`group_state` written into the given arrays (every entry of each is written)."""
+    n_boxes, n_others = boxes.shape[0], pred.shape[0]
+    n_walls = n_boxes + pieces.shape[0]
+    n_groups = n_walls + n_others
     delta = np.empty(n_end)
     for g in range(n_groups):
         if g < n_walls:
@@ -224,8 +247,8 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, re
             qx, qy = pred[j, 0, 0], pred[j, 0, 1]
             for e in range(n_end):
                 x_now[g, e, 0], x_now[g, e, 1] = pred[j, e + 1, 0], pred[j, e + 1, 1]
-                delta[e] = speed[e] * intervals[e] + np.hypot(pred[j, e + 1, 0] - pred[j, e, 0],
-                                                              pred[j, e + 1, 1] - pred[j, e, 1])
+                delta[e] = speed[e] * intervals[e] + hypot_axis(pred[j, e + 1, 0] - pred[j, e, 0],
+                                                                pred[j, e + 1, 1] - pred[j, e, 1])
         ax, ay = p0[0] - qx, p0[1] - qy
         dist = np.hypot(ax, ay)
         if dist > 1e-9:
@@ -239,7 +262,6 @@ def group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, re
             d = max(delta[e], delta[e + 1]) if e + 1 < n_end else delta[e]
             delta_sq[g, e] = d * d / 4.0
         far[g] = g < n_walls and dist > reach
-    return x_now, away, dist_now, need, delta_sq, far
 
 
 # -- One compiled call per stage of a step ---------------------------------------------------------
@@ -264,23 +286,23 @@ def all_finite(p0, v0, ref, others, radii):
 
 @compiled
 def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
-               other_radii, margin, eps0, reach, contact_tolerance, static, eps_end):
+               other_radii, margin, eps0, reach, contact_tolerance, static, eps_end, x_now, away, dist_now, need,
+               delta_sq, far, full, contact, gap, need_box, box_low, box_high):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
     (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
     interval end (``min(max_speed, now + max_accel * ends)``), and the box: the distances ``gap``
     to the ``bounds`` ``(x0, y0, x1, y1)``, the clearance kept from each (``min(radius, gap -
-    eps0)``) and the allowed corners. Returns ``x_now, away, dist_now, need, delta_sq, far,
-    full, contact, gap, need_box, box_low, box_high``, the smallest clearance to keep from any
-    wall or bound, the present clearance from the walls and bounds (the smallest ``dist_now`` of
-    a wall and ``gap``) and whether any other robot is closer than its ``contact`` less
-    ``contact_tolerance``. Adds the box's bounds to the first ``4 len(eps_end)`` entries of
+    eps0)``) and the allowed corners, written into ``x_now, away, dist_now, need, delta_sq, far,
+    full, contact, gap, need_box, box_low, box_high`` (the caller's arrays, every entry: numba
+    would box each returned array through a Python call). Returns the smallest clearance to keep
+    from any wall or bound, the present clearance from the walls and bounds (the smallest
+    ``dist_now`` of a wall and ``gap``) and whether any other robot is closer than its
+    ``contact`` less ``contact_tolerance``. Adds the box's bounds to the first ``4 len(eps_end)`` entries of
     ``static`` (the static rows' bounds without them, see
     :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`)."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
-    full = np.empty(n_groups)
-    contact = np.empty(n_groups)
     for g in range(n_walls):
         full[g], contact[g] = radius, 1e-12
     for j in range(other_radii.shape[0]):
@@ -289,12 +311,8 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     speed = np.empty(ends.shape[0])
     for e in range(ends.shape[0]):
         speed[e] = min(max_speed, now + max_accel * ends[e])
-    x_now, away, dist_now, need, delta_sq, far = group_state(pred, n_end, p0, speed, intervals, boxes, pieces, full,
-                                                             eps0, reach)
-    gap = np.empty(4)
-    need_box = np.empty(4)
-    box_low = np.empty(2)
-    box_high = np.empty(2)
+    group_state_into(pred, n_end, p0, speed, intervals, boxes, pieces, full, eps0, reach, x_now, away, dist_now, need,
+                     delta_sq, far)
     for d in range(2):
         gap[d] = p0[d] - bounds[d]
         gap[2 + d] = bounds[2 + d] - p0[d]
@@ -323,8 +341,7 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     overlap = False
     for g in range(n_walls, n_groups):
         overlap = overlap or dist_now[g] < contact[g] - contact_tolerance
-    return (x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, need_clear,
-            clear_now, overlap)
+    return need_clear, clear_now, overlap
 
 
 @compiled

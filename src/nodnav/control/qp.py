@@ -27,6 +27,8 @@ import daqp
 import numpy as np
 from scipy.optimize import linprog
 
+from nodnav.compiled import compiled
+
 _DAQP_REASONS = {-1: "infeasible", -2: "cycling", -3: "unbounded", -4: "iteration limit", -5: "not convex",
                  -6: "overdetermined start", -7: "time limit", -8: "unsupported"}
 
@@ -76,8 +78,7 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
         [np.where(start_active, 3, 0), np.zeros(len(lower))]).astype(np.intc)
     sense = cold
     if start is not None and len(start) and start[-1] < len(low):
-        sense = np.zeros(len(low), dtype=np.intc)
-        sense[start[np.isfinite(low[start])]] = 3
+        sense = start_flags(low, start)
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
     g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
     a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
@@ -95,12 +96,27 @@ def start_from(solution: QPSolution) -> np.ndarray | None:
     a later solve's ``start`` (:func:`solve_qp`), or None if it failed."""
     if not solution.success or solution.multipliers is None:
         return None
-    return np.flatnonzero(solution.multipliers)
+    return solution.multipliers.nonzero()[0]  # np.flatnonzero of the (one-dimensional) multipliers
+
+
+@compiled
+def start_flags(low, start):
+    """DAQP's constraint flags ``(len(low),)`` for the start: 3 (active, at the lower bound) on
+    the constraints ``start`` whose lower bound is finite, 0 elsewhere (one compiled call for
+    NumPy's ``zeros``, ``isfinite`` and two fancy indexings, the same flags)."""
+    sense = np.zeros(low.shape[0], dtype=np.intc)
+    for i in start:
+        if np.isfinite(low[i]):
+            sense[i] = 3
+    return sense
+
+
+_F64 = np.dtype(np.float64)
 
 
 def _plain(a: np.ndarray) -> bool:
     """Whether ``a`` is already what DAQP takes as it is (a C-contiguous float64 array)."""
-    return type(a) is np.ndarray and a.dtype == np.float64 and a.flags.c_contiguous
+    return type(a) is np.ndarray and a.dtype is _F64 and a.flags.c_contiguous
 
 
 _UPPER: dict[int, np.ndarray] = {}

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from nodnav.control.braking import braking_profile
-from nodnav.control.mutual_braking import BrakingPartners, braking_deviation, braking_slack
+from nodnav.control.mutual_braking import BrakingPartners, braking_deviation, braking_slack, takes_weak_check
 
 
 def _after_step(p, v, accel, dt):
@@ -43,18 +43,27 @@ def test_deviation_by_hand():
     assert braking_deviation(0.0, 2.0, 0.1, 1.0) == pytest.approx(0.03)
 
 
-def _partners(p, v, strong, a=2.0, contact=0.4, dt=0.1):
-    return BrakingPartners(positions=np.array([p], float), velocities=np.array([v], float), decels=np.array([a]),
-                           contact=np.array([contact]), strong=np.array([strong]), dt=dt)
+def _partners(p, v, strong, a=2.0, a_i=2.0, contact=0.4, dt=0.1):
+    """Robot 0 (the one checked; its own state here only decides the convention) and robot j = 1;
+    the index convention gives robot 0 the weak check, ``strong`` (convention 2) the strong one."""
+    return BrakingPartners(robot=0, positions=np.array([[0.0, 0.0], p], float), velocities=np.array([[0.0, 0.0], v], float),
+                           decels=np.array([a_i, a]), radii=np.full(2, contact / 2), keeps_rule=np.ones(2, bool),
+                           seen=np.ones(2, bool), convention=2 if strong else 1, dt=dt)
+
+
+def _slack(p_i, v_i, partners):
+    out, worst = braking_slack(p_i, v_i, partners)
+    assert out[0] == np.inf and worst in (-1, 1)
+    return out[1]
 
 
 def test_head_on_slack_by_hand():
     """i (after its step) at 0 going +x at 1 m/s stops at 0.25 m; j at 1 m going -x at 1 m/s is at
     0.91 m one step later at 0.8 m/s and stops at 0.75 m: 0.5 m apart at the closest, 0.1 m
     beyond contact. Strong: less the deviation once stopped, 0.26 m: -0.16 m."""
-    weak = braking_slack([0.0, 0.0], [1.0, 0.0], 2.0, _partners([1.0, 0.0], [-1.0, 0.0], False))[0]
+    weak = _slack([0.0, 0.0], [1.0, 0.0], _partners([1.0, 0.0], [-1.0, 0.0], False))
     assert 0.1 - 0.011 <= weak <= 0.1 + 1e-12
-    strong = braking_slack([0.0, 0.0], [1.0, 0.0], 2.0, _partners([1.0, 0.0], [-1.0, 0.0], True))[0]
+    strong = _slack([0.0, 0.0], [1.0, 0.0], _partners([1.0, 0.0], [-1.0, 0.0], True))
     assert -0.16 - 0.013 <= strong <= -0.16 + 1e-12
 
 
@@ -66,7 +75,7 @@ def test_slack_is_a_lower_bound_close_to_the_fine_minimum():
         p_i, p_j = rng.uniform(-1, 1, 2), rng.uniform(-1, 1, 2)
         v_i, v_j = rng.normal(size=2), rng.normal(size=2)
         strong = bool(rng.integers(2))
-        slack = braking_slack(p_i, v_i, a_i, _partners(p_j, v_j, strong, a=a_j))[0]
+        slack = _slack(p_i, v_i, _partners(p_j, v_j, strong, a=a_j, a_i=a_i))
         s = np.linspace(0.0, 40.0, 400001)
         b_i = braking_profile(p_i, v_i, a_i, s)[0]
         b_j = braking_profile(p_j, v_j, a_j, dt + s)[0]
@@ -79,8 +88,26 @@ def test_slack_is_a_lower_bound_close_to_the_fine_minimum():
         assert fine - pad - 1e-6 <= slack <= fine + 1e-6
 
 
-def test_far_robots_pass_and_no_partner_is_empty():
-    assert braking_slack([0, 0], [1, 0], 2.0, _partners([10.0, 0.0], [-1.0, 0.0], True))[0] > 1.0
-    none = BrakingPartners(positions=np.zeros((0, 2)), velocities=np.zeros((0, 2)), decels=np.zeros(0),
-                           contact=np.zeros(0), strong=np.zeros(0, bool), dt=0.1)
-    assert braking_slack([0, 0], [1, 0], 2.0, none).shape == (0,)
+def test_far_robots_pass_and_unseen_robots_are_not_checked():
+    assert _slack([0, 0], [1, 0], _partners([10.0, 0.0], [-1.0, 0.0], True)) > 1.0
+    unseen = _partners([0.3, 0.0], [-1.0, 0.0], True)._replace(seen=np.array([True, False]))
+    out, worst = braking_slack([0, 0], [1, 0], unseen)
+    assert worst == -1 and np.all(out == np.inf)
+
+
+def test_one_weak_check_per_pair_by_each_convention():
+    """Of two robots that keep the rule exactly one takes the weak check (speed: the faster, ties
+    to the lower index; index: the lower index), neither with strong, and never towards a robot
+    that does not keep the rule."""
+    for speed_i, speed_j in [(1.0, 0.5), (0.5, 1.0), (0.7, 0.7), (0.0, 0.0)]:
+        for convention in (0, 1):
+            weak_ij = takes_weak_check(2, 5, speed_i, speed_j, True, convention)
+            weak_ji = takes_weak_check(5, 2, speed_j, speed_i, True, convention)
+            assert weak_ij != weak_ji
+            if convention == 0 and speed_i != speed_j:
+                assert weak_ij == (speed_i > speed_j)
+            else:
+                assert weak_ij  # robot 2 before robot 5
+        assert not takes_weak_check(2, 5, speed_i, speed_j, True, 2)
+        assert not takes_weak_check(2, 5, speed_i, speed_j, True, 2)
+        assert not takes_weak_check(2, 5, 10.0, 0.0, False, 0)

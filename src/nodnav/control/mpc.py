@@ -247,16 +247,14 @@ class BSplineMPC:
         the mutual braking check (:func:`braking_slack`) towards a robot of ``request.braking``;
         "" when it passes or there is none."""
         partners = request.braking
-        if partners is None or not len(partners.positions):
+        if partners is None:
             return ""
         out = post[2]
-        slack = braking_slack(out[0], out[1], self.robot.max_accel, partners)
-        j = int(np.argmin(slack))
-        if slack[j] >= 0.0:
+        slack, j = braking_slack(out[0], out[1], partners)
+        if j < 0 or slack[j] >= 0.0:
             return ""
-        kind = "its reach after one step" if partners.strong[j] else "it"
-        return (f"braking from its next step would come {-slack[j]:.3f} m too close to another robot's "
-                f"braking trajectory (partner {j}, clear of {kind})")
+        return (f"braking from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
+                "trajectory (mutual braking)")
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
         """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,

@@ -33,7 +33,7 @@ trajectory instead (:mod:`nodnav.control.braking`), which the others do not pred
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -46,21 +46,32 @@ relative speed (:func:`braking_slack`), so a coarser step is only more careful."
 MAX_SAMPLES = 4000
 """At most this many samples per pair; a longer stop (very slow braking) spaces them wider."""
 
+CONVENTIONS = ("speed", "index", "strong")
+"""Who of two robots that keep the rule takes the weak check (``execution.mutual_braking``), in
+the order of their codes in :class:`BrakingPartners`: the faster (the lower-numbered at equal
+speeds), the lower-numbered, neither."""
 
-@dataclass(frozen=True)
-class BrakingPartners:
-    """The other robots a controller's next step is checked against (:mod:`nodnav.control.mutual_braking`)."""
 
+class BrakingPartners(NamedTuple):
+    """What a controller's next step is checked against (:mod:`nodnav.control.mutual_braking`):
+    every robot's state as the robot sees it now, itself included."""
+
+    robot: int
+    """The robot's own index in the arrays."""
     positions: np.ndarray
-    """Their positions now ``(m, 2)`` (m)."""
+    """Every robot's position now ``(N, 2)`` (m)."""
     velocities: np.ndarray
-    """Their velocities now ``(m, 2)`` (m/s)."""
+    """Every robot's velocity now ``(N, 2)`` (m/s)."""
     decels: np.ndarray
-    """The deceleration each brakes at when it cannot plan, its ``max_accel`` ``(m,)`` (m/s^2)."""
-    contact: np.ndarray
-    """Distance between centres at contact, ``r_i + r_j`` ``(m,)`` (m)."""
-    strong: np.ndarray
-    """Whether the check towards each is strong ``(m,)`` (bool); weak otherwise."""
+    """The deceleration each brakes at when it cannot plan, its ``max_accel`` ``(N,)`` (m/s^2)."""
+    radii: np.ndarray
+    """Every robot's radius ``(N,)`` (m)."""
+    keeps_rule: np.ndarray
+    """Which robots keep the rule ``(N,)`` (bool): towards the others the check is always strong."""
+    seen: np.ndarray
+    """Which robots the robot sees now ``(N,)`` (bool); the others are not checked."""
+    convention: int
+    """Index in :data:`CONVENTIONS`."""
     dt: float
     """The control step (s)."""
 
@@ -103,57 +114,82 @@ def _braked(px: float, py: float, vx: float, vy: float, speed: float, decel: flo
 
 
 @compiled
-def _slack_kernel(p_i: np.ndarray, v_i: np.ndarray, a_i: float, positions: np.ndarray, velocities: np.ndarray,
-                  decels: np.ndarray, contact: np.ndarray, strong: np.ndarray, dt: float, step: float,
-                  max_samples: int, out: np.ndarray) -> None:
-    speed_i = math.hypot(v_i[0], v_i[1])
-    stop_i = speed_i / a_i
-    reach_i = speed_i * speed_i / (2.0 * a_i)
+def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bool, convention: int) -> bool:
+    """Whether robot ``i`` (at ``speed_i`` now) takes the weak check towards robot ``j``: only if
+    ``j`` keeps the rule, and then by the convention (:data:`CONVENTIONS`); ``j`` evaluates the
+    same from the same observation and takes the other check."""
+    if not keeps_j or convention == 2:
+        return False
+    if convention == 0 and speed_i != speed_j:
+        return speed_i > speed_j
+    return i < j
+
+
+@compiled
+def _pair_slack(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: float, yj: float, vx: float,
+                vy: float, a_j: float, contact: float, strong: bool, dt: float, step: float,
+                max_samples: int) -> float:
+    """:func:`braking_slack` for one pair."""
+    speed_i, speed_j = math.hypot(vxi, vyi), math.hypot(vx, vy)
+    # braking_deviation's dp and dv (the margin grows at dv per second until speed_j + a_j dt stops)
+    sigma = min(dt, speed_j / a_j)
+    dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
+    growth = (min(speed_j, a_j * dt) + a_j * dt) if strong else 0.0
+    worst = (dp + growth * (speed_j + a_j * dt) / a_j) if strong else 0.0
+    gap = math.hypot(xj - xi, yj - yi)
+    if gap - speed_i * speed_i / (2.0 * a_i) - speed_j * speed_j / (2.0 * a_j) - worst - contact > 1.0:
+        return gap - contact  # neither braking can come near the other: far enough
+    # From the next step on: j's braking is dt further along; the deviation stops growing once
+    # j's fastest alternative has stopped.
+    span = max(speed_i / a_i, max(speed_j / a_j - dt, 0.0))
+    if strong:
+        span = max(span, (speed_j + a_j * dt) / a_j)
+    n = min(max_samples, int(math.ceil(span / step)) + 1)
+    h = span / (n - 1) if n > 1 else 0.0
+    best = math.inf
+    for k in range(n):
+        s = k * h
+        ax, ay = _braked(xi, yi, vxi, vyi, speed_i, a_i, s)
+        bx, by = _braked(xj, yj, vx, vy, speed_j, a_j, dt + s)
+        margin = (dp + growth * min(s, (speed_j + a_j * dt) / a_j)) if strong else 0.0
+        best = min(best, math.hypot(ax - bx, ay - by) - contact - margin)
+    # Between samples the slack changes no faster than both speeds and the margin's growth.
+    return best - 0.5 * h * (speed_i + speed_j + growth)
+
+
+@compiled
+def _slack_kernel(i, p_next, v_next, positions, velocities, decels, radii, keeps, seen, convention, dt, step,
+                  max_samples, out):
+    """Every other robot's slack into ``out`` (``inf`` for ``i`` and robots not seen); the index
+    of the smallest (-1: none)."""
+    speed_i = math.hypot(velocities[i, 0], velocities[i, 1])
+    worst, worst_j = math.inf, -1
     for j in range(positions.shape[0]):
-        vx, vy = velocities[j, 0], velocities[j, 1]
-        speed_j, a_j = math.hypot(vx, vy), decels[j]
-        # braking_deviation's dp and dv (the margin grows at dv per second until speed_j + a_j dt stops)
-        sigma = min(dt, speed_j / a_j)
-        dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
-        growth = (min(speed_j, a_j * dt) + a_j * dt) if strong[j] else 0.0
-        worst = (dp + growth * (speed_j + a_j * dt) / a_j) if strong[j] else 0.0
-        gap = math.hypot(positions[j, 0] - p_i[0], positions[j, 1] - p_i[1])
-        if gap - reach_i - speed_j * speed_j / (2.0 * a_j) - worst - contact[j] > 1.0:
-            out[j] = gap - contact[j]  # neither braking can come near the other: far enough
+        out[j] = math.inf
+        if j == i or not seen[j]:
             continue
-        # From the next step on: j's braking is dt further along; the deviation stops growing
-        # once j's fastest alternative has stopped.
-        span = max(stop_i, max(speed_j / a_j - dt, 0.0))
-        if strong[j]:
-            span = max(span, (speed_j + a_j * dt) / a_j)
-        n = min(max_samples, int(math.ceil(span / step)) + 1)
-        h = span / (n - 1) if n > 1 else 0.0
-        best = math.inf
-        for k in range(n):
-            s = k * h
-            xi, yi = _braked(p_i[0], p_i[1], v_i[0], v_i[1], speed_i, a_i, s)
-            xj, yj = _braked(positions[j, 0], positions[j, 1], vx, vy, speed_j, a_j, dt + s)
-            margin = (dp + growth * min(s, (speed_j + a_j * dt) / a_j)) if strong[j] else 0.0
-            best = min(best, math.hypot(xi - xj, yi - yj) - contact[j] - margin)
-        # Between samples the slack changes no faster than both speeds and the margin's growth.
-        out[j] = best - 0.5 * h * (speed_i + speed_j + growth)
+        speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention)
+        out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
+                             positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
+                             strong, dt, step, max_samples)
+        if out[j] < worst:
+            worst, worst_j = out[j], j
+    return worst_j
 
 
-def braking_slack(position: np.ndarray, velocity: np.ndarray, decel: float, partners: BrakingPartners,
-                  step: float = SAMPLE_STEP) -> np.ndarray:
-    """A lower bound (m) on how far the braking trajectory from ``(position, velocity)`` at
-    ``decel`` (robot ``i`` after its next step) stays outside contact, plus the strong check's
-    :func:`braking_deviation`, from each partner's braking trajectory now (read from one step
-    on) ``(m,)``; the check passes where it is >= 0. Sampled every ``step`` seconds (at most
-    :data:`MAX_SAMPLES` per pair) until both have stopped, the minimum between samples bounded
-    by the relative speed."""
+def braking_slack(position: np.ndarray, velocity: np.ndarray, partners: BrakingPartners,
+                  step: float = SAMPLE_STEP) -> tuple[np.ndarray, int]:
+    """A lower bound (m) on how far the braking trajectory from ``(position, velocity)`` (robot
+    ``partners.robot`` after its next step, at its own deceleration) stays outside contact, plus
+    the strong check's :func:`braking_deviation` where the convention gives it that one, from
+    each other robot's braking trajectory now, read from one step on ``(N,)`` (``inf`` for
+    itself and robots not seen); the check passes where it is >= 0. Also the index of the
+    smallest (-1: none). Sampled every ``step`` seconds (at most :data:`MAX_SAMPLES` per pair)
+    until both have stopped, the minimum between samples bounded by the relative speed."""
     out = np.empty(len(partners.positions))
-    if len(out):
-        _slack_kernel(np.asarray(position, dtype=float), np.asarray(velocity, dtype=float), float(decel),
-                      np.ascontiguousarray(partners.positions, dtype=float),
-                      np.ascontiguousarray(partners.velocities, dtype=float),
-                      np.ascontiguousarray(partners.decels, dtype=float),
-                      np.ascontiguousarray(partners.contact, dtype=float),
-                      np.ascontiguousarray(partners.strong, dtype=np.bool_), float(partners.dt), float(step),
-                      MAX_SAMPLES, out)
-    return out
+    worst = _slack_kernel(partners.robot, np.asarray(position, dtype=float), np.asarray(velocity, dtype=float),
+                          partners.positions, partners.velocities, partners.decels, partners.radii,
+                          partners.keeps_rule, partners.seen, partners.convention, float(partners.dt), float(step),
+                          MAX_SAMPLES, out)
+    return out, int(worst)

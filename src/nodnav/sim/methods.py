@@ -15,7 +15,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
-from nodnav.control.mutual_braking import BrakingPartners
+from nodnav.control.mutual_braking import CONVENTIONS, BrakingPartners
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
@@ -166,7 +166,9 @@ class PlannedMethod:
         """Which robots keep the mutual braking rule (:mod:`nodnav.control.mutual_braking`): every
         robot of a trial run by one planned method; a :class:`Team` narrows it to its planned
         methods' robots."""
-        self._mutual = ex.mutual_braking
+        self._convention = CONVENTIONS.index(ex.mutual_braking) if ex.mutual_braking != "none" else -1
+        self._all_seen = np.ones(n, dtype=bool)
+        self._radii = scenario.radii
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
@@ -299,26 +301,13 @@ class PlannedMethod:
         return out
 
     def _partners(self, i: int, view: RobotView) -> BrakingPartners | None:
-        """The robots robot ``i``'s next step is checked against (``execution.mutual_braking``):
-        every other robot it sees now, the weak check towards one that keeps the rule and comes
-        after ``i`` by the convention, the strong one towards the rest."""
-        if self._mutual == "none":
+        """What robot ``i``'s next step is checked against (``execution.mutual_braking``): every
+        robot's state as ``i`` sees it, and who sees whom now (:mod:`nodnav.control.mutual_braking`)."""
+        if self._convention < 0:
             return None
-        others = self._others_array[i]
-        if view.age is not None:
-            others = others[view.age[others] == 0.0]
-        strong = np.ones(len(others), dtype=bool)
-        if self._mutual != "strong":  # the same convention as each other robot's, from the same view
-            if self._mutual == "speed":
-                speeds = np.hypot(view.velocities[:, 0], view.velocities[:, 1])
-                first = (speeds[i] > speeds[others]) | ((speeds[i] == speeds[others]) & (others > i))
-            else:
-                first = others > i
-            strong = ~(self.keeps_rule[others] & first)
-        radii = self.scenario.radii
-        return BrakingPartners(positions=view.positions[others], velocities=view.velocities[others],
-                               decels=self._accel[others], contact=radii[i] + radii[others], strong=strong,
-                               dt=self.dt)
+        seen = self._all_seen if view.age is None else view.age == 0.0
+        return BrakingPartners(i, view.positions, view.velocities, self._accel, self._radii, self.keeps_rule, seen,
+                               self._convention, self.dt)
 
     def _stay(self, position: np.ndarray) -> ControlResult:
         """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""

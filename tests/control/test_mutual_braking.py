@@ -46,7 +46,8 @@ def test_deviation_by_hand():
 def _partners(p, v, strong, a=2.0, a_i=2.0, contact=0.4, dt=0.1):
     """Robot 0 (the one checked; its own state here only decides the convention) and robot j = 1;
     the index convention gives robot 0 the weak check, ``strong`` (convention 2) the strong one."""
-    return BrakingPartners(robot=0, positions=np.array([[0.0, 0.0], p], float), velocities=np.array([[0.0, 0.0], v], float),
+    return BrakingPartners(robot=0, positions=np.array([[0.0, 0.0], p], float),
+                           velocities=np.array([[0.0, 0.0], v], float),
                            decels=np.array([a_i, a]), radii=np.full(2, contact / 2), keeps_rule=np.ones(2, bool),
                            seen=np.ones(2, bool), convention=2 if strong else 1, dt=dt)
 

@@ -342,9 +342,9 @@ def test_compiled_chain_is_the_python_heaps_chain_ties_included(seed):
 def test_compiled_disc_checks_match_their_numpy_forms():
     """The compiled checks of the fast planner's paths against the NumPy expressions they
     replace, on random polylines and discs (also single points, starts inside discs, radii at
-    and below TOL): the same decisions."""
+    and below TOL): the same decisions; disc_violations against its NumPy form."""
     from nodnav.geometry import TOL, segment_point_distance
-    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations
+    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations, disc_violations_plain
 
     rng = np.random.default_rng(3)
     for _ in range(500):
@@ -357,7 +357,14 @@ def test_compiled_disc_checks_match_their_numpy_forms():
         start, goal = poly[0], poly[-1]
         keep = radii > TOL
         c, r = centres[keep], radii[keep]
-        want = bool(disc_violations(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)).any())
+        want = bool(disc_violations_plain(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)).any())
+        # disc_violations' compiled loops: the same decisions, disc by disc (also with limits
+        # from other distances than the start's and the goal's, as the planner passes them)
+        d_start, d_goal = rng.uniform(0, 2, m), rng.uniform(0, 2, m)
+        assert np.array_equal(disc_violations(poly, centres, radii, d_start, d_goal),
+                              disc_violations_plain(poly, centres, radii, d_start, d_goal))
+        assert np.array_equal(disc_violations(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)),
+                              disc_violations_plain(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)))
         assert _crosses_any(poly, centres, radii, start, goal) == want
         k = int(rng.integers(1, 6))
         a, b = rng.uniform(-3, 3, (k, 2)), rng.uniform(-3, 3, (k, 2))
@@ -375,3 +382,15 @@ def test_polyline_length_is_the_sum_of_segment_norms():
             p = rng.normal(size=(n, 2)) * rng.uniform(0.01, 100)
             assert polyline_length(p) == float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
     assert polyline_length(np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 0.0]])) == 9.0
+
+
+def test_octagon_exits_halves_round_to_even():
+    """octagon_exits rounds the ray's angle to the nearest side normal with halves to even (as
+    np.round did): a point at 22.5 degrees from the centre, exactly between two normals, leaves
+    the octagon of radius 1 at 1 / cos(22.5 deg) + 2 TOL (either side gives that distance)."""
+    from nodnav.geometry import TOL
+
+    angle = np.pi / 8.0
+    inside = 0.5 * np.array([np.cos(angle), np.sin(angle)])
+    exit_ = octagon_exits(inside, np.zeros((1, 2)), np.array([1.0]))[0]
+    assert np.hypot(*exit_) == pytest.approx(1.0 / np.cos(np.pi / 8.0) + 2 * TOL, abs=1e-12)

@@ -15,7 +15,7 @@ import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
 from nodnav.planning.fast_state import Cut, Route, Track
-from nodnav.planning.memo import remember
+from nodnav.planning.memo import remember, remember_within
 from nodnav.planning.occupancy import entry_cell, polyline_segments
 from nodnav.planning.polylines import arc_length_grid
 from nodnav.planning.visibility import VisibilityGraph, corner_cuts_close
@@ -24,6 +24,13 @@ from nodnav.scenario.world import World
 
 if TYPE_CHECKING:
     from nodnav.scenario.params import FastPlannerParams
+
+#: How many visibility graphs the planners of one process share (a trial needs one per radius).
+SHARED_GRAPHS = 16
+
+#: The graphs by (world, radius, inflation): a graph depends on nothing else, and the planners
+#: of a sweep's trials, one per trial, ask for the same ones (its memos answer by content).
+_SHARED_GRAPHS: dict[tuple, VisibilityGraph] = {}
 
 
 class GeometricPaths:
@@ -61,7 +68,13 @@ class GeometricPaths:
             # The wall margin where there is room: in a passage that leaves a robot less than
             # twice the margin beside the centreline, half of what it leaves (issue 19).
             room = 0.5 * world.passage.width - float(radius)
-            g = VisibilityGraph(world, radius, min(self.wall_margin, max(0.0, 0.5 * room)))
+            inflation = min(self.wall_margin, max(0.0, 0.5 * room))
+            # Every trial's planner needs the same few graphs: built once per process.
+            shared = (world, float(radius), inflation)
+            g = _SHARED_GRAPHS.get(shared)
+            if g is None:
+                g = VisibilityGraph(world, radius, inflation)
+                remember_within(_SHARED_GRAPHS, shared, g, SHARED_GRAPHS)
             remember(self._graphs, key, g)
         return g
 

@@ -108,7 +108,8 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, tur
     angle = np.arctan2(away[:, 1], away[:, 0])
     if turn:  # the octagon turned by ``turn`` (rad)
         angle = angle - turn
-    delta = angle - np.round(angle / (np.pi / 4.0)) * (np.pi / 4.0)
+    # np.rint is what np.round does for no decimals (halves to even), without its wrappers.
+    delta = angle - np.rint(angle / (np.pi / 4.0)) * (np.pi / 4.0)
     boundary = r / np.cos(delta) + 2 * TOL
     inside = (d > 0) & (d < boundary)
     scale = np.where(inside, boundary / np.where(d > 0, d, 1.0), 1.0)
@@ -345,7 +346,24 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     except that the first segment need only keep ``min(radii[j], d_start[j])`` (the start's
     distance from the centre: leaving a disc one starts in) and the last one
     ``min(radii[j], d_goal[j])`` (entering the disc that holds the goal).
+
+    One compiled call (:func:`_violations_kernel`); :func:`disc_violations_plain` is the NumPy
+    form it is tested against.
     """
+    centres = np.ascontiguousarray(np.asarray(centres, dtype=float).reshape(-1, 2))
+    m = len(centres)
+    return _violations_kernel(np.ascontiguousarray(np.asarray(polyline, dtype=float).reshape(-1, 2)), centres,
+                              _per_disc(radii, m), _per_disc(d_start, m), _per_disc(d_goal, m))
+
+
+def _per_disc(values, m: int) -> np.ndarray:
+    """``values`` as a contiguous float array ``(m,)`` (one value broadcast to all)."""
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(values, dtype=float).reshape(-1), (m,)))
+
+
+def disc_violations_plain(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,
+                          d_goal: np.ndarray) -> np.ndarray:
+    """:func:`disc_violations` with NumPy: the segments' distances as a table, the limits as another."""
     poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
     if len(poly) == 1:
@@ -355,6 +373,30 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
     return np.asarray((d < limit - TOL).any(axis=0))
+
+
+@_compiled
+def _violations_kernel(poly, centres, radii, d_start, d_goal):
+    """The loops of :func:`disc_violations`: the same distances (:func:`_segment_point_d2_one`,
+    then the square root) and limits, disc by disc, stopping at its first violated segment."""
+    n_pts = poly.shape[0]
+    n_seg = max(n_pts - 1, 1)
+    out = np.zeros(centres.shape[0], dtype=np.bool_)
+    for j in range(centres.shape[0]):
+        cx, cy = centres[j, 0], centres[j, 1]
+        for s in range(n_seg):
+            a, b = min(s, n_pts - 1), min(s + 1, n_pts - 1)
+            limit = radii[j]
+            if s == 0:
+                limit = min(limit, d_start[j])
+            if s == n_seg - 1:
+                limit = min(limit, d_goal[j])
+            ax, ay = poly[a, 0], poly[a, 1]
+            d = math.sqrt(_segment_point_d2_one(ax, ay, poly[b, 0] - ax, poly[b, 1] - ay, cx, cy))
+            if d < limit - TOL:
+                out[j] = True
+                break
+    return out
 
 
 @_compiled

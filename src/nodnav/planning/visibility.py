@@ -126,8 +126,12 @@ class GeometricPath:
     """Empty on success; otherwise why no path exists."""
     points: np.ndarray
     """Vertices ``(V, 2)`` from start to goal (m); just the start on failure."""
-    length: float
-    """Length of the polyline (m); ``inf`` on failure."""
+
+    @functools.cached_property
+    def length(self) -> float:
+        """Length of the polyline (m); ``inf`` on failure. Computed when first read: the fast
+        planner makes thousands of paths per trial and reads few lengths."""
+        return polyline_length(self.points) if self.success else math.inf
 
 
 class VisibilityGraph:
@@ -236,7 +240,7 @@ class VisibilityGraph:
     # -----------------------------------------------------------------------------------------
 
     def _fail(self, start: np.ndarray, reason: str) -> GeometricPath:
-        return GeometricPath(False, reason, start[None].copy(), float("inf"))
+        return GeometricPath(False, reason, start[None].copy())
 
     def _walls_only(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
         m, v = len(starts), self.vertices
@@ -513,7 +517,7 @@ def _best_via_kernel(d_start, dist, d_goal, from_start, to_goal):
 
 def _path(points: np.ndarray) -> GeometricPath:
     points.setflags(write=False)
-    return GeometricPath(True, "", points, polyline_length(points))
+    return GeometricPath(True, "", points)
 
 
 def _fmt(p: np.ndarray) -> str:

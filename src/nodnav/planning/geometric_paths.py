@@ -14,12 +14,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
-from nodnav.planning.fast_state import Cut, Route, Track
+from nodnav.planning.fast_state import Cut, Route, Track, zones_of
 from nodnav.planning.memo import remember, remember_within
 from nodnav.planning.occupancy import entry_cell, polyline_segments
 from nodnav.planning.polylines import arc_length_grid
 from nodnav.planning.visibility import VisibilityGraph, corner_cuts_close
-from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 
 if TYPE_CHECKING:
@@ -43,6 +42,8 @@ class GeometricPaths:
         _cuts: dict[tuple, Cut]
         _world_ids: dict[int, tuple[World, int]]
         _world_tokens: dict[World, int]
+
+        def _stay_geometry(self, world: World) -> np.ndarray: ...
 
     def world_token(self, world: World) -> int:
         """A small integer standing for ``world`` in the memos' keys (equal worlds share one):
@@ -149,7 +150,9 @@ class GeometricPaths:
             corners = np.nonzero(np.abs(cross) > 1e-12)[0]
             if len(corners):
                 a, b = cells[corners], cells[corners + 2]
-                height = np.abs(cross[corners]) / np.linalg.norm(b - a, axis=1)
+                chord = b - a  # its norm as np.linalg.norm's (x * x + y * y, then the root)
+                chord *= chord
+                height = np.abs(cross[corners]) / np.sqrt(chord[:, 0] + chord[:, 1])
                 end_clearance = float(world.clearance(path[[0, -1]]).min())
                 good = min(radius + self.wall_margin, end_clearance) - height >= radius
                 unsure = np.nonzero(~good)[0]
@@ -158,9 +161,10 @@ class GeometricPaths:
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
                     good[unsure] = segment_is_clear(world, au, bu, limit - TOL)
                 ok[corners] = good
-        inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
-        door = self.params.door_clearance
-        doors = (entry_cell(in_door_zone(world, cells, 0, door)), entry_cell(in_door_zone(world, cells, 1, door)))
+        # World.on_line (a robot waiting in a bay is out of the single file) and in_door_zone of
+        # both entrances, in one compiled pass with their operations.
+        inside, left, right = zones_of(cells, self._stay_geometry(world))
+        doors = (entry_cell(left), entry_cell(right))
         cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
         remember(self._cuts, key, cut)
         return cut

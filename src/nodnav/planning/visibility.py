@@ -362,7 +362,10 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
 
 def _per_disc(values, m: int) -> np.ndarray:
     """``values`` as a contiguous float array ``(m,)`` (one value broadcast to all)."""
-    return np.ascontiguousarray(np.broadcast_to(np.asarray(values, dtype=float).reshape(-1), (m,)))
+    v = np.asarray(values, dtype=float).reshape(-1)
+    if len(v) != m:
+        v = np.broadcast_to(v, (m,))
+    return np.ascontiguousarray(v)
 
 
 def disc_violations_plain(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,

@@ -394,3 +394,21 @@ def test_octagon_exits_halves_round_to_even():
     inside = 0.5 * np.array([np.cos(angle), np.sin(angle)])
     exit_ = octagon_exits(inside, np.zeros((1, 2)), np.array([1.0]))[0]
     assert np.hypot(*exit_) == pytest.approx(1.0 / np.cos(np.pi / 8.0) + 2 * TOL, abs=1e-12)
+
+
+def test_planners_share_graphs_with_memos_of_their_own():
+    """Two fast planners of equal worlds share one visibility graph's construction (the same
+    read-only arrays) but not its memos, and answer as a graph built anew does."""
+    from nodnav.planning.prioritized import PrioritizedPlanner
+    from nodnav.scenario.world import paper_world
+
+    a, b = PrioritizedPlanner(paper_world()), PrioritizedPlanner(paper_world())
+    ga, gb = a.graph(a.world, 0.2), b.graph(b.world, 0.2)
+    assert ga is not gb and ga._dist is gb._dist and ga._plain is not gb._plain
+    assert not ga._dist.flags.writeable
+    fresh = VisibilityGraph(paper_world(), 0.2, ga.inflation)
+    start, goal = np.array([-4.0, 0.5]), np.array([4.0, -0.5])
+    got = ga.shortest_path(start, goal, np.array([[0.0, 0.0]]), np.array([0.6]))
+    assert gb._plain == {} and gb._around == {}
+    want = fresh.shortest_path(start, goal, np.array([[0.0, 0.0]]), np.array([0.6]))
+    assert np.array_equal(got.points, want.points) and got.length == want.length

@@ -28,7 +28,8 @@ if TYPE_CHECKING:
 SHARED_GRAPHS = 16
 
 #: The graphs by (world, radius, inflation): a graph depends on nothing else, and the planners
-#: of a sweep's trials, one per trial, ask for the same ones (its memos answer by content).
+#: of a sweep's trials, one per trial, ask for the same ones. Never queried themselves: each
+#: planner gets a copy with memos of its own (:meth:`VisibilityGraph.with_own_memos`).
 _SHARED_GRAPHS: dict[tuple, VisibilityGraph] = {}
 
 
@@ -70,12 +71,14 @@ class GeometricPaths:
             # twice the margin beside the centreline, half of what it leaves (issue 19).
             room = 0.5 * world.passage.width - float(radius)
             inflation = min(self.wall_margin, max(0.0, 0.5 * room))
-            # Every trial's planner needs the same few graphs: built once per process.
+            # Every trial's planner needs the same few graphs: built once per process, each
+            # planner with memos of its own (a trial's answers never come from another's).
             shared = (world, float(radius), inflation)
-            g = _SHARED_GRAPHS.get(shared)
-            if g is None:
-                g = VisibilityGraph(world, radius, inflation)
-                remember_within(_SHARED_GRAPHS, shared, g, SHARED_GRAPHS)
+            built = _SHARED_GRAPHS.get(shared)
+            if built is None:
+                built = VisibilityGraph(world, radius, inflation)
+                remember_within(_SHARED_GRAPHS, shared, built, SHARED_GRAPHS)
+            g = built.with_own_memos()
             remember(self._graphs, key, g)
         return g
 

@@ -22,6 +22,7 @@ without discs (keyed by the discs the path had to go around).
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from dataclasses import dataclass
@@ -170,8 +171,17 @@ class VisibilityGraph:
             self._dist, self._pred = shortest_path(weights, method="D", directed=False, return_predecessors=True)
         else:
             self._dist, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
+        for a in (self.vertices, self._visible, self._dist, self._pred):
+            a.setflags(write=False)  # shared by the copies of with_own_memos
         self._plain: dict[tuple, GeometricPath] = {}
         self._around: dict[tuple, GeometricPath] = {}
+
+    def with_own_memos(self) -> "VisibilityGraph":
+        """The same graph (its vertices, edges and all-pairs paths shared, read-only) with memos
+        of its own, empty: a planner that reuses another's graph answers as if it had built it."""
+        g = copy.copy(self)
+        g._plain, g._around = {}, {}
+        return g
 
     def shortest_path(self, start: np.ndarray, goal: np.ndarray, discs: np.ndarray | None = None,
                       disc_radii: np.ndarray | None = None) -> GeometricPath:

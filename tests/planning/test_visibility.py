@@ -412,3 +412,26 @@ def test_planners_share_graphs_with_memos_of_their_own():
     assert gb._plain == {} and gb._around == {}
     want = fresh.shortest_path(start, goal, np.array([[0.0, 0.0]]), np.array([0.6]))
     assert np.array_equal(got.points, want.points) and got.length == want.length
+
+
+def test_disc_search_kernels_match_their_numpy_forms():
+    """The disc search's compiled steps against the NumPy expressions they replace, bit for bit:
+    the octagons of discs (chamfered_vertices of zero-size boxes) and the wall vertices outside
+    every disc (norms exactly at the limit included)."""
+    from nodnav.geometry import TOL
+    from nodnav.planning.visibility import _disc_octagons, _outside_all
+
+    rng = np.random.default_rng(8)
+    for _ in range(300):
+        m = int(rng.integers(0, 6))
+        centres = rng.uniform(-4, 4, (m, 2))
+        radii = rng.choice([0.0, 0.25, 0.55, 1.3], m) + rng.uniform(0, 0.1, m)
+        want = chamfered_vertices(np.hstack([centres, centres]), radii)
+        assert np.array_equal(_disc_octagons(centres, radii), want)
+        vertices = rng.uniform(-4, 4, (int(rng.integers(0, 30)), 2))
+        if m and len(vertices):
+            vertices[0] = centres[0] + [radii[0] - TOL, 0.0]  # on the limit
+        outside = np.linalg.norm(vertices[:, None] - centres[None], axis=2) >= radii - TOL
+        assert np.array_equal(_outside_all(vertices, centres, radii), np.flatnonzero(outside.all(axis=1)))
+    # by hand: the octagon of the unit disc at the origin has its first vertex at (1, -tan(pi/8))
+    assert _disc_octagons(np.zeros((1, 2)), np.ones(1))[0] == pytest.approx([1.0, -math.tan(math.pi / 8)])

@@ -291,15 +291,16 @@ class VisibilityGraph:
         return paths
 
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
-        outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
-        base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
+        centres = np.ascontiguousarray(centres, dtype=float)
+        radii = np.ascontiguousarray(radii, dtype=float)
+        base = _outside_all(self.vertices, centres, radii)
         turn = self.world.passage.angle  # octagons square with the passage, at any angle
         if turn:
             c, s = math.cos(turn), math.sin(turn)
             offsets = chamfered_vertices(np.zeros((len(centres), 4)), radii).reshape(len(centres), -1, 2)
             ring = (centres[:, None] + offsets @ np.array([[c, s], [-s, c]])).reshape(-1, 2)
-        else:
-            ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        else:  # chamfered_vertices of the zero-size boxes at the centres, in one compiled call
+            ring = _disc_octagons(centres, radii)
         # A start or goal inside an octagon but not its disc first steps out of it radially.
         ring = np.vstack([ring, octagon_exits(start, centres, radii, turn), octagon_exits(goal, centres, radii, turn)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
@@ -328,6 +329,46 @@ class VisibilityGraph:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(_without_repeats(nodes[chain]))
+
+
+@_compiled
+def _outside_all(vertices, centres, radii):
+    """The indices of the ``vertices`` at least ``radii[j] - TOL`` from every centre ``j``, as
+    ``np.flatnonzero((np.linalg.norm(vertices[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1))``
+    (a norm of two coordinates is ``sqrt(x * x + y * y)`` in NumPy too)."""
+    keep = np.empty(vertices.shape[0], dtype=np.int64)
+    k = 0
+    for v in range(vertices.shape[0]):
+        ok = True
+        for j in range(centres.shape[0]):
+            dx, dy = vertices[v, 0] - centres[j, 0], vertices[v, 1] - centres[j, 1]
+            if not math.sqrt(dx * dx + dy * dy) >= radii[j] - TOL:
+                ok = False
+                break
+        if ok:
+            keep[k] = v
+            k += 1
+    return keep[:k]
+
+
+@_compiled
+def _disc_octagons(centres, radii):
+    """:func:`chamfered_vertices` of the zero-size boxes ``(x, y, x, y)`` at ``centres`` grown by
+    ``radii``, ``(m * 8, 2)``: the same sums, vertex by vertex in the same order."""
+    out = np.empty((centres.shape[0] * 8, 2))
+    for j in range(centres.shape[0]):
+        x, y, r = centres[j, 0], centres[j, 1], radii[j]
+        t = _TAN_EIGHTH * r
+        o = 8 * j
+        out[o, 0], out[o, 1] = x + r, y - t
+        out[o + 1, 0], out[o + 1, 1] = x + r, y + t
+        out[o + 2, 0], out[o + 2, 1] = x + t, y + r
+        out[o + 3, 0], out[o + 3, 1] = x - t, y + r
+        out[o + 4, 0], out[o + 4, 1] = x - r, y + t
+        out[o + 5, 0], out[o + 5, 1] = x - r, y - t
+        out[o + 6, 0], out[o + 6, 1] = x - t, y - r
+        out[o + 7, 0], out[o + 7, 1] = x + t, y - r
+    return out
 
 
 @functools.lru_cache(maxsize=256)

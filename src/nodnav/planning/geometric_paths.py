@@ -25,7 +25,11 @@ if TYPE_CHECKING:
     from nodnav.scenario.params import FastPlannerParams
 
 #: How many visibility graphs the planners of one process share (a trial needs one per radius).
-SHARED_GRAPHS = 16
+SHARED_GRAPHS = 8
+
+#: Graphs of more vertices than this (a map's walls) are not kept between planners: their
+#: all-pairs tables grow with the square of it (400 vertices: about 2 MB).
+SHARED_VERTICES = 400
 
 #: The graphs by (world, radius, inflation): a graph depends on nothing else, and the planners
 #: of a sweep's trials, one per trial, ask for the same ones. Never queried themselves: each
@@ -77,7 +81,8 @@ class GeometricPaths:
             built = _SHARED_GRAPHS.get(shared)
             if built is None:
                 built = VisibilityGraph(world, radius, inflation)
-                remember_within(_SHARED_GRAPHS, shared, built, SHARED_GRAPHS)
+                if len(built.vertices) <= SHARED_VERTICES:
+                    remember_within(_SHARED_GRAPHS, shared, built, SHARED_GRAPHS)
             g = built.with_own_memos()
             remember(self._graphs, key, g)
         return g

@@ -658,6 +658,17 @@ def test_a_robot_that_would_park_in_the_way_waits_aside_until_the_robots_after_i
     assert min_gap(res, [0.2, 0.2]) >= 0.05 - 1e-6  # the planner's margin
 
 
+def _paper_or_turned_world(turned: bool):
+    """The paper's corridor, or a passage of the same length turned by 40 degrees."""
+    from nodnav.scenario.world import Passage, World, paper_world
+
+    if not turned:
+        return paper_world()
+    c, s = math.cos(0.7), math.sin(0.7)
+    return World(bounds=(-10.0, -10.0, 10.0, 10.0), obstacles=(),
+                 passages=(Passage(start=(-3 * c, -3 * s), end=(3 * c, 3 * s), width=1.2),))
+
+
 @pytest.mark.parametrize("turned", [False, True])
 def test_plan_stays_compiled_match_the_world_functions(turned):
     """RobotPlan's corridor and door stays (one compiled pass) against World.on_line and
@@ -666,14 +677,8 @@ def test_plan_stays_compiled_match_the_world_functions(turned):
     the door-zone circles included."""
     from nodnav.planning.fast_state import RobotPlan, plain_stays
     from nodnav.planning.occupancy import Motion
-    from nodnav.scenario.world import Passage, World, paper_world
 
-    if turned:
-        c, s = math.cos(0.7), math.sin(0.7)
-        world = World(bounds=(-10.0, -10.0, 10.0, 10.0), obstacles=(),
-                      passages=(Passage(start=(-3 * c, -3 * s), end=(3 * c, 3 * s), width=1.2),))
-    else:
-        world = paper_world()
+    world = _paper_or_turned_world(turned)
     rng = np.random.default_rng(11)
     ent = np.asarray(world.entrances, dtype=float)
     for _ in range(300):
@@ -686,3 +691,31 @@ def test_plan_stays_compiled_match_the_world_functions(turned):
         plan = RobotPlan(Motion(samples.copy(), samples, np.zeros(n)), world, 1.0)
         want = plain_stays(world, samples, 1.0)
         assert (plan.passage, plan.doors) == ((want[0], want[1]), ((want[2], want[3]), (want[4], want[5])))
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_cell_zones_compiled_match_the_world_functions(turned):
+    """The cut's zones of its cells (zones_of, one compiled pass) against World.on_line and
+    in_door_zone point by point, on random points about the paper's corridor and a passage
+    turned by 40 degrees; points on the mouths, on the centreline's edges and on the door-zone
+    circles included."""
+    from nodnav.planning.fast_state import zones_of
+    from nodnav.planning.fused_timing import stay_geometry
+    from nodnav.planning.waiting_spots import in_door_zone
+
+    world = _paper_or_turned_world(turned)
+    rng = np.random.default_rng(12)
+    ent = np.asarray(world.entrances, dtype=float)
+    p = world.passage
+    for door in (0.5, 1.0):
+        g = stay_geometry(world, door)
+        for _ in range(100):
+            pts = rng.uniform(-5, 5, (int(rng.integers(1, 80)), 2))
+            if len(pts) > 4:
+                pts[0], pts[1] = ent[0], ent[1] + [door, 0.0]
+                pts[2] = p.to_world(np.array(p.s_start), np.array(p.t_centre + 0.5 * p.width))
+                pts[3] = p.to_world(np.array(0.5 * (p.s_start + p.s_end)), np.array(p.t_centre))
+            line, left, right = zones_of(np.ascontiguousarray(pts), g)
+            assert np.array_equal(line, world.on_line(pts))
+            assert np.array_equal(left, in_door_zone(world, pts, 0, door))
+            assert np.array_equal(right, in_door_zone(world, pts, 1, door))

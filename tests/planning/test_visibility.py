@@ -342,9 +342,9 @@ def test_compiled_chain_is_the_python_heaps_chain_ties_included(seed):
 def test_compiled_disc_checks_match_their_numpy_forms():
     """The compiled checks of the fast planner's paths against the NumPy expressions they
     replace, on random polylines and discs (also single points, starts inside discs, radii at
-    and below TOL): the same decisions."""
+    and below TOL): the same decisions; disc_violations against its NumPy form."""
     from nodnav.geometry import TOL, segment_point_distance
-    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations
+    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations, disc_violations_plain
 
     rng = np.random.default_rng(3)
     for _ in range(500):
@@ -357,7 +357,14 @@ def test_compiled_disc_checks_match_their_numpy_forms():
         start, goal = poly[0], poly[-1]
         keep = radii > TOL
         c, r = centres[keep], radii[keep]
-        want = bool(disc_violations(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)).any())
+        want = bool(disc_violations_plain(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)).any())
+        # disc_violations' compiled loops: the same decisions, disc by disc (also with limits
+        # from other distances than the start's and the goal's, as the planner passes them)
+        d_start, d_goal = rng.uniform(0, 2, m), rng.uniform(0, 2, m)
+        assert np.array_equal(disc_violations(poly, centres, radii, d_start, d_goal),
+                              disc_violations_plain(poly, centres, radii, d_start, d_goal))
+        assert np.array_equal(disc_violations(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)),
+                              disc_violations_plain(poly, c, r, np.hypot(*(c - start).T), np.hypot(*(c - goal).T)))
         assert _crosses_any(poly, centres, radii, start, goal) == want
         k = int(rng.integers(1, 6))
         a, b = rng.uniform(-3, 3, (k, 2)), rng.uniform(-3, 3, (k, 2))
@@ -367,11 +374,65 @@ def test_compiled_disc_checks_match_their_numpy_forms():
 
 
 def test_polyline_length_is_the_sum_of_segment_norms():
-    """polyline_length against np.linalg.norm of the differences, summed (bit for bit)."""
+    """polyline_length against np.linalg.norm of the differences, summed (bit for bit): the
+    compiled loop up to eight points, the NumPy form beyond."""
 
     rng = np.random.default_rng(5)
-    for n in (1, 2, 3, 8, 9, 17, 40):
-        for _ in range(50):
+    for n in (*range(1, 13), 17, 40):
+        for _ in range(2000 if n <= 9 else 50):
             p = rng.normal(size=(n, 2)) * rng.uniform(0.01, 100)
             assert polyline_length(p) == float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
     assert polyline_length(np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 0.0]])) == 9.0
+
+
+def test_octagon_exits_halves_round_to_even():
+    """octagon_exits rounds the ray's angle to the nearest side normal with halves to even (as
+    np.round did): a point at 22.5 degrees from the centre, exactly between two normals, leaves
+    the octagon of radius 1 at 1 / cos(22.5 deg) + 2 TOL (either side gives that distance)."""
+    from nodnav.geometry import TOL
+
+    angle = np.pi / 8.0
+    inside = 0.5 * np.array([np.cos(angle), np.sin(angle)])
+    exit_ = octagon_exits(inside, np.zeros((1, 2)), np.array([1.0]))[0]
+    assert np.hypot(*exit_) == pytest.approx(1.0 / np.cos(np.pi / 8.0) + 2 * TOL, abs=1e-12)
+
+
+def test_planners_share_graphs_with_memos_of_their_own():
+    """Two fast planners of equal worlds share one visibility graph's construction (the same
+    read-only arrays) but not its memos, and answer as a graph built anew does."""
+    from nodnav.planning.prioritized import PrioritizedPlanner
+    from nodnav.scenario.world import paper_world
+
+    a, b = PrioritizedPlanner(paper_world()), PrioritizedPlanner(paper_world())
+    ga, gb = a.graph(a.world, 0.2), b.graph(b.world, 0.2)
+    assert ga is not gb and ga._dist is gb._dist and ga._plain is not gb._plain
+    assert not ga._dist.flags.writeable
+    fresh = VisibilityGraph(paper_world(), 0.2, ga.inflation)
+    start, goal = np.array([-4.0, 0.5]), np.array([4.0, -0.5])
+    got = ga.shortest_path(start, goal, np.array([[0.0, 0.0]]), np.array([0.6]))
+    assert gb._plain == {} and gb._around == {}
+    want = fresh.shortest_path(start, goal, np.array([[0.0, 0.0]]), np.array([0.6]))
+    assert np.array_equal(got.points, want.points) and got.length == want.length
+
+
+def test_disc_search_kernels_match_their_numpy_forms():
+    """The disc search's compiled steps against the NumPy expressions they replace, bit for bit:
+    the octagons of discs (chamfered_vertices of zero-size boxes) and the wall vertices outside
+    every disc (norms exactly at the limit included)."""
+    from nodnav.geometry import TOL
+    from nodnav.planning.visibility import _disc_octagons, _outside_all
+
+    rng = np.random.default_rng(8)
+    for _ in range(300):
+        m = int(rng.integers(0, 6))
+        centres = rng.uniform(-4, 4, (m, 2))
+        radii = rng.choice([0.0, 0.25, 0.55, 1.3], m) + rng.uniform(0, 0.1, m)
+        want = chamfered_vertices(np.hstack([centres, centres]), radii)
+        assert np.array_equal(_disc_octagons(centres, radii), want)
+        vertices = rng.uniform(-4, 4, (int(rng.integers(0, 30)), 2))
+        if m and len(vertices):
+            vertices[0] = centres[0] + [radii[0] - TOL, 0.0]  # on the limit
+        outside = np.linalg.norm(vertices[:, None] - centres[None], axis=2) >= radii - TOL
+        assert np.array_equal(_outside_all(vertices, centres, radii), np.flatnonzero(outside.all(axis=1)))
+    # by hand: the octagon of the unit disc at the origin has its first vertex at (1, -tan(pi/8))
+    assert _disc_octagons(np.zeros((1, 2)), np.ones(1))[0] == pytest.approx([1.0, -math.tan(math.pi / 8)])

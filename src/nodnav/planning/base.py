@@ -102,9 +102,11 @@ class JointTrajectory:
         """Build from positions, with velocities as forward differences (zero on the last sample)."""
         times = np.asarray(times, dtype=float)
         positions = np.asarray(positions, dtype=float)
-        vel = np.zeros_like(positions)
+        vel = np.zeros(positions.shape)
         if len(times) > 1:
-            vel[:-1] = np.diff(positions, axis=0) / np.diff(times)[:, None, None]
+            # np.diff's subtractions written out (the same operations, without its wrapper).
+            np.subtract(positions[1:], positions[:-1], out=vel[:-1])
+            vel[:-1] /= (times[1:] - times[:-1])[:, None, None]
         return JointTrajectory(times, positions, vel)
 
     @staticmethod

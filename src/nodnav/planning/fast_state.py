@@ -126,11 +126,11 @@ def plain_stays(world: World, samples: np.ndarray, door_clearance: float) -> tup
 
 
 @_compiled
-def _stays_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_width, e0x, e0y, e1x, e1y, radius):
-    """The last stays of the samples ``s`` in the single-file line (``World.on_line``: between
-    the mouths along the axis, and within half the width of the centreline across it) and in
-    the two door zones (``in_door_zone``: nearer than ``radius`` to the entrance), with those
-    functions' operations; each as ``(entry, exit)`` of :func:`corridor_passage`."""
+def _zones_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_width, e0x, e0y, e1x, e1y, radius):
+    """Which points ``s`` are in the single-file line (``World.on_line``: between the mouths
+    along the axis, within half the width of the centreline across it) and in the door zones
+    of the left and of the right entrance (``in_door_zone``: nearer than ``radius``), with those
+    functions' operations (``math.hypot`` is the C library's ``hypot``, as ``np.hypot``)."""
     n = s.shape[0]
     line = np.empty(n, dtype=np.bool_)
     left = np.empty(n, dtype=np.bool_)
@@ -142,6 +142,25 @@ def _stays_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_wid
         line[i] = between and abs(px * nx + py * ny - t_centre) - half_width < 0.0
         left[i] = math.hypot(px - e0x, py - e0y) < radius
         right[i] = math.hypot(px - e1x, py - e1y) < radius
+    return line, left, right
+
+
+@_compiled
+def zones_of(points, g):
+    """:func:`_zones_kernel` of ``points`` with the world's arguments as
+    :func:`~nodnav.planning.fused_timing.stay_geometry` packs them into ``g``."""
+    return _zones_kernel(points, g[0] != 0.0, g[1], g[2], g[3], g[4], g[5], g[6], g[7], g[8], g[9], g[10], g[11],
+                         g[12], g[13])
+
+
+@_compiled
+def _stays_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_width, e0x, e0y, e1x, e1y, radius):
+    """The last stays of the samples ``s`` in the single-file line (``World.on_line``: between
+    the mouths along the axis, and within half the width of the centreline across it) and in
+    the two door zones (``in_door_zone``: nearer than ``radius`` to the entrance), with those
+    functions' operations; each as ``(entry, exit)`` of :func:`corridor_passage`."""
+    line, left, right = _zones_kernel(s, along_x, ax, ay, nx, ny, s_start, s_end, t_centre, half_width, e0x, e0y,
+                                      e1x, e1y, radius)
     e, x = _passage_kernel(line)
     l0, l1 = _passage_kernel(left)
     r0, r1 = _passage_kernel(right)

@@ -14,16 +14,27 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
-from nodnav.planning.fast_state import Cut, Route, Track
-from nodnav.planning.memo import remember
+from nodnav.planning.fast_state import Cut, Route, Track, zones_of
+from nodnav.planning.memo import remember, remember_within
 from nodnav.planning.occupancy import entry_cell, polyline_segments
 from nodnav.planning.polylines import arc_length_grid
 from nodnav.planning.visibility import VisibilityGraph, corner_cuts_close
-from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.scenario.world import World
 
 if TYPE_CHECKING:
     from nodnav.scenario.params import FastPlannerParams
+
+#: How many visibility graphs the planners of one process share (a trial needs one per radius).
+SHARED_GRAPHS = 8
+
+#: Graphs of more vertices than this (a map's walls) are not kept between planners: their
+#: all-pairs tables grow with the square of it (400 vertices: about 2 MB).
+SHARED_VERTICES = 400
+
+#: The graphs by (world, radius, inflation): a graph depends on nothing else, and the planners
+#: of a sweep's trials, one per trial, ask for the same ones. Never queried themselves: each
+#: planner gets a copy with memos of its own (:meth:`VisibilityGraph.with_own_memos`).
+_SHARED_GRAPHS: dict[tuple, VisibilityGraph] = {}
 
 
 class GeometricPaths:
@@ -36,6 +47,8 @@ class GeometricPaths:
         _cuts: dict[tuple, Cut]
         _world_ids: dict[int, tuple[World, int]]
         _world_tokens: dict[World, int]
+
+        def _stay_geometry(self, world: World) -> np.ndarray: ...
 
     def world_token(self, world: World) -> int:
         """A small integer standing for ``world`` in the memos' keys (equal worlds share one):
@@ -61,7 +74,16 @@ class GeometricPaths:
             # The wall margin where there is room: in a passage that leaves a robot less than
             # twice the margin beside the centreline, half of what it leaves (issue 19).
             room = 0.5 * world.passage.width - float(radius)
-            g = VisibilityGraph(world, radius, min(self.wall_margin, max(0.0, 0.5 * room)))
+            inflation = min(self.wall_margin, max(0.0, 0.5 * room))
+            # Every trial's planner needs the same few graphs: built once per process, each
+            # planner with memos of its own (a trial's answers never come from another's).
+            shared = (world, float(radius), inflation)
+            built = _SHARED_GRAPHS.get(shared)
+            if built is None:
+                built = VisibilityGraph(world, radius, inflation)
+                if len(built.vertices) <= SHARED_VERTICES:
+                    remember_within(_SHARED_GRAPHS, shared, built, SHARED_GRAPHS)
+            g = built.with_own_memos()
             remember(self._graphs, key, g)
         return g
 
@@ -136,7 +158,9 @@ class GeometricPaths:
             corners = np.nonzero(np.abs(cross) > 1e-12)[0]
             if len(corners):
                 a, b = cells[corners], cells[corners + 2]
-                height = np.abs(cross[corners]) / np.linalg.norm(b - a, axis=1)
+                chord = b - a  # its norm as np.linalg.norm's (x * x + y * y, then the root)
+                chord *= chord
+                height = np.abs(cross[corners]) / np.sqrt(chord[:, 0] + chord[:, 1])
                 end_clearance = float(world.clearance(path[[0, -1]]).min())
                 good = min(radius + self.wall_margin, end_clearance) - height >= radius
                 unsure = np.nonzero(~good)[0]
@@ -145,9 +169,10 @@ class GeometricPaths:
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
                     good[unsure] = segment_is_clear(world, au, bu, limit - TOL)
                 ok[corners] = good
-        inside = world.on_line(cells)  # a robot waiting in a bay is out of the single file
-        door = self.params.door_clearance
-        doors = (entry_cell(in_door_zone(world, cells, 0, door)), entry_cell(in_door_zone(world, cells, 1, door)))
+        # World.on_line (a robot waiting in a bay is out of the single file) and in_door_zone of
+        # both entrances, in one compiled pass with their operations.
+        inside, left, right = zones_of(cells, self._stay_geometry(world))
+        doors = (entry_cell(left), entry_cell(right))
         cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
         remember(self._cuts, key, cut)
         return cut

@@ -15,6 +15,13 @@ def remember(memo: dict, key: Any, value: Any) -> None:
     memo[key] = value
 
 
+def remember_within(memo: dict, key: Any, value: Any, size: int) -> None:
+    """:func:`remember` with room for ``size`` entries."""
+    if len(memo) >= size:
+        del memo[next(iter(memo))]
+    memo[key] = value
+
+
 #: How many entries the memos that only serve the requests of one state keep (the closed loop
 #: asks every order of a round from one state, and a few states interleave when robots plan
 #: different groups): small, so that they hold few objects for the garbage collector to scan.

@@ -21,13 +21,32 @@ def polyline_point_distance(polyline: np.ndarray, points: np.ndarray) -> np.ndar
     return segment_point_distance(poly[:-1], poly[1:], points).min(axis=0)
 
 
+#: Up to this many segments NumPy sums the segments' lengths one after the other from zero
+#: (its pairwise summation starts with eight partial sums at eight terms), as :func:`_length_kernel` does.
+SEQUENTIAL_SUM = 7
+
+
 def polyline_length(polyline: np.ndarray) -> float:
     """Length of a polyline ``(V, 2)`` (m)."""
     poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
+    if len(poly) <= SEQUENTIAL_SUM + 1:  # the common short path: one compiled call
+        return float(_length_kernel(np.ascontiguousarray(poly)))
     # np.linalg.norm(np.diff(poly, axis=0), axis=1).sum() without its checks: the same operations.
     d = poly[1:] - poly[:-1]
     d *= d
     return float(np.sqrt(d[:, 0] + d[:, 1]).sum())
+
+
+@_compiled
+def _length_kernel(poly):
+    """:func:`polyline_length` of at most :data:`SEQUENTIAL_SUM` segments: each segment's norm as
+    NumPy's (``sqrt(x * x + y * y)``), summed from zero in order, as NumPy's sum does for so few."""
+    total = 0.0
+    for i in range(poly.shape[0] - 1):
+        dx = poly[i + 1, 0] - poly[i, 0]
+        dy = poly[i + 1, 1] - poly[i, 1]
+        total += math.sqrt(dx * dx + dy * dy)
+    return total
 
 
 @dataclass(frozen=True)

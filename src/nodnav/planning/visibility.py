@@ -22,6 +22,7 @@ without discs (keyed by the discs the path had to go around).
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from dataclasses import dataclass
@@ -108,7 +109,8 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, tur
     angle = np.arctan2(away[:, 1], away[:, 0])
     if turn:  # the octagon turned by ``turn`` (rad)
         angle = angle - turn
-    delta = angle - np.round(angle / (np.pi / 4.0)) * (np.pi / 4.0)
+    # np.rint is what np.round does for no decimals (halves to even), without its wrappers.
+    delta = angle - np.rint(angle / (np.pi / 4.0)) * (np.pi / 4.0)
     boundary = r / np.cos(delta) + 2 * TOL
     inside = (d > 0) & (d < boundary)
     scale = np.where(inside, boundary / np.where(d > 0, d, 1.0), 1.0)
@@ -125,8 +127,12 @@ class GeometricPath:
     """Empty on success; otherwise why no path exists."""
     points: np.ndarray
     """Vertices ``(V, 2)`` from start to goal (m); just the start on failure."""
-    length: float
-    """Length of the polyline (m); ``inf`` on failure."""
+
+    @functools.cached_property
+    def length(self) -> float:
+        """Length of the polyline (m); ``inf`` on failure. Computed when first read: the fast
+        planner makes thousands of paths per trial and reads few lengths."""
+        return polyline_length(self.points) if self.success else math.inf
 
 
 class VisibilityGraph:
@@ -165,8 +171,17 @@ class VisibilityGraph:
             self._dist, self._pred = shortest_path(weights, method="D", directed=False, return_predecessors=True)
         else:
             self._dist, self._pred = np.zeros((0, 0)), np.zeros((0, 0), dtype=int)
+        for a in (self.vertices, self._visible, self._dist, self._pred):
+            a.setflags(write=False)  # shared by the copies of with_own_memos
         self._plain: dict[tuple, GeometricPath] = {}
         self._around: dict[tuple, GeometricPath] = {}
+
+    def with_own_memos(self) -> "VisibilityGraph":
+        """The same graph (its vertices, edges and all-pairs paths shared, read-only) with memos
+        of its own, empty: a planner that reuses another's graph answers as if it had built it."""
+        g = copy.copy(self)
+        g._plain, g._around = {}, {}
+        return g
 
     def shortest_path(self, start: np.ndarray, goal: np.ndarray, discs: np.ndarray | None = None,
                       disc_radii: np.ndarray | None = None) -> GeometricPath:
@@ -235,7 +250,7 @@ class VisibilityGraph:
     # -----------------------------------------------------------------------------------------
 
     def _fail(self, start: np.ndarray, reason: str) -> GeometricPath:
-        return GeometricPath(False, reason, start[None].copy(), float("inf"))
+        return GeometricPath(False, reason, start[None].copy())
 
     def _walls_only(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
         m, v = len(starts), self.vertices
@@ -276,15 +291,16 @@ class VisibilityGraph:
         return paths
 
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
-        outside = np.linalg.norm(self.vertices[:, None] - centres[None], axis=2) >= radii - TOL
-        base = np.flatnonzero(outside.all(axis=1)) if len(self.vertices) else np.zeros(0, dtype=int)
+        centres = np.ascontiguousarray(centres, dtype=float)
+        radii = np.ascontiguousarray(radii, dtype=float)
+        base = _outside_all(self.vertices, centres, radii)
         turn = self.world.passage.angle  # octagons square with the passage, at any angle
         if turn:
             c, s = math.cos(turn), math.sin(turn)
             offsets = chamfered_vertices(np.zeros((len(centres), 4)), radii).reshape(len(centres), -1, 2)
             ring = (centres[:, None] + offsets @ np.array([[c, s], [-s, c]])).reshape(-1, 2)
-        else:
-            ring = chamfered_vertices(np.hstack([centres, centres]), radii)
+        else:  # chamfered_vertices of the zero-size boxes at the centres, in one compiled call
+            ring = _disc_octagons(centres, radii)
         # A start or goal inside an octagon but not its disc first steps out of it radially.
         ring = np.vstack([ring, octagon_exits(start, centres, radii, turn), octagon_exits(goal, centres, radii, turn)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
@@ -313,6 +329,46 @@ class VisibilityGraph:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(_without_repeats(nodes[chain]))
+
+
+@_compiled
+def _outside_all(vertices, centres, radii):
+    """The indices of the ``vertices`` at least ``radii[j] - TOL`` from every centre ``j``, as
+    ``np.flatnonzero((np.linalg.norm(vertices[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1))``
+    (a norm of two coordinates is ``sqrt(x * x + y * y)`` in NumPy too)."""
+    keep = np.empty(vertices.shape[0], dtype=np.int64)
+    k = 0
+    for v in range(vertices.shape[0]):
+        ok = True
+        for j in range(centres.shape[0]):
+            dx, dy = vertices[v, 0] - centres[j, 0], vertices[v, 1] - centres[j, 1]
+            if not math.sqrt(dx * dx + dy * dy) >= radii[j] - TOL:
+                ok = False
+                break
+        if ok:
+            keep[k] = v
+            k += 1
+    return keep[:k]
+
+
+@_compiled
+def _disc_octagons(centres, radii):
+    """:func:`chamfered_vertices` of the zero-size boxes ``(x, y, x, y)`` at ``centres`` grown by
+    ``radii``, ``(m * 8, 2)``: the same sums, vertex by vertex in the same order."""
+    out = np.empty((centres.shape[0] * 8, 2))
+    for j in range(centres.shape[0]):
+        x, y, r = centres[j, 0], centres[j, 1], radii[j]
+        t = _TAN_EIGHTH * r
+        o = 8 * j
+        out[o, 0], out[o, 1] = x + r, y - t
+        out[o + 1, 0], out[o + 1, 1] = x + r, y + t
+        out[o + 2, 0], out[o + 2, 1] = x + t, y + r
+        out[o + 3, 0], out[o + 3, 1] = x - t, y + r
+        out[o + 4, 0], out[o + 4, 1] = x - r, y + t
+        out[o + 5, 0], out[o + 5, 1] = x - r, y - t
+        out[o + 6, 0], out[o + 6, 1] = x - t, y - r
+        out[o + 7, 0], out[o + 7, 1] = x + t, y - r
+    return out
 
 
 @functools.lru_cache(maxsize=256)
@@ -345,7 +401,27 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     except that the first segment need only keep ``min(radii[j], d_start[j])`` (the start's
     distance from the centre: leaving a disc one starts in) and the last one
     ``min(radii[j], d_goal[j])`` (entering the disc that holds the goal).
+
+    One compiled call (:func:`_violations_kernel`); :func:`disc_violations_plain` is the NumPy
+    form it is tested against.
     """
+    centres = np.ascontiguousarray(np.asarray(centres, dtype=float).reshape(-1, 2))
+    m = len(centres)
+    return _violations_kernel(np.ascontiguousarray(np.asarray(polyline, dtype=float).reshape(-1, 2)), centres,
+                              _per_disc(radii, m), _per_disc(d_start, m), _per_disc(d_goal, m))
+
+
+def _per_disc(values, m: int) -> np.ndarray:
+    """``values`` as a contiguous float array ``(m,)`` (one value broadcast to all)."""
+    v = np.asarray(values, dtype=float).reshape(-1)
+    if len(v) != m:
+        v = np.broadcast_to(v, (m,))
+    return np.ascontiguousarray(v)
+
+
+def disc_violations_plain(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,
+                          d_goal: np.ndarray) -> np.ndarray:
+    """:func:`disc_violations` with NumPy: the segments' distances as a table, the limits as another."""
     poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
     if len(poly) == 1:
@@ -355,6 +431,30 @@ def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray
     limit[0] = np.minimum(limit[0], d_start)
     limit[-1] = np.minimum(limit[-1], d_goal)
     return np.asarray((d < limit - TOL).any(axis=0))
+
+
+@_compiled
+def _violations_kernel(poly, centres, radii, d_start, d_goal):
+    """The loops of :func:`disc_violations`: the same distances (:func:`_segment_point_d2_one`,
+    then the square root) and limits, disc by disc, stopping at its first violated segment."""
+    n_pts = poly.shape[0]
+    n_seg = max(n_pts - 1, 1)
+    out = np.zeros(centres.shape[0], dtype=np.bool_)
+    for j in range(centres.shape[0]):
+        cx, cy = centres[j, 0], centres[j, 1]
+        for s in range(n_seg):
+            a, b = min(s, n_pts - 1), min(s + 1, n_pts - 1)
+            limit = radii[j]
+            if s == 0:
+                limit = min(limit, d_start[j])
+            if s == n_seg - 1:
+                limit = min(limit, d_goal[j])
+            ax, ay = poly[a, 0], poly[a, 1]
+            d = math.sqrt(_segment_point_d2_one(ax, ay, poly[b, 0] - ax, poly[b, 1] - ay, cx, cy))
+            if d < limit - TOL:
+                out[j] = True
+                break
+    return out
 
 
 @_compiled
@@ -471,7 +571,7 @@ def _best_via_kernel(d_start, dist, d_goal, from_start, to_goal):
 
 def _path(points: np.ndarray) -> GeometricPath:
     points.setflags(write=False)
-    return GeometricPath(True, "", points, polyline_length(points))
+    return GeometricPath(True, "", points)
 
 
 def _fmt(p: np.ndarray) -> str:

@@ -1,0 +1,153 @@
+"""The fast planner's timing step: a robot's velocity along its path among the robots before it.
+
+Step 4 of :mod:`nodnav.planning.prioritized` (its module docstring): the corridor and door rules
+as gates (:meth:`VelocityTuning._gates`), the cells each earlier robot's motion closes at each
+step (:meth:`VelocityTuning._blocked`, remembered), and the exact search, retiming and samples in
+one compiled call (:meth:`VelocityTuning._timing`, :func:`~nodnav.planning.fused_timing._search_kernel`);
+:meth:`VelocityTuning._time` makes the robot's plan of it. A mixin of
+:class:`~nodnav.planning.prioritized.PrioritizedPlanner`, which owns the memos.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track, timed_motion
+from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
+from nodnav.planning.memo import remember, remember_briefly
+from nodnav.planning.occupancy import Motion, blocked_rows, join_motions, relaxed_bits
+from nodnav.planning.timing import Timing, timing_of
+from nodnav.scenario.world import World
+
+
+def _allclose_point(a: np.ndarray, b: np.ndarray) -> bool:
+    """``np.allclose(a, b)`` of two finite points ``(2,)`` at its default tolerances
+    (``|a - b| <= 1e-8 + 1e-5 |b|`` per coordinate, the same float operations), without its
+    array overhead (it ran once per planned robot)."""
+    for d in range(2):
+        x, y = float(a[d]), float(b[d])
+        if not abs(x - y) <= 1e-08 + 1e-05 * abs(y):
+            return False
+    return True
+
+
+class VelocityTuning(FastPlannerHooks):
+    """The timing step of :class:`~nodnav.planning.prioritized.PrioritizedPlanner` (see the module docstring)."""
+
+    if TYPE_CHECKING:  # set by PrioritizedPlanner.__init__
+        _rows: dict[tuple, tuple]
+        _rows_by_id: dict[tuple, tuple]
+        _geometries: dict[int, tuple]
+
+    def _gates(self, state: State, k: int, track: Track, plans: dict) -> tuple[list, str]:
+        """The corridor and door rules for robot ``k`` after the robots ``plans``: ``(cell,
+        allowed)`` pairs (cells at and past ``cell`` are closed before step ``allowed``), or why
+        the order cannot be kept."""
+        dirs, gates = state.directions, []
+        door = state.door[k]
+        for i, p in plans.items():
+            e_i, x_i = p.passage
+            if dirs[i] == dirs[k] != 0:
+                if track.entry >= 0 and e_i >= 0:
+                    gates.append((track.entry, e_i + 1))
+                continue
+            if track.entry >= 0 and e_i >= 0:
+                if x_i > p.arrival:
+                    return [], f"robot {i} before it in the order parks inside the corridor"
+                gates.append((track.entry, x_i + 1))
+            if door >= 0 and track.doors[door] >= 0:
+                z_i, out_i = p.doors[door]
+                if z_i >= 0:
+                    gates.append((track.doors[door], min(out_i, p.arrival) + 1))
+        return gates, ""
+
+    def _timing(self, state: State, k: int, track: Track, fixed: list, gates=(), t0: int = 0,
+                world: World | None = None) -> Timing:
+        """Velocity tuning of robot ``k`` along ``track`` from step ``t0`` among the ``fixed``
+        ``(robot, motion)`` pairs, under the ``gates`` (absolute steps); the timing's step 0 is
+        step ``t0``. A pair that starts closer than required keeps the relaxed separation until
+        the other robot's motion is required distance away from this one's start for good
+        (:func:`relaxed_separation`). With ``world``, the timing also holds its samples' stays
+        in that world's corridor and door zones (``RobotPlan._stays``)."""
+        cells, n = track.cells, len(track.cells)
+        n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
+        closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
+        x0, y0 = float(cells[0, 0]), float(cells[0, 1])
+        required = state.required
+        for j, m in fixed:
+            r = float(required[j, k])
+            hx, hy = m.samples[min(t0, m.last_step)].tolist()
+            gap = math.hypot(hx - x0, hy - y0)
+            bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
+            # Rows past the motion's last step repeat it: it stands still from then on.
+            part = bits[min(t0, len(bits) - 1):]
+            closed[:len(part)] |= part
+            if len(part) < n_rows:
+                closed[len(part):] |= part[-1]
+        # The gates, the search, the retiming and the motion's samples in one compiled call.
+        retime = False
+        v0 = vmax = alpha = 0.0
+        if state.accels is not None and state.velocities is not None:
+            retime = True
+            # Moving now only if it starts where it stands now (not after getting out of the way).
+            if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
+                v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
+            vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
+        ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
+        geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
+        status, step, steps, arc, samples, stays = _search_kernel(
+            closed, n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, self.params.waiting == "early", retime,
+            track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
+        return timing_of(status, step, steps, arc if len(arc) else None, samples,
+                         None if world is None else tuple(int(v) for v in stays))
+
+    def _stay_geometry(self, world: World) -> np.ndarray:
+        """:func:`stay_geometry` of ``world`` (remembered by identity; the world is held so that
+        its id stays its own)."""
+        hit = self._geometries.get(id(world))
+        if hit is None:
+            hit = (world, stay_geometry(world, self.params.door_clearance))
+            self._geometries[id(world)] = hit
+        return hit[1]
+
+    def _blocked(self, cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
+        """The cells too close to ``motion`` at each of its steps (:func:`blocked_bits`; memoised:
+        the same path meets the same motion in many orders, and equal motions in others)."""
+        # First by identity (the same motion object meets the same cells in many orders), then
+        # by value; the objects are kept with the bits so that their ids stay theirs.
+        same = (id(cells), id(motion), required)
+        hit = self._rows_by_id.get(same)
+        if hit is not None:
+            return hit[2]
+        key = (id(cells), motion.samples.tobytes(), motion.path.tobytes(), required)
+        hit = self._rows.get(key)
+        if hit is not None:
+            remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
+        else:
+            # conflict_intervals for one motion and blocked_bits of them, in one compiled call.
+            bits = blocked_rows(np.ascontiguousarray(cells, dtype=float), motion, float(required))
+            # The cells are kept with the bits so that their id stays theirs while remembered.
+            hit = (cells, bits)
+            remember(self._rows, key, hit)
+            remember_briefly(self._rows_by_id, same, (cells, motion, bits))
+        return hit[1]
+
+    def _time(self, world: World, state: State, k: int, track: Track, layout: Layout,
+              head: Motion | None = None) -> Attempt:
+        """Robot ``k``'s timing along ``track`` among everything known, after ``head`` (the
+        motion by which it first got out of the way) if there is one."""
+        head = layout.heads.get(k) if head is None else head
+        gates, problem = self._gates(state, k, track, layout.plans)
+        if problem:
+            return Attempt(False, problem)
+        t0 = head.last_step if head is not None else 0
+        timing = self._timing(state, k, track, layout.fixed(k), gates, t0, world if head is None else None)
+        if not timing.success:
+            return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
+        motion = timed_motion(track, timing)
+        if head is not None:  # the stays of the joined motion, when asked
+            motion = join_motions(head, motion)
+        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, timing.stays))

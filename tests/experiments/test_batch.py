@@ -117,7 +117,7 @@ def test_run_keys_leave_out_the_name_only():
     assert run_key(config, 1) != run_key({"scenario": {**raw, "game_players": 1}, "method": "nod"}, 1)
 
 
-def test_the_reductions_paper_variant_is_the_success_rates_trial(tmp_path):
+def test_the_reductions_entered_variant_is_the_success_rates_trial(tmp_path):
     """The only twins of ``nodnav reproduce``: the variant that is the scenarios' own setting at k players
     (``entered``, the default of ``opinion.nonplayers``) is the scenario at k players."""
     files = variant_scenario_files(tmp_path, ("3r-case1", "4r-case1"))

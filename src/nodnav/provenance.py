@@ -29,7 +29,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 #: change a trial's result and are left out of the hash.
 PRESENTATION = ("cli/", "paths.py", "errors.py", "provenance.py", "viz/", "reporting/",
                 "experiments/analysis.py", "experiments/paper.py", "experiments/statistics.py", "experiments/study.py",
-                "experiments/sweep.py", "experiments/store.py", "bench/",
+                "experiments/sweep.py", "experiments/batch.py", "experiments/store.py", "bench/",
                 # the scaling part, which built-ins are the paper's, the bounds' reference page
                 "experiments/scaling.py", "scenario/catalogue.py", "scenario/bounds.py")
 

@@ -182,7 +182,7 @@ def add_parsers(sub) -> None:
                    help="trials per cell of the methods comparison, at most --trials (default 20)")
     p.add_argument("--db", help="results database (default DIR/results.sqlite, DIR the --out directory)")
     p.add_argument("--parts", help="parts to run, e.g. success,table1 (default all: success, table1, table2, "
-                   "fig2c, methods, planners, scaling)")
+                   "fig2c, methods, reduction, planners, scaling, mixed-teams)")
     p.add_argument("--scenarios", help="scenarios of the success rates and comparisons, e.g. 3r-case1,4r-case4 "
                    "(default the paper's ten)")
     p.add_argument("--allow-mixed", action="store_true",

@@ -142,6 +142,18 @@ def trial_key(config: dict, seed: int) -> str:
     return hashlib.sha256(canonical_json({**config, "scenario": scenario, "seed": int(seed)}).encode()).hexdigest()
 
 
+def run_key(config: dict, seed: int) -> str:
+    """:func:`trial_key` of the configuration less the scenario's name (and ``set``, which only
+    records how the scenario was made): trials with equal run keys simulate the same thing.
+
+    The name labels a trial in a study (``4r-case2 [entered]`` is 4r-case2 run as the game reduction's
+    ``entered`` variant, its own setting) and is read by no part of the simulation, only written into the summary.
+    """
+    scenario = {k: v for k, v in config["scenario"].items() if k != "name"}
+    rest = {k: v for k, v in config.items() if k not in ("scenario", "set")}
+    return trial_key({**rest, "scenario": scenario}, seed)
+
+
 @dataclass(frozen=True)
 class TrialRecord:
     """One stored trial, as a report reads it."""
@@ -257,8 +269,9 @@ class ResultStore:
     # -- writing -----------------------------------------------------------------------------
 
     def add_trial(self, *, key: str, study: str, config: dict, seed: int, outcome: str, summary: dict,
-                  metrics: dict, version: str, error: str | None = None, code_version: str | None = None) -> None:
-        """Store one finished trial and link it to ``study``, in one transaction.
+                  metrics: dict, version: str, error: str | None = None, code_version: str | None = None,
+                  also: tuple[str, ...] = ()) -> None:
+        """Store one finished trial and link it to ``study`` (and the studies ``also``), in one transaction.
 
         ``summary`` is ``TrialResult.to_dict()`` (JSON-ready), from which the headline columns
         are taken; ``config`` is :func:`trial_config`; ``code_version`` is the code that ran it
@@ -297,7 +310,8 @@ class ResultStore:
                                  "WHERE key = ? AND code_version != ?", (key, row["code_version"]))
             self._db.execute(f"INSERT OR REPLACE INTO trials ({columns}) VALUES ({', '.join('?' * len(row))})",
                              list(row.values()))
-            self._db.execute("INSERT OR IGNORE INTO study_trials (study, key) VALUES (?, ?)", (study, key))
+            self._db.executemany("INSERT OR IGNORE INTO study_trials (study, key) VALUES (?, ?)",
+                                 [(name, key) for name in dict.fromkeys((study, *also))])
 
     def link(self, study: str, keys) -> None:
         """Record that the already stored trials ``keys`` belong to ``study`` (one transaction)."""
@@ -338,6 +352,23 @@ class ResultStore:
                                     f"({', '.join('?' * len(chunk))})", chunk).fetchall()
             out.update((k, (o, v)) for k, o, v in rows)
         return out
+
+    def record(self, key: str) -> TrialRecord | None:
+        """The stored trial ``key``, or ``None``."""
+        names = [f.name for f in dataclasses.fields(TrialRecord)]
+        row = self._db.execute(f"SELECT {', '.join(names)} FROM trials WHERE key = ?", (key,)).fetchone()
+        if row is None:
+            return None
+        d = dict(zip(names, row))
+        for k in ("config", "summary", "metrics"):
+            d[k] = self._json(d[k])
+        return TrialRecord(**d)
+
+    def wall_times(self) -> list[tuple[str, int, str, str, float]]:
+        """``(config JSON, robots, method, planner, wall time in s)`` of every stored trial with a
+        wall time: what a cost estimate needs, without parsing every summary."""
+        return [tuple(row) for row in self._db.execute(
+            "SELECT config, n_robots, method, planner, wall_time FROM trials WHERE wall_time IS NOT NULL")]
 
     def code_versions(self) -> dict[str, int]:
         """Number of stored trials per code version."""

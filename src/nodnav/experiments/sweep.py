@@ -22,11 +22,9 @@ stored and are kept as they are. Either way the sweep says so in one line
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import logging
 import math
-import sys
 import time
 import traceback
 from collections import Counter
@@ -34,13 +32,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from joblib import Parallel, delayed, parallel_config
-from tqdm import tqdm
-
 from nodnav.errors import NodnavError
-from nodnav.experiments.store import DEFAULT_DB, ResultStore, trial_config, trial_key
+from nodnav.experiments.store import DEFAULT_DB, trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
-from nodnav.provenance import PACKAGE_VERSION, code_version
+from nodnav.provenance import code_version
 from nodnav.scenario.families import FamilyError
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_STRATEGIES
@@ -301,54 +296,14 @@ def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, 
     receives that one-line note before any trial runs. A progress bar on stderr shows trials
     done, rate and time left unless ``quiet``.
     """
+    from nodnav.experiments.batch import run_studies  # it builds on this module
+
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise NodnavError(f"jobs: expected a whole number >= 1, got {jobs!r}")
-    start = time.perf_counter()
-    fn = trial_fn if trial_fn is not None else _default_trial_fn()
-    expansion = expand(spec)
-    with contextlib.ExitStack() as stack:
-        if scheduler is not None:
-            stack.enter_context(_dask_client(scheduler, connect_timeout))
-            stack.enter_context(parallel_config(backend="dask"))
-        store = stack.enter_context(ResultStore(db_path))
-        store.save_study(spec.name, spec.to_dict())
-        current = code_version()
-        stored = store.stored_versions(t.key for t in expansion.trials)
-        stale = Counter(v for _, v in stored.values() if v != current)
-        notes = list(expansion.notes)
-        if stale:
-            notes.append(stale_note(dict(stale), current, allow_mixed))
-            log.info("%s", notes[-1])
-            if notify is not None:
-                notify(notes[-1])
-        keep = {k for k, (outcome, v) in stored.items()
-                if not (retry_errors and outcome == "error") and (allow_mixed or v == current)}
-        store.link(spec.name, keep)
-        todo = [t for t in expansion.trials if t.key not in keep]
-        by_key = {t.key: t for t in todo}
-        log.info("%s: %d trials, %d stored, %d to run", spec.name, len(expansion.trials), len(keep), len(todo))
-        outcomes: Counter[str] = Counter()
-        if todo:
-            bar = stack.enter_context(tqdm(total=len(todo), unit="trial", file=sys.stderr, disable=quiet,
-                                           dynamic_ncols=True, desc=spec.name, smoothing=0.1))
-            tasks = (delayed(execute_trial)(fn, t.scenario, t.method, t.seed, t.key) for t in todo)
-            # Under the dask backend n_jobs=-1 means every worker thread of the cluster.
-            parallel = Parallel(n_jobs=jobs if scheduler is None else -1, return_as="generator_unordered",
-                                batch_size=1)
-            for out in parallel(tasks):
-                trial = by_key[out.key]
-                store.add_trial(key=out.key, study=spec.name, config=trial.config, seed=trial.seed,
-                                outcome=out.outcome, summary=out.summary, metrics=out.metrics,
-                                version=PACKAGE_VERSION, error=out.error,
-                                code_version=out.code_version or current)
-                outcomes[out.outcome] += 1
-                bar.update(1)
-                if out.error:
-                    log.warning("%s seed %d: %s", trial.scenario.name, trial.seed, out.error)
-                    bar.set_postfix(errors=outcomes["error"])
-    return SweepSummary(study=spec.name, db_path=str(db_path), total=len(expansion.trials), done=sum(outcomes.values()),
-                        skipped=len(keep), errors=outcomes["error"], outcomes=dict(outcomes),
-                        wall_time=time.perf_counter() - start, notes=tuple(notes), stale=sum(stale.values()))
+    batch = run_studies([(spec, expand(spec))], db_path, jobs, scheduler, quiet, trial_fn=trial_fn,
+                        retry_errors=retry_errors, connect_timeout=connect_timeout, allow_mixed=allow_mixed,
+                        notify=notify)
+    return batch.studies[0]
 
 
 def _dask_client(scheduler: str, timeout: float):

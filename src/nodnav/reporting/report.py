@@ -114,7 +114,8 @@ def _section_overview(rep: ReportDocument, db_path: Path) -> None:
 
 def _section_cost(rep: ReportDocument) -> None:
     rep.add("## Cost of a trial", "",
-            "Wall-clock time of one trial in a worker process, as stored with each trial (one core per trial).", "")
+            "Wall-clock time of one trial in a worker process, as stored with each trial (one core per trial); a "
+            "trial stored from its twin's result (`same_run_as`) was not simulated and is left out.", "")
     records = rep.store.records()
     if not records:
         rep.add("", "No trials stored.", "")
@@ -122,7 +123,7 @@ def _section_cost(rep: ReportDocument) -> None:
     groups: dict[tuple, list[float]] = defaultdict(list)
     for r in records:
         w = r.summary.get("wall_time_s")
-        if w is not None:
+        if w is not None and not r.summary.get("same_run_as"):  # a twin's time is its simulated twin's
             groups[(r.n_robots, r.method, r.planner)].append(float(w))
     rows = []
     for (n, m, p), w in sorted(groups.items()):

@@ -1,9 +1,12 @@
 """``nodnav reproduce``: run the paper's whole evaluation into one results database, then write the report.
 
-The evaluation is a handful of studies (:func:`plan_parts`), each an ordinary resumable sweep
-(:func:`~nodnav.experiments.sweep.run_sweep`) whose trials are shared with any other study that
-contains them. Fig. 2c needs initial opinions that a study cannot vary, so its grid cells are
-written as scenario files into the output directory and swept like any other scenario.
+The evaluation is a handful of studies (:func:`plan_parts`), each an ordinary resumable study
+whose trials are shared with any other study that contains them. All the parts of a round run
+in one pool of workers (:func:`~nodnav.experiments.batch.run_studies`): each part's trials the
+longest first, the parts in :data:`PARTS` order, every distinct simulation once (the game
+reduction's ``entered`` variant is the success rates' trial under another name: it is stored
+from that trial's result). Fig. 2c needs initial opinions that a study cannot vary, so its grid
+cells are written as scenario files into the output directory and swept like any other scenario.
 
 Time budget
 -----------
@@ -14,8 +17,8 @@ the same robot count) says will fit in the time left, keeping a reserve for the 
 not even one more seed for every cell fits, one more seed is given to as many parts as fit, in
 the order of :data:`PARTS`. The paper's own evaluation (:data:`PAPER_PARTS`) is brought to its
 targets before the comparisons of methods and planners get more than their first seed
-(:func:`round_parts`). Should the estimates be wrong, no sweep starts once the budget less
-the report's reserve is spent. Every cut is therefore as even as the budget allows, the report
+(:func:`round_parts`). Should the estimates be wrong, no part's trials start once the budget
+less the report's reserve is spent. Every cut is therefore as even as the budget allows, the report
 says what was cut, and running the same command again continues where it stopped (stored trials
 are never run twice). A budget of 0 runs everything in one round.
 """
@@ -35,6 +38,7 @@ from typing import Callable
 import yaml
 
 from nodnav.errors import NodnavError, shown
+from nodnav.experiments.batch import run_studies
 from nodnav.experiments.paper import (
     META_STUDY,
     SNAPSHOTS,
@@ -49,7 +53,7 @@ from nodnav.experiments.paper import (
 from nodnav.experiments.scaling import SCALING_TITLE, scaling_spec
 from nodnav.experiments.store import ResultStore, canonical_json
 from nodnav.experiments.study import SweepSpec, known_methods
-from nodnav.experiments.sweep import TrialSpec, expand, run_sweep, stale_note
+from nodnav.experiments.sweep import Expansion, TrialSpec, expand, stale_note
 from nodnav.experiments.teams import MIXED_TEAMS_TITLE, mixed_teams_spec
 from nodnav.experiments.variants import STUDY_REDUCTION, variant_scenario_files
 from nodnav.provenance import PACKAGE_VERSION, code_version
@@ -289,13 +293,10 @@ class CostModel:
 
     def __init__(self, store: ResultStore):
         cell, group, robots = defaultdict(list), defaultdict(list), defaultdict(list)
-        for r in store.records():
-            w = r.summary.get("wall_time_s")
-            if w is None:
-                continue
-            cell[canonical_json(r.config)].append(w)
-            group[(r.n_robots, r.method, r.planner)].append(w)
-            robots[r.n_robots].append(w)
+        for config, n, method, planner, w in store.wall_times():  # the columns, not every summary parsed
+            cell[config].append(w)
+            group[(n, method, planner)].append(w)
+            robots[n].append(w)
         self._cell = {k: sum(v) / len(v) for k, v in cell.items()}
         self._group = {k: sum(v) / len(v) for k, v in group.items()}
         self._robots = {k: sum(v) / len(v) for k, v in robots.items()}
@@ -379,7 +380,8 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
     out.mkdir(parents=True, exist_ok=True)
     db = options.db_path
     parts = plan_parts(options)
-    trials = {p.name: expand(p.spec).trials for p in parts}
+    expansions = {p.name: expand(p.spec) for p in parts}  # once: every round picks its seeds from these
+    trials = {p.name: expansions[p.name].trials for p in parts}
     current = None if options.allow_mixed else code_version()
     with ResultStore(db) as store:
         versions = store.stored_versions(t.key for specs in trials.values() for t in specs)
@@ -393,20 +395,32 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
     sweep_wall = 0.0
 
     def run_round(seeds: dict[str, int]) -> None:
+        """Every part raised to ``seeds`` in one pool of workers (:func:`~nodnav.experiments.batch.run_studies`)."""
         nonlocal errors, sweep_wall
-        for p in parts:
-            if seeds[p.name] <= done[p.name]:
-                continue
-            if budget > 0 and time.perf_counter() - start > budget - REPORT_RESERVE:
-                # The estimates were wrong (or there were none yet): start no further sweep.
+        raised = [p for p in parts if seeds[p.name] > done[p.name]]
+        if budget > 0 and time.perf_counter() - start > budget - REPORT_RESERVE:
+            # The estimates were wrong (or there were none yet): start no further part.
+            for p in raised:
                 log.warning("budget spent: %s stays at %d of %d trials per cell", p.title, done[p.name], p.target)
-                continue
-            summary = run_sweep(dataclasses.replace(p.spec, trials=seeds[p.name]), db, jobs=options.jobs,
-                                quiet=options.quiet, trial_fn=trial_fn, allow_mixed=options.allow_mixed)
-            errors += summary.errors
-            sweep_wall += summary.wall_time
+            levels.append(dict(done))
+            return
+        runs = [(dataclasses.replace(p.spec, trials=seeds[p.name]),
+                 Expansion(tuple(t for t in trials[p.name] if t.seed <= seeds[p.name]), expansions[p.name].notes))
+                for p in raised]
+        with ResultStore(db) as store:
+            cost = CostModel(store)
+        batch = run_studies(runs, db, jobs=options.jobs, quiet=options.quiet, trial_fn=trial_fn,
+                            allow_mixed=options.allow_mixed, cost=cost,
+                            deadline=None if budget <= 0 else start + budget - REPORT_RESERVE)
+        errors += batch.errors
+        sweep_wall += batch.wall_time
+        for summary in batch.studies:
             log.info("%s", summary.reason)
-            done[p.name] = seeds[p.name]
+        with ResultStore(db) as store:
+            stored = set(store.stored((t.key for p in raised for t in trials[p.name]), current))
+        for p in raised:  # the seeds every cell of the part has stored (all of them unless time ran out)
+            missing = [t.seed for t in trials[p.name] if t.seed <= seeds[p.name] and t.key not in stored]
+            done[p.name] = min(missing) - 1 if missing else seeds[p.name]
         levels.append(dict(done))
 
     if budget <= 0:
@@ -426,12 +440,12 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
                 break
             run_round(best)
     with ResultStore(db) as store:
-        cost = CostModel(store)
         stored = set(store.stored((t.key for specs in trials.values() for t in specs), current))
         remaining = pending(trials, {p.name: p.target for p in parts}, stored)
         progress = tuple(PartProgress(p.name, p.spec.name, p.title, p.target, done[p.name]) for p in parts)
         cuts = []
         if remaining:
+            cost = CostModel(store)
             more = sum(cost(t) for t in remaining) / options.jobs / 60.0
             cuts.append(f"the {options.budget_minutes:g}-minute budget ran out: "
                         + "; ".join(f"{p.title} ran {p.seeds} of {p.target} trials per cell" for p in progress

@@ -11,6 +11,7 @@ field's ``metadata`` (:func:`~nodnav.scenario.limits.accepted`), choices against
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import numbers
 import re
@@ -180,6 +181,13 @@ def read_value(hint: Any, value: Any, name: str, bound: Range | None) -> Any:
     raise TypeError(f"{name}: parameter fields of type {hint!r} cannot be read from a scenario file")
 
 
+@functools.lru_cache(maxsize=256)
+def type_hints(cls: type) -> dict[str, Any]:
+    """``typing.get_type_hints(cls)``, remembered per class (read-only by convention): evaluating the
+    string annotations anew for every key of every file read was most of a study's expansion time."""
+    return typing.get_type_hints(cls)
+
+
 def read_params(cls: type, data: Any, where: str, ignored: dict[str, type] | None = None) -> Any:
     """Build the flat frozen parameter dataclass ``cls`` from a mapping, checking keys, types and
     the ranges its fields declare.
@@ -196,7 +204,7 @@ def read_params(cls: type, data: Any, where: str, ignored: dict[str, type] | Non
     for key, value in data.items():
         owner = cls if key in fields else ignored[key]
         field = next(f for f in dataclasses.fields(owner) if f.name == key)
-        hint = typing.get_type_hints(owner)[key]
+        hint = type_hints(owner)[key]
         checked = read_value(hint, value, f"{where}.{key}", field_range(field))
         if owner is cls:
             kwargs[key] = checked

@@ -112,3 +112,24 @@ def test_one_weak_check_per_pair_by_each_convention():
         assert not takes_weak_check(2, 5, speed_i, speed_j, True, 2)
         assert not takes_weak_check(2, 5, speed_i, speed_j, True, 2)
         assert not takes_weak_check(2, 5, 10.0, 0.0, False, 0)
+
+
+def test_a_sampled_fallback_agrees_with_the_straight_braking_it_samples():
+    """The robot's own fallback given as samples (its committed trajectory where straight braking
+    would reach a wall) is checked as the analytic braking it samples, within both pads."""
+    rng = np.random.default_rng(11)
+    for _ in range(100):
+        p_i, p_j = rng.uniform(-1, 1, 2), rng.uniform(-1, 1, 2)
+        v_i, v_j = rng.normal(size=2), rng.normal(size=2)
+        a_i, a_j = rng.uniform(0.3, 3.0, 2)
+        partners = _partners(p_j, v_j, bool(rng.integers(2)), a=a_j, a_i=a_i)
+        h = 0.01
+        stop = np.linalg.norm(v_i) / a_i
+        own = braking_profile(p_i, v_i, a_i, h * np.arange(int(np.ceil(stop / h)) + 1))[0]
+        speed = np.linalg.norm(v_i)
+        analytic = braking_slack(p_i, v_i, partners)[0][1]
+        sampled = braking_slack(p_i, v_i, partners, fallback=(own, h, speed))[0][1]
+        if analytic > 1.0:
+            continue
+        assert sampled <= analytic + 0.5 * h * (speed + np.linalg.norm(v_j) + 2 * a_j * 0.1) + 1e-9
+        assert sampled >= analytic - 3 * h * (speed + np.linalg.norm(v_j) + 2 * a_j * 0.1) - 1e-9

@@ -62,6 +62,8 @@ CASES = [
     ("crossed-rule-with-another-passage-ahead.yaml", (473,)),
     ("press-and-back-off-in-turn.yaml", (5, 24)),
     ("mirror-abreast-both-first.yaml", (20, 23, 26)),
+    ("committed-tail-into-a-stopped-robot.yaml", (182,)),
+    ("braking-off-the-committed-trajectory.yaml", (189,)),
 ]
 
 

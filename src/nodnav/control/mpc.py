@@ -46,7 +46,7 @@ from nodnav.control.braking import Committed, braking_profile, tail_clearance, t
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
 from nodnav.control.mpc_rows import all_finite, step_state
-from nodnav.control.mutual_braking import braking_slack
+from nodnav.control.mutual_braking import SAMPLE_STEP, braking_slack
 from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -202,7 +202,7 @@ class BSplineMPC:
             conflict = overlapping
         else:
             best, post, why, conflict = self._track(prob, data, lin, cold, effort)
-            unsafe = "" if best is None else self._braking_conflict(request, post)
+            unsafe = "" if best is None else self._braking_conflict(request, post, best, prob)
             if best is not None and not unsafe:
                 self._accept(best, prob, post)
                 return self._result(True, "", post, data, start, {"fallback": "", **effort.as_info()})
@@ -221,7 +221,7 @@ class BSplineMPC:
         if plan is None:
             return self._fallback(request, prob, committed, start, effort, p0, v0, why)
         post = prob.evaluate(plan)
-        unsafe = self._braking_conflict(request, post)
+        unsafe = self._braking_conflict(request, post, plan, prob)
         if unsafe:
             return self._fallback(request, prob, committed, start, effort, p0, v0, f"{why}; evasive: {unsafe}")
         self._accept(plan, prob, post)
@@ -235,25 +235,41 @@ class BSplineMPC:
                   effort: SolverEffort, p0: np.ndarray, v0: np.ndarray, why: str) -> ControlResult:
         """No plan to follow. Braking along the velocity at the limit is what the other robots
         expect of a robot that cannot plan (their firm predictions); it is kept wherever it stops
-        clear of the walls, and the committed trajectory, always clear of them, is followed otherwise."""
+        clear of the walls, and the committed trajectory, always clear of them, is followed otherwise.
+        A robot already following its committed trajectory goes on following it: that trajectory,
+        not braking from a point on it, is what the mutual braking check cleared when the plan
+        was accepted (:meth:`_braking_conflict`)."""
         straight = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
                                   self.setup.world_bounds)
-        if committed is not None and straight < self.robot.radius - self.settings.check_tolerance:
+        keep_following = self._following and request.braking is not None
+        if committed is not None and (keep_following or straight < self.robot.radius - self.settings.check_tolerance):
             return self._follow(committed, prob, start, effort, why)
         return self._brake(request, prob, start, effort, why)
 
-    def _braking_conflict(self, request: ControlRequest, post: tuple) -> str:
-        """Why braking from the plan's next state (``post``: :meth:`MPCProblem.evaluate`) fails
-        the mutual braking check (:func:`braking_slack`) towards a robot of ``request.braking``;
-        "" when it passes or there is none."""
+    def _braking_conflict(self, request: ControlRequest, post: tuple, c: np.ndarray, prob: MPCProblem) -> str:
+        """Why the robot's fallback from the plan ``c``'s next state (``post``:
+        :meth:`MPCProblem.evaluate`) fails the mutual braking check (:func:`braking_slack`) towards
+        a robot of ``request.braking``; "" when it passes or there is none. The fallback is what
+        the next step does if it finds no plan: straight braking where that stops clear of the
+        walls, else this plan's committed trajectory (:meth:`_fallback`)."""
         partners = request.braking
         if partners is None:
             return ""
-        out = post[2]
-        slack, j = braking_slack(out[0], out[1], partners)
+        out, end = post[2], post[1]
+        fallback = None
+        if (tail_clearance(out[0], out[1], self.robot.max_accel, self.obstacles, self.setup.pieces,
+                           self.setup.world_bounds) < self.robot.radius - self.settings.check_tolerance):
+            committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
+                                  end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
+            stop = self.horizon - self.dt + math.hypot(end[1][0], end[1][1]) / prob.tail_decel
+            h = SAMPLE_STEP
+            samples = committed.motion(h * np.arange(int(math.ceil(stop / h)) + 1))
+            fallback = (samples, h, self.robot.max_speed + self.settings.check_tolerance)
+        slack, j = braking_slack(out[0], out[1], partners, fallback=fallback)
         if j < 0 or slack[j] >= 0.0:
             return ""
-        return (f"braking from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
+        kind = "braking" if fallback is None else "committed trajectory"
+        return (f"its {kind} from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
                 "trajectory (mutual braking)")
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:

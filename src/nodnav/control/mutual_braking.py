@@ -158,10 +158,36 @@ def _pair_slack(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: fl
 
 
 @compiled
-def _slack_kernel(i, p_next, v_next, positions, velocities, decels, radii, keeps, seen, convention, dt, step,
-                  max_samples, out):
+def _sampled_slack(own, h, own_speed, xj, yj, vx, vy, a_j, contact, strong, dt, step, max_samples):
+    """:func:`_pair_slack` with the robot's own fallback given as positions ``own`` ``(n, 2)``
+    every ``h`` seconds from the next step on (it stands at the last one afterwards), moving at
+    most ``own_speed``."""
+    speed_j = math.hypot(vx, vy)
+    sigma = min(dt, speed_j / a_j)
+    dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
+    growth = (min(speed_j, a_j * dt) + a_j * dt) if strong else 0.0
+    span = max((own.shape[0] - 1) * h, max(speed_j / a_j - dt, 0.0))
+    if strong:
+        span = max(span, (speed_j + a_j * dt) / a_j)
+    n = min(max_samples, int(math.ceil(span / step)) + 1)
+    g = span / (n - 1) if n > 1 else 0.0
+    best = math.inf
+    for k in range(n):
+        s = k * g
+        m = min(int(s / h + 0.5), own.shape[0] - 1) if h > 0.0 else 0  # the nearest sample of its own
+        bx, by = _braked(xj, yj, vx, vy, speed_j, a_j, dt + s)
+        margin = (dp + growth * min(s, (speed_j + a_j * dt) / a_j)) if strong else 0.0
+        best = min(best, math.hypot(own[m, 0] - bx, own[m, 1] - by) - contact - margin)
+    # Between samples: both speeds and the margin's growth over half a step of either grid.
+    return best - 0.5 * max(g, h) * (own_speed + speed_j + growth) - 0.5 * h * own_speed
+
+
+@compiled
+def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, decels, radii, keeps, seen, convention,
+                  dt, step, max_samples, out):
     """Every other robot's slack into ``out`` (``inf`` for ``i`` and robots not seen); the index
-    of the smallest (-1: none)."""
+    of the smallest (-1: none). The robot's own fallback is straight braking from ``(p_next,
+    v_next)`` when ``own`` is empty, else the sampled positions ``own``."""
     speed_i = math.hypot(velocities[i, 0], velocities[i, 1])
     worst, worst_j = math.inf, -1
     for j in range(positions.shape[0]):
@@ -170,26 +196,40 @@ def _slack_kernel(i, p_next, v_next, positions, velocities, decels, radii, keeps
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
         strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention)
-        out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
-                             positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
-                             strong, dt, step, max_samples)
+        if own.shape[0] == 0:
+            out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
+                                 positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
+                                 strong, dt, step, max_samples)
+        else:
+            out[j] = _sampled_slack(own, h, own_speed, positions[j, 0], positions[j, 1], velocities[j, 0],
+                                    velocities[j, 1], decels[j], radii[i] + radii[j], strong, dt, step, max_samples)
         if out[j] < worst:
             worst, worst_j = out[j], j
     return worst_j
 
 
+_NO_SAMPLES = np.zeros((0, 2))
+
+
 def braking_slack(position: np.ndarray, velocity: np.ndarray, partners: BrakingPartners,
-                  step: float = SAMPLE_STEP) -> tuple[np.ndarray, int]:
+                  step: float = SAMPLE_STEP, fallback: tuple[np.ndarray, float, float] | None = None
+                  ) -> tuple[np.ndarray, int]:
     """A lower bound (m) on how far the braking trajectory from ``(position, velocity)`` (robot
     ``partners.robot`` after its next step, at its own deceleration) stays outside contact, plus
     the strong check's :func:`braking_deviation` where the convention gives it that one, from
     each other robot's braking trajectory now, read from one step on ``(N,)`` (``inf`` for
     itself and robots not seen); the check passes where it is >= 0. Also the index of the
     smallest (-1: none). Sampled every ``step`` seconds (at most :data:`MAX_SAMPLES` per pair)
-    until both have stopped, the minimum between samples bounded by the relative speed."""
+    until both have stopped, the minimum between samples bounded by the relative speed.
+
+    ``fallback``: the robot's own fallback when it is not straight braking (a robot whose straight
+    braking would reach a wall follows its committed trajectory instead): ``(positions, h,
+    speed)``, its positions every ``h`` seconds from the next step until it stops and a bound of
+    its speed."""
     out = np.empty(len(partners.positions))
+    own, h, own_speed = fallback if fallback is not None else (_NO_SAMPLES, 0.0, 0.0)
     worst = _slack_kernel(partners.robot, np.asarray(position, dtype=float), np.asarray(velocity, dtype=float),
-                          partners.positions, partners.velocities, partners.decels, partners.radii,
+                          np.ascontiguousarray(own, dtype=float), float(h), float(own_speed), partners.positions, partners.velocities, partners.decels, partners.radii,
                           partners.keeps_rule, partners.seen, partners.convention, float(partners.dt), float(step),
                           MAX_SAMPLES, out)
     return out, int(worst)

@@ -229,7 +229,8 @@ def braking_slack(position: np.ndarray, velocity: np.ndarray, partners: BrakingP
     out = np.empty(len(partners.positions))
     own, h, own_speed = fallback if fallback is not None else (_NO_SAMPLES, 0.0, 0.0)
     worst = _slack_kernel(partners.robot, np.asarray(position, dtype=float), np.asarray(velocity, dtype=float),
-                          np.ascontiguousarray(own, dtype=float), float(h), float(own_speed), partners.positions, partners.velocities, partners.decels, partners.radii,
+                          np.ascontiguousarray(own, dtype=float), float(h), float(own_speed), partners.positions,
+                          partners.velocities, partners.decels, partners.radii,
                           partners.keeps_rule, partners.seen, partners.convention, float(partners.dt), float(step),
                           MAX_SAMPLES, out)
     return out, int(worst)

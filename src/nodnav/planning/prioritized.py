@@ -365,15 +365,16 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:
         """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
         must), around the robots after it standing and the destinations of those before it."""
-        dest, req = state.destinations, state.required
+        dest = state.destinations
         later, earlier = list(layout.later), sorted(layout.plans)
         start = self._start(state, k, layout)
         heads = layout.heads
         if not heads.keys().isdisjoint(later):
             stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
-        else:  # nobody after it has moved: where they stand now (the same values, one indexing)
-            stand = state.positions[later]
-        centres = np.concatenate((stand, dest[earlier]))
-        rads = req[k, later + earlier]
+            centres = np.concatenate((stand, dest[earlier]))
+        else:  # nobody after it has moved: where they stand now, then the destinations (the same values)
+            n = len(dest)
+            centres = state.stands_and_goals[np.array(later + [n + i for i in earlier], dtype=np.intp)]
+        rads = state.required[k][np.array(later + earlier, dtype=np.intp)]
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))

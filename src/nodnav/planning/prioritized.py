@@ -278,9 +278,11 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
             in_door = (door >= 0) & in_door_zone(world, pos, np.maximum(door, 0), self.params.door_clearance)
             natural: list[np.ndarray] = [np.zeros((0, 2))] * n
-            for radius in np.unique(radii):
+            # The distinct radii in increasing order, as np.unique gives them (without its cost).
+            for radius in sorted(set(radii.tolist())):
                 group = np.flatnonzero(radii == radius)
-                for k, path in zip(group, self.graph(world, radius).shortest_paths(pos[group], dest[group])):
+                graph = self.graph(world, radii[group[0]])  # the array's own scalar, as before
+                for k, path in zip(group, graph.shortest_paths(pos[group], dest[group])):
                     natural[k] = path.points
             state = State(key, pos, dest, radii, vmax, fixed[0], dirs, world.in_corridor(pos), door, in_door,
                            tuple(natural), fixed[1],

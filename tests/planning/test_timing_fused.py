@@ -1,7 +1,9 @@
 """The fast planner's fused timing call against the plain steps it replaces, bit for bit: the
 compiled twin of ``np.interp`` against NumPy itself, and ``_search_kernel`` (gates, search,
 retiming, samples) against ``close_gates``, ``earliest_arrival_bits``, ``retimed`` and
-``points_at`` run one after the other, on random tables."""
+``points_at`` run one after the other, on random tables; ``_timing_kernel`` (the earlier
+robots' rows ORed into the table first) against that table made with NumPy, as ``_timing``
+made it before."""
 
 import math
 
@@ -9,7 +11,7 @@ import numpy as np
 import pytest
 
 from nodnav.planning.fast_state import plain_stays
-from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
+from nodnav.planning.fused_timing import NO_GEOMETRY, _closed_kernel, _search_kernel, _timing_kernel, stay_geometry
 from nodnav.planning.occupancy import close_gates, mask_words
 from nodnav.planning.retiming import interp_twin, points_at, retimed
 from nodnav.planning.timing import earliest_arrival_bits, timing_of
@@ -100,6 +102,57 @@ def test_search_kernel_is_the_plain_path(seed):
         if got.success:
             assert got.samples.tobytes() == np.ascontiguousarray(samples).tobytes()
     assert outcomes >= {(True, True), (True, False), (False, False)}  # every branch was taken
+
+
+def _plain_closed(parts, t0, gates, words):
+    """The table of closed cells as ``_timing`` made it with NumPy: each motion's rows from
+    ``min(t0, last)`` on, ORed in, its last row repeated past its end."""
+    n_rows = max([len(b) for b in parts] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
+    closed = np.zeros((n_rows, words), dtype=np.uint64)
+    for bits in parts:
+        part = bits[min(t0, len(bits) - 1):]
+        closed[:len(part)] |= part
+        if len(part) < n_rows:
+            closed[len(part):] |= part[-1]
+    return closed
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_timing_kernel_is_the_table_then_the_search(seed):
+    """The rows of 0-4 motions of random lengths (some of one row, parked from the start),
+    started at random steps before, at and past their ends, and random gates: the table
+    ``_closed_kernel`` makes is the NumPy one bit for bit, and ``_timing_kernel`` answers as
+    ``_search_kernel`` on that table."""
+    rng = np.random.default_rng(100 + seed)
+    for _ in range(300):
+        n = int(rng.integers(2, 150))
+        words = (n + 63) // 64
+        parts = []
+        for _ in range(int(rng.integers(0, 5))):
+            rows = int(rng.integers(1, 50))
+            closed_bool = rng.random((rows, n)) < rng.choice([0.01, 0.05, 0.2])
+            packed = np.zeros((rows, 8 * words), dtype=np.uint8)
+            p = np.packbits(closed_bool, axis=1, bitorder="little")
+            packed[:, :p.shape[1]] = p
+            parts.append(packed.view("<u8").astype(np.uint64))
+        t0 = int(rng.integers(0, 60))
+        gates = np.array([(int(rng.integers(-1, n)), int(rng.integers(0, 80))) for _ in range(int(rng.integers(0, 4)))],
+                         dtype=np.int64).reshape(-1, 2)
+        stack = np.concatenate(parts) if parts else np.zeros((0, words), dtype=np.uint64)
+        rows = np.array([len(b) for b in parts], dtype=np.int64)
+        expected = _plain_closed(parts, t0, [tuple(g) for g in gates], words)
+        got = _closed_kernel(stack, rows, t0, gates, words)
+        assert got.shape == expected.shape and got.tobytes() == expected.tobytes()
+        ok2 = rng.random(n) < 0.7
+        cell_arc = np.concatenate([[0.0], np.cumsum(rng.uniform(0.01, 0.1, n - 1))])
+        cells_xy = np.cumsum(rng.normal(size=(n, 2)) * 0.05, axis=0)
+        args = (n, gates, t0, ok2, bool(rng.random() < 0.7), bool(rng.random() < 0.7), cell_arc, cells_xy, 0.3, 1.0,
+                0.05, 0.1, NO_GEOMETRY)
+        want = _search_kernel(expected, *args)
+        have = _timing_kernel(stack, rows, *args)
+        assert have[:2] == want[:2] and have[2].tobytes() == want[2].tobytes()
+        assert have[3].tobytes() == want[3].tobytes() and have[4].tobytes() == want[4].tobytes()
+        assert tuple(have[5]) == tuple(want[5])
 
 
 @pytest.mark.parametrize("turned", [False, True])

@@ -219,7 +219,7 @@ def feasible_order(order: tuple[int, ...], entered: tuple[int, ...],
     rest = tuple(int(k) for k in order if int(k) not in done)
     if directions is None:
         return done + rest
-    dirs = np.asarray(directions)
+    dirs = np.asarray(directions).tolist()  # Python ints: the same comparisons, without NumPy scalars
     crossed = tuple(k for k in done if dirs[k] == 0)
     queues = {d: [k for k in done if dirs[k] == d] for d in (1, -1)}
     # The entered crossing robots in the requested relative order (entered robots the request

@@ -195,6 +195,12 @@ class State:
     accels: np.ndarray | None = None
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
+    @cached_property
+    def stands_and_goals(self) -> np.ndarray:
+        """The positions, then the destinations, ``(2n, 2)`` (m): the discs a robot's path keeps
+        clear of are rows of it when nobody has got out of the way (one indexing picks them)."""
+        return np.concatenate((self.positions, self.destinations))
+
 
 def timed_motion(track: Track, timing: "Timing") -> Motion:
     """The motion along ``track`` that ``timing`` gives: at its cells, or at its retimed arc lengths."""

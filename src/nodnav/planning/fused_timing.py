@@ -6,7 +6,9 @@ Each of these was a compiled kernel of its own with a Python wrapper (``close_ga
 ``earliest_arrival_bits``, ``retimed``, ``points_at``, ``RobotPlan._stays``); called one after
 the other for every robot of every order, their dispatch and the NumPy steps between them cost
 more than the work. :func:`_search_kernel` runs the same kernels on the same values in one call
-(the tests check it bit for bit against those steps).
+(the tests check it bit for bit against those steps). :func:`_timing_kernel` also makes the
+table of closed cells from the earlier robots' rows first (the loop of ``_timing`` over the
+fixed motions, which ORed each motion's rows into the table with two NumPy calls).
 """
 
 from __future__ import annotations
@@ -41,6 +43,41 @@ def _gate_word(n, since, w):
         return np.uint64(0)
     top = ~np.uint64(0) if hi == 64 else (np.uint64(1) << np.uint64(hi)) - np.uint64(1)
     return top ^ ((np.uint64(1) << np.uint64(lo)) - np.uint64(1))
+
+
+@_compiled
+def _closed_kernel(stack, rows, t0, gates, words):
+    """The table of closed cells from step ``t0`` on: the OR of the motions' rows, ``stack``
+    holding ``rows[i]`` rows of motion ``i`` after those of the motions before it, each motion's
+    rows from ``min(t0, rows[i] - 1)`` on and its last row repeated past its end (it stands still
+    from then on). As many rows as the longest motion, the latest gate's ``allowed`` or ``t0``
+    need (``max(rows[i], allowed + 1, t0 + 1) - t0``)."""
+    top = t0 + 1
+    for i in range(rows.shape[0]):
+        top = max(top, rows[i])
+    for g in range(gates.shape[0]):
+        top = max(top, gates[g, 1] + 1)
+    n_rows = top - t0
+    closed = np.zeros((n_rows, words), dtype=np.uint64)
+    first = 0
+    for i in range(rows.shape[0]):
+        last = rows[i] - 1
+        start = min(t0, last)
+        for t in range(n_rows):
+            src = first + min(start + t, last)
+            for w in range(words):
+                closed[t, w] |= stack[src, w]
+        first += rows[i]
+    return closed
+
+
+@_compiled
+def _timing_kernel(stack, rows, n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0, vmax, alpha, dt,
+                   geometry):
+    """:func:`_closed_kernel` of the motions' rows, then :func:`_search_kernel` of that table."""
+    closed = _closed_kernel(stack, rows, t0, gates, (n + 63) // 64)
+    return _search_kernel(closed, n, gates, t0, ok2, wait_early, retime, cell_arc, cells_xy, v0, vmax, alpha, dt,
+                          geometry)
 
 
 @_compiled

@@ -278,9 +278,11 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             door = np.where(dirs > 0, 0, np.where(dirs < 0, 1, -1))
             in_door = (door >= 0) & in_door_zone(world, pos, np.maximum(door, 0), self.params.door_clearance)
             natural: list[np.ndarray] = [np.zeros((0, 2))] * n
-            for radius in np.unique(radii):
+            # The distinct radii in increasing order, as np.unique gives them (without its cost).
+            for radius in sorted(set(radii.tolist())):
                 group = np.flatnonzero(radii == radius)
-                for k, path in zip(group, self.graph(world, radius).shortest_paths(pos[group], dest[group])):
+                graph = self.graph(world, radii[group[0]])  # the array's own scalar, as before
+                for k, path in zip(group, graph.shortest_paths(pos[group], dest[group])):
                     natural[k] = path.points
             state = State(key, pos, dest, radii, vmax, fixed[0], dirs, world.in_corridor(pos), door, in_door,
                            tuple(natural), fixed[1],
@@ -365,15 +367,16 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:
         """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
         must), around the robots after it standing and the destinations of those before it."""
-        dest, req = state.destinations, state.required
+        dest = state.destinations
         later, earlier = list(layout.later), sorted(layout.plans)
         start = self._start(state, k, layout)
         heads = layout.heads
         if not heads.keys().isdisjoint(later):
             stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
-        else:  # nobody after it has moved: where they stand now (the same values, one indexing)
-            stand = state.positions[later]
-        centres = np.concatenate((stand, dest[earlier]))
-        rads = req[k, later + earlier]
+            centres = np.concatenate((stand, dest[earlier]))
+        else:  # nobody after it has moved: where they stand now, then the destinations (the same values)
+            n = len(dest)
+            centres = state.stands_and_goals[np.array(later + [n + i for i in earlier], dtype=np.intp)]
+        rads = state.required[k][np.array(later + earlier, dtype=np.intp)]
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))

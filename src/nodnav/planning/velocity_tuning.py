@@ -3,7 +3,7 @@
 Step 4 of :mod:`nodnav.planning.prioritized` (its module docstring): the corridor and door rules
 as gates (:meth:`VelocityTuning._gates`), the cells each earlier robot's motion closes at each
 step (:meth:`VelocityTuning._blocked`, remembered), and the exact search, retiming and samples in
-one compiled call (:meth:`VelocityTuning._timing`, :func:`~nodnav.planning.fused_timing._search_kernel`);
+one compiled call (:meth:`VelocityTuning._timing`, :func:`~nodnav.planning.fused_timing._timing_kernel`);
 :meth:`VelocityTuning._time` makes the robot's plan of it. A mixin of
 :class:`~nodnav.planning.prioritized.PrioritizedPlanner`, which owns the memos.
 """
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track, timed_motion
-from nodnav.planning.fused_timing import NO_GEOMETRY, _search_kernel, stay_geometry
+from nodnav.planning.fused_timing import NO_GEOMETRY, _timing_kernel, stay_geometry
 from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import Motion, blocked_rows, join_motions, relaxed_bits
 from nodnav.planning.timing import Timing, timing_of
@@ -73,20 +73,21 @@ class VelocityTuning(FastPlannerHooks):
         (:func:`relaxed_separation`). With ``world``, the timing also holds its samples' stays
         in that world's corridor and door zones (``RobotPlan._stays``)."""
         cells, n = track.cells, len(track.cells)
-        n_rows = max([m.last_step + 1 for _, m in fixed] + [a + 1 for _, a in gates] + [t0 + 1]) - t0
-        closed = np.zeros((n_rows, (n + 63) // 64), dtype=np.uint64)
         x0, y0 = float(cells[0, 0]), float(cells[0, 1])
         required = state.required
+        # Each motion's rows, one after the other; the compiled call ORs them into the table.
+        parts, rows = [], []
         for j, m in fixed:
             r = float(required[j, k])
-            hx, hy = m.samples[min(t0, m.last_step)].tolist()
+            hx, hy = m.samples[min(t0, len(m.samples) - 1)].tolist()
             gap = math.hypot(hx - x0, hy - y0)
             bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
-            # Rows past the motion's last step repeat it: it stands still from then on.
-            part = bits[min(t0, len(bits) - 1):]
-            closed[:len(part)] |= part
-            if len(part) < n_rows:
-                closed[len(part):] |= part[-1]
+            parts.append(bits)
+            rows.append(len(bits))
+        if len(parts) == 1:
+            stack = parts[0]
+        else:
+            stack = np.concatenate(parts) if parts else np.zeros((0, (n + 63) // 64), dtype=np.uint64)
         # The gates, the search, the retiming and the motion's samples in one compiled call.
         retime = False
         v0 = vmax = alpha = 0.0
@@ -98,9 +99,9 @@ class VelocityTuning(FastPlannerHooks):
             vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
         ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
         geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
-        status, step, steps, arc, samples, stays = _search_kernel(
-            closed, n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2, self.params.waiting == "early", retime,
-            track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
+        status, step, steps, arc, samples, stays = _timing_kernel(
+            stack, np.array(rows, dtype=np.int64), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2,
+            self.params.waiting == "early", retime, track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
         return timing_of(status, step, steps, arc if len(arc) else None, samples,
                          None if world is None else tuple(int(v) for v in stays))
 

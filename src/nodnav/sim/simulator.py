@@ -404,7 +404,8 @@ class Simulation:
             self._finish("collision")
             return
         to_go = self._to_go()
-        arrived = np.linalg.norm(self.positions - self._destinations, axis=1) <= s.sim.goal_tolerance
+        gap = self.positions - self._destinations  # np.linalg.norm's own arithmetic, without its checks
+        arrived = np.sqrt(np.add.reduce(gap * gap, axis=1)) <= s.sim.goal_tolerance
         self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
         if arrived.all():
             self._finish("success")

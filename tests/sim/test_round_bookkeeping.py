@@ -4,8 +4,10 @@ separate steps they replace: the same numbers, bit for bit."""
 import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanResult
+from nodnav.scenario.loading import load_scenario
 from nodnav.sim.plan_cache import PlanCache
-from nodnav.sim.progress import PlanProgress
+from nodnav.sim.progress import PlanProgress, route_arcs, route_arcs_plain
+from nodnav.sim.simulator import Simulation
 
 
 def _routes(rng: np.random.Generator, n: int) -> list[np.ndarray | None]:
@@ -68,3 +70,35 @@ def test_stacked_states_are_np_stack_of_each_plans_states():
     assert got.dtype == want.dtype and got.shape == want.shape and got.tobytes() == want.tobytes()
     assert cache.stacked_states([_plan(rng, 3), _plan(rng, 2)], times).shape == (0,)  # unequal robot counts
     assert cache.stacked_states([], times).shape == (0,)
+
+
+def test_route_arcs_is_the_numpy_version_bit_for_bit():
+    rng = np.random.default_rng(11)
+    for k in (2, 3, 17, 60):
+        route = np.cumsum(rng.normal(0.0, 0.2, (k, 2)), axis=0)
+        route[k // 2] = route[k // 2 - 1]  # a repeated point, dropped
+        for r in (route, route[::-1], np.repeat(route[:1], k, axis=0), np.asfortranarray(route)):
+            got, want = route_arcs(np.asarray(r, dtype=float)), route_arcs_plain(r)
+            assert got[0].tobytes() == want[0].tobytes() and got[1].tobytes() == want[1].tobytes()
+    # a straight route along x: the arc lengths are the distances from its start
+    line = np.stack([np.array([0.0, 0.5, 0.5, 2.0]), np.zeros(4)], axis=1)
+    points, arcs = route_arcs(line)
+    assert points.tolist() == [[0.0, 0.0], [0.5, 0.0], [2.0, 0.0]] and arcs.tolist() == [0.0, 0.5, 2.0]
+
+
+def test_one_shared_view_is_every_robots_own_view():
+    """With exact sensing every robot's view is the same: the shared view holds what each robot's
+    own would (the same window, time and entry records)."""
+    sim = Simulation(load_scenario("3r-case4"), "nod", 1)
+    for _ in range(120):
+        views = sim.views()
+        assert len({id(v) for v in views.values()}) == 1
+        times = sim.t - sim._window_offsets
+        for i, view in views.items():
+            assert view.window_states is sim._windows[i]
+            assert view.t == sim.t and view.window_times.tobytes() == times.tobytes()
+            assert view.entered == tuple(sim.entered_seen[i])
+            assert view.age is None and view.sigma is None and view.passage_entered == ()
+        if sim.step():
+            break
+    assert sim.entered_true  # robots entered the corridor on the way

@@ -46,10 +46,7 @@ class PlanProgress:
             self.routes[robot] = None
             self._flat = None
             return
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(route, axis=0), axis=1) > 1e-9])
-        points = np.asarray(route, dtype=float)[keep]
-        self.routes[robot] = points
-        self.arcs[robot] = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        self.routes[robot], self.arcs[robot] = route_arcs(np.asarray(route, dtype=float))
         self.cursor[robot] = 0
         self.credited[robot] = 0.0
         self._flat = None
@@ -90,6 +87,41 @@ class PlanProgress:
         if not points:
             return np.zeros((0, 2)), np.zeros(0), bounds
         return np.ascontiguousarray(np.concatenate(points)), np.concatenate(arcs), bounds
+
+
+def route_arcs_plain(route: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The route's points without repeats (a point within 1e-9 m of the one before it is dropped)
+    and the arc length at each, ``(P, 2)`` and ``(P,)``: the reference :func:`route_arcs` is tested against."""
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(route, axis=0), axis=1) > 1e-9])
+    points = np.asarray(route, dtype=float)[keep]
+    return points, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+
+
+@compiled
+def route_arcs(route):
+    """:func:`route_arcs_plain` in one compiled call, with NumPy's operations: each norm is
+    ``sqrt(dx * dx + dy * dy)``, the arc lengths a running sum from 0 (``0 + l`` is ``l``)."""
+    k = route.shape[0]
+    keep = np.empty(k, dtype=np.bool_)
+    keep[0] = True
+    count = 1
+    for e in range(1, k):
+        dx, dy = route[e, 0] - route[e - 1, 0], route[e, 1] - route[e - 1, 1]
+        keep[e] = np.sqrt(dx * dx + dy * dy) > 1e-9
+        if keep[e]:
+            count += 1
+    points = np.empty((count, 2))
+    c = 0
+    for e in range(k):
+        if keep[e]:
+            points[c, 0], points[c, 1] = route[e, 0], route[e, 1]
+            c += 1
+    arcs = np.empty(count)
+    arcs[0] = 0.0
+    for e in range(1, count):
+        dx, dy = points[e, 0] - points[e - 1, 0], points[e, 1] - points[e - 1, 1]
+        arcs[e] = arcs[e - 1] + np.sqrt(dx * dx + dy * dy)
+    return points, arcs
 
 
 @compiled

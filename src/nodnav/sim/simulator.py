@@ -280,6 +280,12 @@ class Simulation:
     def views(self) -> dict[int, RobotView]:
         """Every robot's view of the last opinion period."""
         times = self.t - self._window_offsets
+        first = self.entered_seen[0]
+        if self._exact and self.routes is None and all(log == first for log in self.entered_seen):
+            # Everyone sees the truth through one window with the same entry records: one view for all.
+            return dict.fromkeys(range(self.scenario.n_robots),
+                                 RobotView(t=self.t, window_times=times, window_states=self._windows[0],
+                                           entered=tuple(first)))
         out = {}
         for i in range(self.scenario.n_robots):
             age = None if self.sight is None else self.sight.ages(i, self.t)

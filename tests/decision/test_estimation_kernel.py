@@ -4,8 +4,7 @@ hand computation."""
 import numpy as np
 import pytest
 
-from nodnav.decision.estimation import (PAIRWISE_BLOCK, _pairwise_sum, estimated_opinions,
-                                        estimated_opinions_plain)
+from nodnav.decision.estimation import PAIRWISE_BLOCK, _pairwise_sum, estimated_opinions, estimated_opinions_plain
 
 
 @pytest.mark.parametrize("shape", [(24, 3, 11, 4), (6, 2, 5, 4), (2, 1, 1, 4), (120, 7, 9, 4), (3, 2, 16, 4),

@@ -149,7 +149,7 @@ class PlanCache:
         key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
         hit = self._stacks.get(key)
         if hit is None:
-            states = [self.states_at(p, times) for p in plans]
+            states = [self._states_at(p.trajectory, times, key[1]) for p in plans]
             stacked = np.zeros(0)
             if states and all(a.shape == states[0].shape for a in states):
                 stacked = np.empty((len(states), *states[0].shape))  # what np.stack builds, without its checks
@@ -165,8 +165,11 @@ class PlanCache:
         and orders a planner repairs to the same one share a trajectory, so each trajectory is
         evaluated once per round whoever asks.
         """
-        traj = result.trajectory
-        key = (id(traj), times.tobytes())
+        return self._states_at(result.trajectory, times, times.tobytes())
+
+    def _states_at(self, traj: JointTrajectory, times: np.ndarray, times_key: bytes) -> np.ndarray:
+        """:meth:`states_at` of a trajectory, the times' bytes given."""
+        key = (id(traj), times_key)
         hit = self._states.get(key)
         if hit is None:
             states = trajectory_states(traj.times, traj.positions, traj.velocities, np.asarray(times, dtype=float))

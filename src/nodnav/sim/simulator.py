@@ -363,7 +363,8 @@ class Simulation:
                 chosen[i] = d.probabilities[d.strategy]
             players[i, list(d.players)] = True
             if self.plan_progress is not None:
-                self.plan_progress.follow(i, d.own_trajectory.positions[:, 0] if d.plan.success else None)
+                # The plan's first robot is the deciding one: its own path (Decision.own_trajectory's).
+                self.plan_progress.follow(i, d.plan.trajectory.positions[:, 0] if d.plan.success else None)
             if not d.plan.success:
                 self.plan_failures += 1
                 h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})

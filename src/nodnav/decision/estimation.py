@@ -41,8 +41,65 @@ def estimated_opinions(observed: np.ndarray, planned: np.ndarray, dt: float, K1:
         raise ValueError(f"planned must have shape (N_s,) + {observed.shape}, got {planned.shape}")
     if dt <= 0:
         raise ValueError(f"dt must be positive, got {dt}")
+    if planned.shape[-1] >= 8 or planned.shape[2] - 1 > PAIRWISE_BLOCK:  # beyond the kernel's summation orders
+        return estimated_opinions_plain(observed, planned, dt, K1)
+    return _deviation_integrals(observed, planned, float(dt), float(K1)).T
+
+
+def estimated_opinions_plain(observed: np.ndarray, planned: np.ndarray, dt: float, K1: float = 5.0) -> np.ndarray:
+    """:func:`estimated_opinions` in NumPy, the reference its compiled loop is tested against."""
     squared = np.sum((planned - observed[None]) ** 2, axis=-1)  # (N_s, N_k, M)
     return -K1 * np.trapezoid(squared, dx=dt, axis=-1).T
+
+
+#: The longest sum :func:`_pairwise_sum` adds as NumPy does (its pairwise block; NumPy splits
+#: longer ones in halves, which the kernel does not).
+PAIRWISE_BLOCK = 128
+
+
+@compiled
+def _pairwise_sum(a, n):
+    """``np.add.reduce`` of ``a[:n]`` (``n <= PAIRWISE_BLOCK``) in NumPy's order: left to right
+    below 8 terms, else eight running sums combined pairwise and the rest added after."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3, r4, r5, r6, r7 = a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]
+    i = 8
+    while i < n - n % 8:
+        r0, r1, r2, r3 = r0 + a[i], r1 + a[i + 1], r2 + a[i + 2], r3 + a[i + 3]
+        r4, r5, r6, r7 = r4 + a[i + 4], r5 + a[i + 5], r6 + a[i + 6], r7 + a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@compiled
+def _deviation_integrals(observed, planned, dt, K1):
+    """Eq. (4a)'s ``-K1 int ||X_k - X_k^(l)||^2`` ``(N_s, N_k)``, element by element with
+    :func:`estimated_opinions_plain`'s operations: the squared deviation summed over the state's
+    components, then the trapezoidal rule's terms ``dt (y_{m+1} + y_m) / 2`` summed over the window."""
+    g, n, m, d = planned.shape
+    out = np.empty((g, n))
+    squares = np.empty(d)
+    squared = np.empty(m)
+    terms = np.empty(max(m - 1, 0))
+    for s in range(g):
+        for k in range(n):
+            for t in range(m):
+                for c in range(d):
+                    e = planned[s, k, t, c] - observed[k, t, c]
+                    squares[c] = e * e
+                squared[t] = _pairwise_sum(squares, d)
+            for t in range(m - 1):
+                terms[t] = dt * (squared[t + 1] + squared[t]) / 2.0
+            out[s, k] = -K1 * (_pairwise_sum(terms, m - 1) if m > 1 else 0.0)
+    return out
 
 
 def reachable_predictions(observed: np.ndarray, planned: np.ndarray, accel: np.ndarray, dt: float) -> np.ndarray:

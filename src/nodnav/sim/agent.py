@@ -361,7 +361,7 @@ class NODAgent:
         template_key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
         template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]),
                                           (self.scenario, view.window_states))
-        return [self.plans.plan_order(template, order, state) for order in orders]
+        return self.plans.plan_orders(template, orders, state)
 
     def _template(self, view: RobotView, planning: tuple[int, ...],
                   order: tuple[int, ...]) -> tuple[PlanRequest, tuple]:
@@ -413,13 +413,14 @@ class NODAgent:
             ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
             to_go = self._shared_to_go(ends)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
-            progress = -np.diff(to_go, axis=1)[:, 0]
+            progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
             if progress[self.index] < STALL_DISTANCE:
                 # standoff_partner reads the plan and the players only for a robot that has stalled.
                 plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
-                planned = -np.diff(self._shared_to_go(plan, planning), axis=1)[:, 0]
+                plan_to_go = self._shared_to_go(plan, planning)
+                planned = -(plan_to_go[:, 1] - plan_to_go[:, 0])
                 columns = [planning.index(k) if k in planning else -1 for k in players]
                 players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
                 now = view.positions[list(players)]

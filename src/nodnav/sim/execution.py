@@ -317,6 +317,7 @@ class ReactionMargins:
         self._last_seen: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._mode = _MODES.index(self._braking_margin)
         self._others_array = [np.array(o, dtype=np.int64) for o in self._others]
+        self._safety, self._slack = scenario.controller.safety_margin, scenario.execution.reaction_slack
 
     def radii(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """The radii ``radii`` of robot ``i``'s three predictions of every other robot, the braking
@@ -328,8 +329,7 @@ class ReactionMargins:
         positions, velocities = view.positions, view.velocities
         out = careful_radii(positions, velocities, positions if seen is None else seen[0],
                             velocities if seen is None else seen[1], seen is not None, i, self._others_array[i],
-                            self._accel, self._radii, self.scenario.controller.safety_margin,
-                            self.scenario.execution.reaction_slack, self.dt, self._surprise, self._mode,
+                            self._accel, self._radii, self._safety, self._slack, self.dt, self._surprise, self._mode,
                             self._surprised[i], self._surprise_steps, bool(self.conflicted[i]), radii)
         if self._mode >= _SURPRISED:  # a read-only view (the simulator's windows) never changes: kept as it is
             self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),

@@ -98,15 +98,25 @@ class PlanCache:
         """:meth:`plan` of ``template`` asked in ``order`` (``state``: :func:`state_key` of the
         template): the request is built only when the round has not answered it yet, since most
         of an agent's queries were posed by a game player before it."""
-        key = (order, template.entered, template.t0, *state)
-        result = self._plans.get(key)
-        if result is None:
-            self.misses += 1
-            request = template if template.order == order else _in_order(template, order)
-            result = self._plans[key] = self.planner.plan(request)
-        else:
-            self.hits += 1
-        return result
+        return self.plan_orders(template, [order], state)[0]
+
+    def plan_orders(self, template: PlanRequest, orders: list[tuple[int, ...]], state: tuple) -> list[PlanResult]:
+        """:meth:`plan_order` of ``template`` in each of ``orders``, in one call: the key of an order
+        is ``(order, entered, t0, *state)``, its part after the order built once."""
+        rest = (template.entered, template.t0, *state)
+        plans = self._plans
+        out = []
+        for order in orders:
+            key = (order, *rest)
+            result = plans.get(key)
+            if result is None:
+                self.misses += 1
+                request = template if template.order == order else _in_order(template, order)
+                result = plans[key] = self.planner.plan(request)
+            else:
+                self.hits += 1
+            out.append(result)
+        return out
 
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
@@ -139,8 +149,12 @@ class PlanCache:
         key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
         hit = self._stacks.get(key)
         if hit is None:
-            states = [self.states_at(p, times) for p in plans]
-            stacked = np.stack(states) if len({a.shape for a in states}) == 1 else np.zeros(0)
+            states = [self._states_at(p.trajectory, times, key[1]) for p in plans]
+            stacked = np.zeros(0)
+            if states and all(a.shape == states[0].shape for a in states):
+                stacked = np.empty((len(states), *states[0].shape))  # what np.stack builds, without its checks
+                for g, a in enumerate(states):
+                    stacked[g] = a
             hit = self._stacks[key] = (list(plans), stacked)  # holding the plans keeps their ids unique
         return hit[1]
 
@@ -151,8 +165,11 @@ class PlanCache:
         and orders a planner repairs to the same one share a trajectory, so each trajectory is
         evaluated once per round whoever asks.
         """
-        traj = result.trajectory
-        key = (id(traj), times.tobytes())
+        return self._states_at(result.trajectory, times, times.tobytes())
+
+    def _states_at(self, traj: JointTrajectory, times: np.ndarray, times_key: bytes) -> np.ndarray:
+        """:meth:`states_at` of a trajectory, the times' bytes given."""
+        key = (id(traj), times_key)
         hit = self._states.get(key)
         if hit is None:
             states = trajectory_states(traj.times, traj.positions, traj.velocities, np.asarray(times, dtype=float))

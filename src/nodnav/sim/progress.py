@@ -37,30 +37,102 @@ class PlanProgress:
         self.arcs: list[np.ndarray] = [np.zeros(1)] * n
         self.cursor = np.zeros(n, dtype=int)
         self.credited = np.zeros(n)
+        self._flat: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # the routes end to end, once per follow
 
     def follow(self, robot: int, route: np.ndarray | None) -> None:
         """Robot ``robot`` follows a new plan whose own positions are ``route`` ``(K, 2)`` (None:
         no plan it can make progress along)."""
         if route is None or len(route) < 2:
             self.routes[robot] = None
+            self._flat = None
             return
-        keep = np.concatenate([[True], np.linalg.norm(np.diff(route, axis=0), axis=1) > 1e-9])
-        points = np.asarray(route, dtype=float)[keep]
-        self.routes[robot] = points
-        self.arcs[robot] = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        self.routes[robot], self.arcs[robot] = route_arcs(np.asarray(route, dtype=float))
         self.cursor[robot] = 0
         self.credited[robot] = 0.0
+        self._flat = None
 
     def advanced(self, positions: np.ndarray, reach: np.ndarray) -> np.ndarray:
         """Which robots have advanced ``epsilon`` further along their plan's route since last
         credited, now that they stand at ``positions`` ``(n, 2)``; ``reach`` ``(n,)`` (m) is how
         far along the route the cursor may look ahead in one step."""
+        if self._flat is None:
+            self._flat = self._routes_end_to_end()
+        points, arcs, bounds = self._flat
+        out = np.zeros(len(positions), dtype=bool)
+        # Every robot's step of advanced_plain in one compiled call (the same kernel on each route).
+        _advance_all(points, arcs, bounds, np.ascontiguousarray(positions, dtype=float),
+                     np.ascontiguousarray(reach, dtype=float), self.epsilon, self.cursor, self.credited, out)
+        return out
+
+    def advanced_plain(self, positions: np.ndarray, reach: np.ndarray) -> np.ndarray:
+        """:meth:`advanced` one robot at a time, the reference its single call is tested against."""
         out = np.zeros(len(positions), dtype=bool)
         for k, points in enumerate(self.routes):
             if points is not None:
                 out[k] = _advance_cursor(points, self.arcs[k], positions[k], float(reach[k]), self.epsilon, k,
                                          self.cursor, self.credited)
         return out
+
+    def _routes_end_to_end(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every robot's route and arc lengths one after the other, ``(P, 2)`` and ``(P,)``, and where
+        each robot's begin and end ``(n, 2)`` (-1, -1: no route)."""
+        bounds = np.full((len(self.routes), 2), -1, dtype=np.int64)
+        points, arcs, start = [], [], 0
+        for k, route in enumerate(self.routes):
+            if route is not None:
+                bounds[k] = start, start + len(route)
+                start += len(route)
+                points.append(route)
+                arcs.append(self.arcs[k])
+        if not points:
+            return np.zeros((0, 2)), np.zeros(0), bounds
+        return np.ascontiguousarray(np.concatenate(points)), np.concatenate(arcs), bounds
+
+
+def route_arcs_plain(route: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The route's points without repeats (a point within 1e-9 m of the one before it is dropped)
+    and the arc length at each, ``(P, 2)`` and ``(P,)``: the reference :func:`route_arcs` is tested against."""
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(route, axis=0), axis=1) > 1e-9])
+    points = np.asarray(route, dtype=float)[keep]
+    return points, np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+
+
+@compiled
+def route_arcs(route):
+    """:func:`route_arcs_plain` in one compiled call, with NumPy's operations: each norm is
+    ``sqrt(dx * dx + dy * dy)``, the arc lengths a running sum from 0 (``0 + l`` is ``l``)."""
+    k = route.shape[0]
+    keep = np.empty(k, dtype=np.bool_)
+    keep[0] = True
+    count = 1
+    for e in range(1, k):
+        dx, dy = route[e, 0] - route[e - 1, 0], route[e, 1] - route[e - 1, 1]
+        keep[e] = np.sqrt(dx * dx + dy * dy) > 1e-9
+        if keep[e]:
+            count += 1
+    points = np.empty((count, 2))
+    c = 0
+    for e in range(k):
+        if keep[e]:
+            points[c, 0], points[c, 1] = route[e, 0], route[e, 1]
+            c += 1
+    arcs = np.empty(count)
+    arcs[0] = 0.0
+    for e in range(1, count):
+        dx, dy = points[e, 0] - points[e - 1, 0], points[e, 1] - points[e - 1, 1]
+        arcs[e] = arcs[e - 1] + np.sqrt(dx * dx + dy * dy)
+    return points, arcs
+
+
+@compiled
+def _advance_all(points, arcs, bounds, positions, reach, epsilon, cursor, credited, out):
+    """:func:`_advance_cursor` of every robot with a route (``bounds[k]``: its rows of ``points``
+    and ``arcs``), into ``out``."""
+    for k in range(bounds.shape[0]):
+        begin, end = bounds[k, 0], bounds[k, 1]
+        if begin >= 0:
+            out[k] = _advance_cursor(points[begin:end], arcs[begin:end], positions[k], reach[k], epsilon, k,
+                                     cursor, credited)
 
 
 @compiled

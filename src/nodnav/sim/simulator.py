@@ -280,6 +280,12 @@ class Simulation:
     def views(self) -> dict[int, RobotView]:
         """Every robot's view of the last opinion period."""
         times = self.t - self._window_offsets
+        first = self.entered_seen[0]
+        if self._exact and self.routes is None and all(log == first for log in self.entered_seen):
+            # Everyone sees the truth through one window with the same entry records: one view for all.
+            return dict.fromkeys(range(self.scenario.n_robots),
+                                 RobotView(t=self.t, window_times=times, window_states=self._windows[0],
+                                           entered=tuple(first)))
         out = {}
         for i in range(self.scenario.n_robots):
             age = None if self.sight is None else self.sight.ages(i, self.t)
@@ -357,7 +363,8 @@ class Simulation:
                 chosen[i] = d.probabilities[d.strategy]
             players[i, list(d.players)] = True
             if self.plan_progress is not None:
-                self.plan_progress.follow(i, d.own_trajectory.positions[:, 0] if d.plan.success else None)
+                # The plan's first robot is the deciding one: its own path (Decision.own_trajectory's).
+                self.plan_progress.follow(i, d.plan.trajectory.positions[:, 0] if d.plan.success else None)
             if not d.plan.success:
                 self.plan_failures += 1
                 h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})
@@ -404,7 +411,8 @@ class Simulation:
             self._finish("collision")
             return
         to_go = self._to_go()
-        arrived = np.linalg.norm(self.positions - self._destinations, axis=1) <= s.sim.goal_tolerance
+        gap = self.positions - self._destinations  # np.linalg.norm's own arithmetic, without its checks
+        arrived = np.sqrt(np.add.reduce(gap * gap, axis=1)) <= s.sim.goal_tolerance
         self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
         if arrived.all():
             self._finish("success")

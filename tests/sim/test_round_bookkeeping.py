@@ -3,6 +3,7 @@ separate steps they replace: the same numbers, bit for bit."""
 
 import numpy as np
 
+from nodnav.planning import make_planner
 from nodnav.planning.base import JointTrajectory, PlanResult
 from nodnav.scenario.loading import load_scenario
 from nodnav.sim.plan_cache import PlanCache
@@ -62,7 +63,8 @@ def _plan(rng: np.random.Generator, n: int) -> PlanResult:
 
 def test_stacked_states_are_np_stack_of_each_plans_states():
     rng = np.random.default_rng(7)
-    cache = PlanCache(planner=None)  # type: ignore[arg-type]  # no planning asked
+    scenario = load_scenario("3r-case1")
+    cache = PlanCache(make_planner(scenario.planner, scenario.world))  # no planning asked of it
     plans = [_plan(rng, 3) for _ in range(5)]
     times = np.linspace(0.5, 1.5, 11)
     got = cache.stacked_states(plans, times)

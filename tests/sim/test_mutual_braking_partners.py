@@ -23,16 +23,23 @@ def test_the_setting_reaches_the_controller():
     view = SimpleNamespace(positions=np.zeros((4, 2)), velocities=np.zeros((4, 2)), age=None)
     for mode in CONVENTIONS:
         _, method = _method(mode)
-        partners = method._partners(1, view)
+        partners = method._partners(1, 0.0, view)
         assert partners.robot == 1 and CONVENTIONS[partners.convention] == mode and partners.seen.all()
     _, method = _method("none")
-    assert method._partners(0, view) is None
+    assert method._partners(0, 0.0, view) is None
 
 
 def test_only_robots_seen_now_and_people_do_not_keep_the_rule():
     _, method = _method("speed")
     view = SimpleNamespace(positions=np.zeros((4, 2)), velocities=np.zeros((4, 2)),
                            age=np.array([0.0, 0.0, np.inf, 0.3]))
-    assert method._partners(0, view).seen.tolist() == [True, True, False, False]
+    assert method._partners(0, 0.0, view).seen.tolist() == [True, True, False, False]
     _, team = _method("speed", ["nod", "nod", "person", "nod"])
     assert team.members["nod"].keeps_rule.tolist() == [True, True, False, True]
+
+
+def test_robots_standing_still_take_turns_one_opinion_period_each():
+    scenario, method = _method("speed")
+    view = SimpleNamespace(positions=np.zeros((4, 2)), velocities=np.zeros((4, 2)), age=None)
+    period = scenario.opinion.T
+    assert [method._partners(0, k * period + 0.5 * period, view).turn for k in range(4)] == [0, 1, 0, 1]

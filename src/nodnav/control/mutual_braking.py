@@ -48,8 +48,11 @@ MAX_SAMPLES = 4000
 
 CONVENTIONS = ("speed", "index", "strong")
 """Who of two robots that keep the rule takes the weak check (``execution.mutual_braking``), in
-the order of their codes in :class:`BrakingPartners`: the faster (the lower-numbered at equal
-speeds), the lower-numbered, neither."""
+the order of their codes in :class:`BrakingPartners`: the faster (of two standing still, the
+lower- and the higher-numbered in turn, :attr:`BrakingPartners.turn`), the lower-numbered, neither."""
+
+REST_SPEED = 1e-3
+"""Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still."""
 
 
 class BrakingPartners(NamedTuple):
@@ -70,6 +73,9 @@ class BrakingPartners(NamedTuple):
     """Which robots keep the rule ``(N,)`` (bool): towards the others the check is always strong."""
     seen: np.ndarray
     """Which robots the robot sees now ``(N,)`` (bool); the others are not checked."""
+    turn: int
+    """0 or 1, the same for every robot at a given time: of two robots standing still (speed at
+    most :data:`REST_SPEED`), the lower-numbered takes the weak check when 0, the other when 1."""
     convention: int
     """Index in :data:`CONVENTIONS`."""
     dt: float
@@ -114,14 +120,22 @@ def _braked(px: float, py: float, vx: float, vy: float, speed: float, decel: flo
 
 
 @compiled
-def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bool, convention: int) -> bool:
+def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bool, convention: int,
+                     turn: int) -> bool:
     """Whether robot ``i`` (at ``speed_i`` now) takes the weak check towards robot ``j``: only if
     ``j`` keeps the rule, and then by the convention (:data:`CONVENTIONS`); ``j`` evaluates the
-    same from the same observation and takes the other check."""
+    same from the same observation and takes the other check. With ``speed``, of two robots
+    standing still the role alternates with ``turn``: with the strong check a robot cannot start
+    past one standing closer than :func:`braking_deviation` beyond contact, and a fixed choice
+    would keep the same robot from ever doing so."""
     if not keeps_j or convention == 2:
         return False
-    if convention == 0 and speed_i != speed_j:
-        return speed_i > speed_j
+    if convention == 0:
+        rest_i, rest_j = speed_i <= REST_SPEED, speed_j <= REST_SPEED
+        if rest_i and rest_j:
+            return (i < j) != (turn == 1)
+        if rest_i or rest_j or speed_i != speed_j:
+            return (0.0 if rest_i else speed_i) > (0.0 if rest_j else speed_j)
     return i < j
 
 
@@ -183,8 +197,8 @@ def _sampled_slack(own, h, own_speed, xj, yj, vx, vy, a_j, contact, strong, dt, 
 
 
 @compiled
-def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, decels, radii, keeps, seen, convention,
-                  dt, step, max_samples, out):
+def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, decels, radii, keeps, seen, turn,
+                  convention, dt, step, max_samples, out):
     """Every other robot's slack into ``out`` (``inf`` for ``i`` and robots not seen); the index
     of the smallest (-1: none). The robot's own fallback is straight braking from ``(p_next,
     v_next)`` when ``own`` is empty, else the sampled positions ``own``."""
@@ -195,7 +209,7 @@ def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, d
         if j == i or not seen[j]:
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
-        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention)
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)
         if own.shape[0] == 0:
             out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
                                  positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
@@ -231,6 +245,7 @@ def braking_slack(position: np.ndarray, velocity: np.ndarray, partners: BrakingP
     worst = _slack_kernel(partners.robot, np.asarray(position, dtype=float), np.asarray(velocity, dtype=float),
                           np.ascontiguousarray(own, dtype=float), float(h), float(own_speed), partners.positions,
                           partners.velocities, partners.decels, partners.radii,
-                          partners.keeps_rule, partners.seen, partners.convention, float(partners.dt), float(step),
+                          partners.keeps_rule, partners.seen, int(partners.turn), partners.convention,
+                          float(partners.dt), float(step),
                           MAX_SAMPLES, out)
     return out, int(worst)

@@ -168,6 +168,8 @@ class PlannedMethod:
         methods' robots."""
         self._convention = CONVENTIONS.index(ex.mutual_braking) if ex.mutual_braking != "none" else -1
         self._all_seen = np.ones(n, dtype=bool)
+        # Robots standing still take the weak check in turn, one opinion period each (the speed convention).
+        self._turn_period = scenario.opinion.T
         self._radii = scenario.radii
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
@@ -295,19 +297,20 @@ class PlannedMethod:
                 continue
             request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=firm, braking=self._partners(i, view))
+                                     other_radii=radii, firm=firm, braking=self._partners(i, t, view))
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
 
-    def _partners(self, i: int, view: RobotView) -> BrakingPartners | None:
+    def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:
         """What robot ``i``'s next step is checked against (``execution.mutual_braking``): every
         robot's state as ``i`` sees it, and who sees whom now (:mod:`nodnav.control.mutual_braking`)."""
         if self._convention < 0:
             return None
         seen = self._all_seen if view.age is None else view.age == 0.0
+        turn = int(math.floor(t / self._turn_period + 1e-9)) % 2
         return BrakingPartners(i, view.positions, view.velocities, self._accel, self._radii, self.keeps_rule, seen,
-                               self._convention, self.dt)
+                               turn, self._convention, self.dt)
 
     def _stay(self, position: np.ndarray) -> ControlResult:
         """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""

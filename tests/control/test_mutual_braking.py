@@ -117,3 +117,11 @@ def test_one_weak_check_per_pair_by_each_convention():
     assert takes_weak_check(2, 5, 0.0, 0.0, True, 0, 0)          # both still: in turn
     assert takes_weak_check(5, 2, 0.0, 0.0, True, 0, 1)
     assert takes_weak_check(5, 2, 1e-4, 0.0, True, 0, 1)         # below REST_SPEED counts as still
+
+
+def test_robots_that_do_not_keep_the_rule_are_not_checked():
+    """The rule is mutual: towards a robot that may not brake (a person, another method) there is
+    no check, whatever the geometry."""
+    near = _partners([0.3, 0.0], [-1.0, 0.0], True)._replace(keeps_rule=np.array([True, False]))
+    out, worst = braking_slack([0, 0], [1, 0], near)
+    assert worst == -1 and np.all(out == np.inf)

@@ -22,8 +22,9 @@ Of two robots that both keep the rule, one (by a fixed convention, ``execution.m
 takes the weak check towards the other and the other the strong one. Then after every step: if
 the strong one passed, ``B_j(k+1)`` is clear of whatever ``i`` did; if it braked, ``B_j(k+1) =
 B_j(k)``, from which ``i`` kept clear (weak) or which ``i`` did not change (``i`` braked: the
-invariant at ``k``). Towards a robot that may not keep the rule (a person, another method), the
-check is strong and the guarantee is only this robot's half.
+invariant at ``k``). Towards a robot that does not keep the rule (a person, another method) there
+is no check: it may not brake, so braking is no safer than evading it, and the MPC's predictions
+and evasive plans handle it as before (an ORCA robot ran into NOD robots that braked for it).
 
 Assumptions: exact observations and exact motion (as the wall guarantee), and braking as the
 only fallback; a robot whose straight braking would reach a wall follows its committed
@@ -70,7 +71,8 @@ class BrakingPartners(NamedTuple):
     radii: np.ndarray
     """Every robot's radius ``(N,)`` (m)."""
     keeps_rule: np.ndarray
-    """Which robots keep the rule ``(N,)`` (bool): towards the others the check is always strong."""
+    """Which robots keep the rule ``(N,)`` (bool): towards the others there is no check (they may
+    not brake, so braking is no safer than evading them: the MPC's predictions handle them)."""
     seen: np.ndarray
     """Which robots the robot sees now ``(N,)`` (bool); the others are not checked."""
     turn: int
@@ -140,15 +142,21 @@ def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bo
 
 
 @compiled
+def _deviation_terms(speed_j: float, a_j: float, dt: float, strong: bool) -> tuple[float, float]:
+    """:func:`braking_deviation`'s ``dp`` and, for the strong check, ``dv``, the rate at which the
+    margin grows until ``speed_j + a_j dt`` would have stopped (0 for the weak check)."""
+    sigma = min(dt, speed_j / a_j)
+    dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
+    return dp, ((min(speed_j, a_j * dt) + a_j * dt) if strong else 0.0)
+
+
+@compiled
 def _pair_slack(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: float, yj: float, vx: float,
                 vy: float, a_j: float, contact: float, strong: bool, dt: float, step: float,
                 max_samples: int) -> float:
     """:func:`braking_slack` for one pair."""
     speed_i, speed_j = math.hypot(vxi, vyi), math.hypot(vx, vy)
-    # braking_deviation's dp and dv (the margin grows at dv per second until speed_j + a_j dt stops)
-    sigma = min(dt, speed_j / a_j)
-    dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
-    growth = (min(speed_j, a_j * dt) + a_j * dt) if strong else 0.0
+    dp, growth = _deviation_terms(speed_j, a_j, dt, strong)
     worst = (dp + growth * (speed_j + a_j * dt) / a_j) if strong else 0.0
     gap = math.hypot(xj - xi, yj - yi)
     if gap - speed_i * speed_i / (2.0 * a_i) - speed_j * speed_j / (2.0 * a_j) - worst - contact > 1.0:
@@ -177,9 +185,7 @@ def _sampled_slack(own, h, own_speed, xj, yj, vx, vy, a_j, contact, strong, dt, 
     every ``h`` seconds from the next step on (it stands at the last one afterwards), moving at
     most ``own_speed``."""
     speed_j = math.hypot(vx, vy)
-    sigma = min(dt, speed_j / a_j)
-    dp = speed_j * dt - (speed_j * sigma - 0.5 * a_j * sigma * sigma) + 0.5 * a_j * dt * dt
-    growth = (min(speed_j, a_j * dt) + a_j * dt) if strong else 0.0
+    dp, growth = _deviation_terms(speed_j, a_j, dt, strong)
     span = max((own.shape[0] - 1) * h, max(speed_j / a_j - dt, 0.0))
     if strong:
         span = max(span, (speed_j + a_j * dt) / a_j)
@@ -199,14 +205,15 @@ def _sampled_slack(own, h, own_speed, xj, yj, vx, vy, a_j, contact, strong, dt, 
 @compiled
 def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, decels, radii, keeps, seen, turn,
                   convention, dt, step, max_samples, out):
-    """Every other robot's slack into ``out`` (``inf`` for ``i`` and robots not seen); the index
+    """Every other robot's slack into ``out`` (``inf`` for ``i``, robots not seen and robots that do
+    not keep the rule); the index
     of the smallest (-1: none). The robot's own fallback is straight braking from ``(p_next,
     v_next)`` when ``own`` is empty, else the sampled positions ``own``."""
     speed_i = math.hypot(velocities[i, 0], velocities[i, 1])
     worst, worst_j = math.inf, -1
     for j in range(positions.shape[0]):
         out[j] = math.inf
-        if j == i or not seen[j]:
+        if j == i or not seen[j] or not keeps[j]:  # the rule is mutual: not checked towards others
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
         strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)

@@ -283,7 +283,7 @@ class ExecutionParams:
     of wherever that trajectory can move in one step): ``speed`` (default) the faster one takes the
     weak check, the lower-numbered one at equal speeds; ``index`` the lower-numbered one; ``strong``
     both the strong one; ``none`` no check (before this setting; the paper has none). Towards a
-    robot that does not keep the rule (another method, a person) the check is always strong."""
+    robot that does not keep the rule (another method, a person) there is no check."""
     surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as

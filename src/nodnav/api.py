@@ -9,9 +9,9 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from nodnav.experiments.batch import run_sweep as _run_sweep
 from nodnav.experiments.study import SweepSpec, study_from_dict
 from nodnav.experiments.sweep import SweepSummary
-from nodnav.experiments.sweep import run_sweep as _run_sweep
 from nodnav.planning.base import Planner
 from nodnav.scenario.loading import load_scenario as _load_scenario
 from nodnav.scenario.schema import Scenario, scenario_from_dict
@@ -119,7 +119,7 @@ def run_sweep(study: SweepSpec | Mapping[str, Any], db: str | Path, jobs: int = 
     quiet : bool
         No progress bar.
     **options
-        Passed on to :func:`nodnav.experiments.sweep.run_sweep` (``scheduler``, ``retry_errors``,
+        Passed on to :func:`nodnav.experiments.batch.run_sweep` (``scheduler``, ``retry_errors``,
         ``allow_mixed``, ``trial_fn``, ...).
 
     Returns

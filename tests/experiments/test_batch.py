@@ -6,10 +6,10 @@ import time
 import pytest
 import yaml
 
-from nodnav.experiments.batch import run_studies
+from nodnav.experiments.batch import run_studies, run_sweep
 from nodnav.experiments.store import ResultStore, run_key, trial_key
 from nodnav.experiments.study import SweepSpec
-from nodnav.experiments.sweep import expand, run_sweep
+from nodnav.experiments.sweep import expand
 from nodnav.experiments.variants import variant_scenario_files
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_to_dict

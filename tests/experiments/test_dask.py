@@ -9,9 +9,9 @@ import threading
 import pytest
 
 from nodnav.errors import NodnavError
+from nodnav.experiments.batch import run_sweep
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import SweepSpec
-from nodnav.experiments.sweep import run_sweep
 
 pytest.importorskip("distributed")
 

@@ -11,9 +11,9 @@ import pytest
 import nodnav
 import nodnav.experiments.store as store_module
 import nodnav.experiments.sweep as sweep_module
+from nodnav.experiments.batch import run_sweep
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import SweepSpec
-from nodnav.experiments.sweep import run_sweep
 from nodnav.provenance import UNKNOWN, code_version, result_files, source_hash
 
 

@@ -35,8 +35,8 @@ def test_bad_roles_are_one_line(roles, message):
 
 
 def test_a_stored_mixed_team_is_tabled_by_roles(tmp_path):
+    from nodnav.experiments.batch import run_sweep
     from nodnav.experiments.store import ResultStore
-    from nodnav.experiments.sweep import run_sweep
     from nodnav.experiments.teams import team_rows
     from nodnav.reporting.mixed_teams import team_table
 

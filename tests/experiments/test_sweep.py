@@ -13,9 +13,10 @@ import cloudpickle
 import numpy as np
 import pytest
 
+from nodnav.experiments.batch import run_sweep
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import StudyError, SweepSpec, load_study, parse_bias, study_from_dict
-from nodnav.experiments.sweep import execute_trial, expand, run_sweep
+from nodnav.experiments.sweep import execute_trial, expand
 from nodnav.scenario.loading import load_scenario
 
 # Worker processes cannot import this test module by name: send its functions by value
@@ -216,7 +217,7 @@ from pathlib import Path
 import cloudpickle
 
 from nodnav.experiments.study import SweepSpec
-from nodnav.experiments.sweep import run_sweep
+from nodnav.experiments.batch import run_sweep
 
 slow_trial = cloudpickle.loads(Path(sys.argv[2]).read_bytes())
 spec = SweepSpec(name="kill", scenarios=("2r-case1", "3r-case1"), trials=20)

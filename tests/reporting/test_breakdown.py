@@ -9,10 +9,11 @@ matplotlib.use("Agg")
 
 import pytest  # noqa: E402
 
+from nodnav.experiments.batch import run_sweep  # noqa: E402
 from nodnav.experiments.statistics import wilson_interval  #noqa: E402
 from nodnav.experiments.store import ResultStore, trial_config, trial_key  # noqa: E402
 from nodnav.experiments.study import StudyError, SweepSpec, study_from_dict  # noqa: E402
-from nodnav.experiments.sweep import expand, run_sweep  # noqa: E402
+from nodnav.experiments.sweep import expand  # noqa: E402
 from nodnav.reporting.breakdown import breakdown_lines, fmt_success  # noqa: E402
 from nodnav.reporting.report import build_report
 from nodnav.scenario.draws import draw  # noqa: E402

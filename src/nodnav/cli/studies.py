@@ -15,8 +15,8 @@ from nodnav.paths import output_dir, output_file
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    from nodnav.experiments.batch import run_sweep
     from nodnav.experiments.study import OPTION_NAMES, load_study, study_from_dict
-    from nodnav.experiments.sweep import run_sweep
     from nodnav.scenario.loading import load_scenario
 
     name = args.name

@@ -1,6 +1,6 @@
 """Several studies in one pool of workers: every distinct trial run once, stored once per key.
 
-:func:`~nodnav.experiments.sweep.run_sweep` is this for one study; ``nodnav reproduce`` gives it
+:func:`run_sweep` is this for one study; ``nodnav reproduce`` gives it
 all of its parts at once. Compared with running the studies one after another:
 
 - **one pool, no gaps**: the workers go from one study's trials to the next without waiting for
@@ -36,7 +36,7 @@ from tqdm import tqdm
 
 from nodnav.errors import NodnavError
 from nodnav.experiments import sweep
-from nodnav.experiments.store import ResultStore, run_key
+from nodnav.experiments.store import DEFAULT_DB, ResultStore, run_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.experiments.sweep import Expansion, SweepSummary, TrialSpec, execute_trial, stale_note
 from nodnav.provenance import PACKAGE_VERSION
@@ -75,7 +75,7 @@ def run_studies(runs: Sequence[tuple[SweepSpec, Expansion]], db_path: str | Path
     """Run every trial of the studies ``runs`` (each a spec and its :func:`~nodnav.experiments.sweep.expand`)
     that ``db_path`` does not hold yet, in one pool of workers, and store each as it arrives.
 
-    The options are those of :func:`~nodnav.experiments.sweep.run_sweep`. A trial belongs to the
+    The options are those of :func:`run_sweep`. A trial belongs to the
     first study that contains it (the ``study`` column) and is linked to every study that does.
     ``cost(trial)`` orders each study's trials, the most expensive first (default: most robots
     first). With ``deadline`` (a :func:`time.perf_counter` value), no study's trials start once it
@@ -206,3 +206,26 @@ def _store_twin(store: ResultStore, trial: TrialSpec, studies: list[str], outcom
 def _label(runs: Sequence[tuple[SweepSpec, Expansion]]) -> str:
     names = [spec.name for spec, _ in runs]
     return names[0] if len(names) == 1 else f"{len(names)} studies"
+
+
+def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, scheduler: str | None = None,
+              quiet: bool = False, *, trial_fn: Callable | None = None, retry_errors: bool = False,
+              connect_timeout: float = 30.0, allow_mixed: bool = False,
+              notify: Callable[[str], None] | None = None) -> SweepSummary:
+    """Run every trial of ``spec`` that ``db_path`` does not hold yet and store each result as it arrives.
+
+    ``jobs`` worker processes run trials locally; with ``scheduler`` (a Dask scheduler address
+    such as ``tcp://10.0.0.5:8786``, reached within ``connect_timeout`` seconds) they run on that
+    cluster instead, whose workers must have nodnav installed. ``trial_fn`` replaces
+    :func:`~nodnav.sim.simulator.run_trial` (the workers must be able to unpickle it). Trials
+    stored with outcome ``error`` are run again only with ``retry_errors``. Trials stored by
+    another code version are run again unless ``allow_mixed`` (module docstring); ``notify``
+    receives that one-line note before any trial runs. A progress bar on stderr shows trials
+    done, rate and time left unless ``quiet``.
+    """
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise NodnavError(f"jobs: expected a whole number >= 1, got {jobs!r}")
+    batch = run_studies([(spec, sweep.expand(spec))], db_path, jobs, scheduler, quiet, trial_fn=trial_fn,
+                        retry_errors=retry_errors, connect_timeout=connect_timeout, allow_mixed=allow_mixed,
+                        notify=notify)
+    return batch.studies[0]

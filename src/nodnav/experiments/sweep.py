@@ -29,11 +29,10 @@ import time
 import traceback
 from collections import Counter
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Callable
 
 from nodnav.errors import NodnavError
-from nodnav.experiments.store import DEFAULT_DB, trial_config, trial_key
+from nodnav.experiments.store import trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.provenance import code_version
 from nodnav.scenario.families import FamilyError
@@ -46,7 +45,7 @@ from nodnav.sim.metrics import json_ready
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SweepSpec", "TrialSpec", "Expansion", "TrialOutput", "SweepSummary", "expand", "execute_trial", "run_sweep"]
+__all__ = ["SweepSpec", "TrialSpec", "Expansion", "TrialOutput", "SweepSummary", "expand", "execute_trial"]
 
 
 @dataclass(frozen=True)
@@ -279,31 +278,6 @@ def stale_note(stale: dict[str, int], current: str, allow_mixed: bool) -> str:
     return (f"{total} stored trial{'s' if total != 1 else ''} of this study came from another code version "
             f"({found}); they are run again under {current} (old rows kept in table stale_trials; "
             "--allow-mixed keeps them instead)")
-
-
-def run_sweep(spec: SweepSpec, db_path: str | Path = DEFAULT_DB, jobs: int = 1, scheduler: str | None = None,
-              quiet: bool = False, *, trial_fn: Callable | None = None, retry_errors: bool = False,
-              connect_timeout: float = 30.0, allow_mixed: bool = False,
-              notify: Callable[[str], None] | None = None) -> SweepSummary:
-    """Run every trial of ``spec`` that ``db_path`` does not hold yet and store each result as it arrives.
-
-    ``jobs`` worker processes run trials locally; with ``scheduler`` (a Dask scheduler address
-    such as ``tcp://10.0.0.5:8786``, reached within ``connect_timeout`` seconds) they run on that
-    cluster instead, whose workers must have nodnav installed. ``trial_fn`` replaces
-    :func:`~nodnav.sim.simulator.run_trial` (the workers must be able to unpickle it). Trials
-    stored with outcome ``error`` are run again only with ``retry_errors``. Trials stored by
-    another code version are run again unless ``allow_mixed`` (module docstring); ``notify``
-    receives that one-line note before any trial runs. A progress bar on stderr shows trials
-    done, rate and time left unless ``quiet``.
-    """
-    from nodnav.experiments.batch import run_studies  # it builds on this module
-
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise NodnavError(f"jobs: expected a whole number >= 1, got {jobs!r}")
-    batch = run_studies([(spec, expand(spec))], db_path, jobs, scheduler, quiet, trial_fn=trial_fn,
-                        retry_errors=retry_errors, connect_timeout=connect_timeout, allow_mixed=allow_mixed,
-                        notify=notify)
-    return batch.studies[0]
 
 
 def _dask_client(scheduler: str, timeout: float):

@@ -371,7 +371,7 @@ def reproduce(options: ReproduceOptions, *, trial_fn: Callable | None = None,
     """Run the evaluation of ``options`` into its results database within its budget, then write the report.
 
     ``trial_fn`` replaces :func:`~nodnav.sim.simulator.run_trial` in the sweeps (see
-    :func:`~nodnav.experiments.sweep.run_sweep`). Trials stored by another code version are run
+    :func:`~nodnav.experiments.batch.run_sweep`). Trials stored by another code version are run
     again unless ``options.allow_mixed``; ``notify`` receives that one-line note first.
     """
     start = time.perf_counter()

@@ -151,6 +151,19 @@ def _deviation_terms(speed_j: float, a_j: float, dt: float, strong: bool) -> tup
 
 
 @compiled
+def _sample_grid(own_span: float, speed_j: float, a_j: float, dt: float, strong: bool, step: float,
+                 max_samples: int) -> tuple[int, float]:
+    """How many samples, how far apart (s), from the next step until the robot's own fallback
+    (``own_span`` seconds) and ``j``'s braking (read from one step on) have both stopped, and for
+    the strong check until ``j``'s fastest alternative would have."""
+    span = max(own_span, max(speed_j / a_j - dt, 0.0))
+    if strong:
+        span = max(span, (speed_j + a_j * dt) / a_j)
+    n = min(max_samples, int(math.ceil(span / step)) + 1)
+    return n, (span / (n - 1) if n > 1 else 0.0)
+
+
+@compiled
 def _pair_slack(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: float, yj: float, vx: float,
                 vy: float, a_j: float, contact: float, strong: bool, dt: float, step: float,
                 max_samples: int) -> float:
@@ -163,11 +176,7 @@ def _pair_slack(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: fl
         return gap - contact  # neither braking can come near the other: far enough
     # From the next step on: j's braking is dt further along; the deviation stops growing once
     # j's fastest alternative has stopped.
-    span = max(speed_i / a_i, max(speed_j / a_j - dt, 0.0))
-    if strong:
-        span = max(span, (speed_j + a_j * dt) / a_j)
-    n = min(max_samples, int(math.ceil(span / step)) + 1)
-    h = span / (n - 1) if n > 1 else 0.0
+    n, h = _sample_grid(speed_i / a_i, speed_j, a_j, dt, strong, step, max_samples)
     best = math.inf
     for k in range(n):
         s = k * h
@@ -186,11 +195,7 @@ def _sampled_slack(own, h, own_speed, xj, yj, vx, vy, a_j, contact, strong, dt, 
     most ``own_speed``."""
     speed_j = math.hypot(vx, vy)
     dp, growth = _deviation_terms(speed_j, a_j, dt, strong)
-    span = max((own.shape[0] - 1) * h, max(speed_j / a_j - dt, 0.0))
-    if strong:
-        span = max(span, (speed_j + a_j * dt) / a_j)
-    n = min(max_samples, int(math.ceil(span / step)) + 1)
-    g = span / (n - 1) if n > 1 else 0.0
+    n, g = _sample_grid((own.shape[0] - 1) * h, speed_j, a_j, dt, strong, step, max_samples)
     best = math.inf
     for k in range(n):
         s = k * g

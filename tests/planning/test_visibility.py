@@ -344,7 +344,7 @@ def test_compiled_disc_checks_match_their_numpy_forms():
     replace, on random polylines and discs (also single points, starts inside discs, radii at
     and below TOL): the same decisions; disc_violations against its NumPy form."""
     from nodnav.geometry import TOL, segment_point_distance
-    from nodnav.planning.visibility import _crosses_any, corner_cuts_close, disc_violations, disc_violations_plain
+    from nodnav.planning.disc_checks import _crosses_any, corner_cuts_close, disc_violations, disc_violations_plain
 
     rng = np.random.default_rng(3)
     for _ in range(500):

@@ -14,11 +14,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
+from nodnav.planning.disc_checks import corner_cuts_close
 from nodnav.planning.fast_state import Cut, Route, Track, zones_of
 from nodnav.planning.memo import remember, remember_within
 from nodnav.planning.occupancy import entry_cell, polyline_segments
 from nodnav.planning.polylines import arc_length_grid
-from nodnav.planning.visibility import VisibilityGraph, corner_cuts_close
+from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.world import World
 
 if TYPE_CHECKING:

@@ -27,11 +27,11 @@ import logging
 import numpy as np
 
 from nodnav.geometry import TOL
+from nodnav.planning.disc_checks import disc_violations
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route, State, timed_motion
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.polylines import polyline_point_distance
 from nodnav.planning.timing import dash_clashes
-from nodnav.planning.visibility import disc_violations
 from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, ring_spots
 from nodnav.scenario.world import World
 

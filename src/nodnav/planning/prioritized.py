@@ -86,6 +86,7 @@ from dataclasses import replace
 import numpy as np
 
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, feasible_order
+from nodnav.planning.disc_checks import disc_violations
 from nodnav.planning.fast_state import (
     Attempt,
     Cut,
@@ -103,7 +104,7 @@ from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import Motion, separation_requirements
 from nodnav.planning.parking import DeferredParking
 from nodnav.planning.velocity_tuning import VelocityTuning
-from nodnav.planning.visibility import VisibilityGraph, disc_violations
+from nodnav.planning.visibility import VisibilityGraph
 from nodnav.planning.waiting_spots import in_door_zone
 from nodnav.registry import register_planner
 from nodnav.scenario.params import FastPlannerParams

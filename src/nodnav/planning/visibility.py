@@ -31,7 +31,8 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.planning.disc_checks import _crosses_any, disc_violations
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.planning.polylines import polyline_length
@@ -391,131 +392,6 @@ def _without_repeats(points: np.ndarray) -> np.ndarray:
         before = np.flatnonzero(keep[:-1])[-1]
         keep[-1], keep[before] = True, before == 0
     return points[keep]
-
-
-def disc_violations(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,
-                    d_goal: np.ndarray) -> np.ndarray:
-    """Which discs a polyline from a start to a goal violates, shape ``(m,)``.
-
-    A polyline keeps out of disc ``j`` when every segment keeps ``radii[j]`` from its centre,
-    except that the first segment need only keep ``min(radii[j], d_start[j])`` (the start's
-    distance from the centre: leaving a disc one starts in) and the last one
-    ``min(radii[j], d_goal[j])`` (entering the disc that holds the goal).
-
-    One compiled call (:func:`_violations_kernel`); :func:`disc_violations_plain` is the NumPy
-    form it is tested against.
-    """
-    centres = np.ascontiguousarray(np.asarray(centres, dtype=float).reshape(-1, 2))
-    m = len(centres)
-    return _violations_kernel(np.ascontiguousarray(np.asarray(polyline, dtype=float).reshape(-1, 2)), centres,
-                              _per_disc(radii, m), _per_disc(d_start, m), _per_disc(d_goal, m))
-
-
-def _per_disc(values, m: int) -> np.ndarray:
-    """``values`` as a contiguous float array ``(m,)`` (one value broadcast to all)."""
-    v = np.asarray(values, dtype=float).reshape(-1)
-    if len(v) != m:
-        v = np.broadcast_to(v, (m,))
-    return np.ascontiguousarray(v)
-
-
-def disc_violations_plain(polyline: np.ndarray, centres: np.ndarray, radii: np.ndarray, d_start: np.ndarray,
-                          d_goal: np.ndarray) -> np.ndarray:
-    """:func:`disc_violations` with NumPy: the segments' distances as a table, the limits as another."""
-    poly = np.asarray(polyline, dtype=float).reshape(-1, 2)
-    centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-    if len(poly) == 1:
-        poly = np.vstack([poly, poly])
-    d = segment_point_distance(poly[:-1], poly[1:], centres)
-    limit = np.repeat(np.asarray(radii, dtype=float).reshape(1, -1), len(d), axis=0)
-    limit[0] = np.minimum(limit[0], d_start)
-    limit[-1] = np.minimum(limit[-1], d_goal)
-    return np.asarray((d < limit - TOL).any(axis=0))
-
-
-@_compiled
-def _violations_kernel(poly, centres, radii, d_start, d_goal):
-    """The loops of :func:`disc_violations`: the same distances (:func:`_segment_point_d2_one`,
-    then the square root) and limits, disc by disc, stopping at its first violated segment."""
-    n_pts = poly.shape[0]
-    n_seg = max(n_pts - 1, 1)
-    out = np.zeros(centres.shape[0], dtype=np.bool_)
-    for j in range(centres.shape[0]):
-        cx, cy = centres[j, 0], centres[j, 1]
-        for s in range(n_seg):
-            a, b = min(s, n_pts - 1), min(s + 1, n_pts - 1)
-            limit = radii[j]
-            if s == 0:
-                limit = min(limit, d_start[j])
-            if s == n_seg - 1:
-                limit = min(limit, d_goal[j])
-            ax, ay = poly[a, 0], poly[a, 1]
-            d = math.sqrt(_segment_point_d2_one(ax, ay, poly[b, 0] - ax, poly[b, 1] - ay, cx, cy))
-            if d < limit - TOL:
-                out[j] = True
-                break
-    return out
-
-
-@_compiled
-def _crosses_any(poly, centres, radii, start, goal):
-    """Whether ``poly`` violates one of the discs (those of radius above :data:`TOL`) in the
-    sense of :func:`disc_violations`, with ``d_start`` and ``d_goal`` the distances of the
-    discs' centres from ``start`` and ``goal``: the same float operations as that function and
-    :meth:`VisibilityGraph.shortest_path`'s first check, as loops without their arrays."""
-    n_seg = max(poly.shape[0] - 1, 1)
-    for j in range(centres.shape[0]):
-        r = radii[j]
-        if not r > TOL:
-            continue
-        cx, cy = centres[j, 0], centres[j, 1]
-        d_start = math.hypot(cx - start[0], cy - start[1])
-        d_goal = math.hypot(cx - goal[0], cy - goal[1])
-        for s in range(n_seg):
-            a = poly[min(s, poly.shape[0] - 1)]
-            b = poly[min(s + 1, poly.shape[0] - 1)]
-            limit = r
-            if s == 0:
-                limit = min(limit, d_start)
-            if s == n_seg - 1:
-                limit = min(limit, d_goal)
-            d = math.sqrt(_segment_point_d2_one(a[0], a[1], b[0] - a[0], b[1] - a[1], cx, cy))
-            if d < limit - TOL:
-                return True
-    return False
-
-
-@_compiled
-def corner_cuts_close(path, a, b, centres, radii):
-    """Which chords ``a[c] -> b[c]`` come closer than ``min(radii[j], distance of centre j
-    from path) - TOL`` to a centre ``j``: the corner check of the fast planner's tracks
-    (:meth:`~nodnav.planning.geometric_paths.GeometricPaths._prepare`) as loops, with the
-    float operations of :func:`~nodnav.planning.polylines.polyline_point_distance` and
-    :func:`segment_point_distance`."""
-    m = centres.shape[0]
-    keep = np.empty(m)
-    for j in range(m):
-        cx, cy = centres[j, 0], centres[j, 1]
-        if path.shape[0] == 1:
-            dx, dy = cx - path[0, 0], cy - path[0, 1]
-            near = math.sqrt(dx * dx + dy * dy)
-        else:
-            near = math.inf
-            for s in range(path.shape[0] - 1):
-                d = math.sqrt(_segment_point_d2_one(path[s, 0], path[s, 1], path[s + 1, 0] - path[s, 0],
-                                                    path[s + 1, 1] - path[s, 1], cx, cy))
-                if d < near:
-                    near = d
-        keep[j] = min(radii[j], near)
-    bad = np.zeros(a.shape[0], dtype=np.bool_)
-    for c in range(a.shape[0]):
-        for j in range(m):
-            d = math.sqrt(_segment_point_d2_one(a[c, 0], a[c, 1], b[c, 0] - a[c, 0], b[c, 1] - a[c, 1],
-                                                centres[j, 0], centres[j, 1]))
-            if d < keep[j] - TOL:
-                bad[c] = True
-                break
-    return bad
 
 
 def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,

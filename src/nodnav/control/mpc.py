@@ -44,9 +44,9 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
+from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
 from nodnav.control.mpc_rows import all_finite, step_state
-from nodnav.control.mutual_braking import SAMPLE_STEP, braking_slack
 from nodnav.control.qp import SolverEffort
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -191,6 +191,11 @@ class BSplineMPC:
             return self._brake(request, prob, start, effort,
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
+        if request.braking is not None:
+            hopeless = no_plan_passes(request.braking, self._walls_around(), p0, v0, self.dt)
+            if hopeless:  # every plan would be refused below: skip solving for one
+                return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)
+
         warm = self._warm_start(committed)
         cold = warm is None
         lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
@@ -246,31 +251,21 @@ class BSplineMPC:
             return self._follow(committed, prob, start, effort, why)
         return self._brake(request, prob, start, effort, why)
 
+    def _walls_around(self) -> WallsAround:
+        return WallsAround(self.obstacles, self.setup.pieces, self.setup.world_bounds, self.robot.radius,
+                           self.robot.max_accel, self.settings.check_tolerance)
+
     def _braking_conflict(self, request: ControlRequest, post: tuple, c: np.ndarray, prob: MPCProblem) -> str:
         """Why the robot's fallback from the plan ``c``'s next state (``post``:
-        :meth:`MPCProblem.evaluate`) fails the mutual braking check (:func:`braking_slack`) towards
-        a robot of ``request.braking``; "" when it passes or there is none. The fallback is what
-        the next step does if it finds no plan: straight braking where that stops clear of the
-        walls, else this plan's committed trajectory (:meth:`_fallback`)."""
-        partners = request.braking
-        if partners is None:
+        :meth:`MPCProblem.evaluate`) fails the mutual braking check towards a robot of
+        ``request.braking`` (:func:`~nodnav.control.mpc_braking.fallback_conflict`); "" when it
+        passes or there is none."""
+        if request.braking is None:
             return ""
-        out, end = post[2], post[1]
-        fallback = None
-        if (tail_clearance(out[0], out[1], self.robot.max_accel, self.obstacles, self.setup.pieces,
-                           self.setup.world_bounds) < self.robot.radius - self.settings.check_tolerance):
-            committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
-                                  end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
-            stop = self.horizon - self.dt + math.hypot(end[1][0], end[1][1]) / prob.tail_decel
-            h = SAMPLE_STEP
-            samples = committed.motion(h * np.arange(int(math.ceil(stop / h)) + 1))
-            fallback = (samples, h, self.robot.max_speed + self.settings.check_tolerance)
-        slack, j = braking_slack(out[0], out[1], partners, fallback=fallback)
-        if j < 0 or slack[j] >= 0.0:
-            return ""
-        kind = "braking" if fallback is None else "committed trajectory"
-        return (f"its {kind} from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
-                "trajectory (mutual braking)")
+        end = post[1]
+        committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
+                              end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
+        return fallback_conflict(request.braking, self._walls_around(), post[2][:2], committed, self.robot.max_speed)
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
         """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,

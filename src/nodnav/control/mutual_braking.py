@@ -261,3 +261,75 @@ def braking_slack(position: np.ndarray, velocity: np.ndarray, partners: BrakingP
                           float(partners.dt), float(step),
                           MAX_SAMPLES, out)
     return out, int(worst)
+
+
+@compiled
+def _pair_bound(xi: float, yi: float, vxi: float, vyi: float, a_i: float, xj: float, yj: float, vx: float,
+                vy: float, a_j: float, contact: float, strong: bool, dt: float, step: float,
+                max_samples: int) -> float:
+    """:func:`passing_bound` for one pair: at sampled instants ``s`` after the next step, the
+    distance between both robots' braking trajectories now (each read ``dt + s`` seconds on), plus
+    how far any one step within ``a_i`` can move the robot's own (:func:`braking_deviation`), less
+    contact and the strong check's margin towards ``j``. Any instant bounds the slack of every
+    plan from above; ``inf`` where the two are too far apart for the bound to be negative."""
+    speed_i, speed_j = math.hypot(vxi, vyi), math.hypot(vx, vy)
+    dp_i, grow_i = _deviation_terms(speed_i, a_i, dt, True)
+    dp_j, grow_j = _deviation_terms(speed_j, a_j, dt, strong)
+    stop_i, stop_j = (speed_i + a_i * dt) / a_i, (speed_j + a_j * dt) / a_j
+    worst_j = (dp_j + grow_j * stop_j) if strong else 0.0
+    gap = math.hypot(xj - xi, yj - yi)
+    if gap - speed_i * speed_i / (2.0 * a_i) - speed_j * speed_j / (2.0 * a_j) - contact - worst_j > 0.0:
+        return math.inf  # the distance never falls below what could make the bound negative
+    # Beyond the slower of both robots' stops (and their alternatives'), nothing changes.
+    span = max(stop_i, stop_j)
+    n = min(max_samples, int(math.ceil(span / step)) + 1)
+    h = span / (n - 1) if n > 1 else 0.0
+    best = math.inf
+    for k in range(n):
+        s = k * h
+        ax, ay = _braked(xi, yi, vxi, vyi, speed_i, a_i, dt + s)
+        bx, by = _braked(xj, yj, vx, vy, speed_j, a_j, dt + s)
+        own = dp_i + grow_i * min(s, stop_i)
+        margin = (dp_j + grow_j * min(s, stop_j)) if strong else 0.0
+        best = min(best, math.hypot(ax - bx, ay - by) + own - contact - margin)
+    return best
+
+
+@compiled
+def _bound_kernel(i, position, velocity, positions, velocities, decels, radii, keeps, seen, turn, convention, dt,
+                  step, max_samples):
+    """The smallest :func:`_pair_bound` over the robots checked (as :func:`_slack_kernel`) and its
+    index (-1: none below ``inf``)."""
+    speed_i = math.hypot(velocities[i, 0], velocities[i, 1])
+    worst, worst_j = math.inf, -1
+    for j in range(positions.shape[0]):
+        if j == i or not seen[j] or not keeps[j]:
+            continue
+        speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)
+        bound = _pair_bound(position[0], position[1], velocity[0], velocity[1], decels[i], positions[j, 0],
+                            positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
+                            strong, dt, step, max_samples)
+        if bound < worst:
+            worst, worst_j = bound, j
+    return worst, worst_j
+
+
+def passing_bound(position: np.ndarray, velocity: np.ndarray, partners: BrakingPartners,
+                  step: float = SAMPLE_STEP) -> tuple[float, int]:
+    """An upper bound (m) on the :func:`braking_slack` that *any* plan from ``(position,
+    velocity)`` now can reach with straight braking as its fallback, and the robot it is for
+    (-1: none).
+
+    A plan's next state is one step within the acceleration limit, so its braking trajectory is
+    within :func:`braking_deviation` of the robot's braking trajectory now, at every instant
+    after that step. The check's slack is a lower bound on the true smallest distance (less
+    contact and margin), which at any one instant is at most the distance of the braking
+    trajectories now plus that deviation. Where this bound is negative no plan can pass (with
+    straight braking as its fallback), so the MPC need not solve for one."""
+    worst, worst_j = _bound_kernel(partners.robot, np.asarray(position, dtype=float),
+                                   np.asarray(velocity, dtype=float), partners.positions, partners.velocities,
+                                   partners.decels, partners.radii, partners.keeps_rule, partners.seen,
+                                   int(partners.turn), partners.convention, float(partners.dt), float(step),
+                                   MAX_SAMPLES)
+    return float(worst), int(worst_j)

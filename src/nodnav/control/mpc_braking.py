@@ -1,0 +1,88 @@
+"""The MPC's side of mutual braking (:mod:`nodnav.control.mutual_braking`): which fallback a plan
+leaves the robot with, whether it passes the check, and when no plan can.
+
+A plan is accepted only if the robot's fallback from the plan's next state passes the check
+against every robot it is given (:func:`fallback_conflict`). Where the check can be bounded for
+every plan at once and the bound is negative (:func:`no_plan_passes`), the MPC brakes without
+solving: a crowd of robots stopped short of one another otherwise solves the tracking and
+evasive QPs at every step only to refuse their plans.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from nodnav.control.braking import Committed, braking_profile, tail_clearance
+from nodnav.control.mutual_braking import SAMPLE_STEP, BrakingPartners, braking_deviation, braking_slack, passing_bound
+
+BOUND_TOLERANCE = 1e-9
+"""How far below zero (m) :func:`passing_bound` must be before the MPC skips solving: rounding
+must not skip a plan that would pass."""
+
+
+class WallsAround(NamedTuple):
+    """What the checks read of the robot and its walls."""
+
+    obstacles: np.ndarray
+    """The wall boxes near the robot (the MPC's ``obstacles``)."""
+    pieces: np.ndarray
+    """The world's wall pieces."""
+    bounds: np.ndarray
+    """The world's bounds."""
+    radius: float
+    """The robot's radius (m)."""
+    max_accel: float
+    """Its deceleration when braking (m/s^2)."""
+    tolerance: float
+    """How far inside its radius a wall may come before braking counts as reaching it (m)."""
+
+    def braking_clearance(self, position: np.ndarray, velocity: np.ndarray) -> float:
+        """Smallest clearance (m) of straight braking from ``(position, velocity)``."""
+        return tail_clearance(position, velocity, self.max_accel, self.obstacles, self.pieces, self.bounds)
+
+
+def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
+                      committed: Committed, max_speed: float) -> str:
+    """Why the robot's fallback from a plan's next state fails the mutual braking check
+    (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
+    what the next step does if it finds no plan: straight braking where that stops clear of the
+    walls, else the plan's ``committed`` trajectory (read from one step on), moving at most
+    ``max_speed``."""
+    position, velocity = next_state
+    fallback = None
+    if walls.braking_clearance(position, velocity) < walls.radius - walls.tolerance:
+        end_speed = math.hypot(committed.end_velocity[0], committed.end_velocity[1])
+        stop = committed.horizon - committed.elapsed + end_speed / committed.decel
+        samples = committed.motion(SAMPLE_STEP * np.arange(int(math.ceil(stop / SAMPLE_STEP)) + 1))
+        fallback = (samples, SAMPLE_STEP, max_speed + walls.tolerance)
+    slack, j = braking_slack(position, velocity, partners, fallback=fallback)
+    if j < 0 or slack[j] >= 0.0:
+        return ""
+    kind = "braking" if fallback is None else "committed trajectory"
+    return (f"its {kind} from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
+            "trajectory (mutual braking)")
+
+
+def no_plan_passes(partners: BrakingPartners, walls: WallsAround, p0: np.ndarray, v0: np.ndarray,
+                   dt: float) -> str:
+    """Why no plan from ``(p0, v0)`` can pass the mutual braking check, so that solving for one is
+    wasted work; "" if one may.
+
+    The check is bounded from above for every plan at once (:func:`passing_bound`), which holds
+    where every plan's fallback is straight braking. The straight braking from any next step
+    stays within :func:`braking_deviation` of the braking trajectory now at every instant, so its
+    segment is within that distance of the segment now, and it stops clear of the walls if the
+    braking now does by that much (otherwise some plan's fallback may be its committed trajectory,
+    which the bound does not cover: then the MPC solves as usual)."""
+    bound, j = passing_bound(p0, v0, partners)
+    if bound >= -BOUND_TOLERANCE:
+        return ""
+    pos, vel = braking_profile(p0, v0, walls.max_accel, np.array([dt]))
+    reach = float(braking_deviation(math.hypot(v0[0], v0[1]), walls.max_accel, dt, math.inf))
+    if walls.braking_clearance(pos[0], vel[0]) - reach < walls.radius - walls.tolerance:
+        return ""
+    return (f"no plan can pass: braking from any next step comes at least {-bound:.3f} m too close to robot "
+            f"{j}'s braking trajectory (mutual braking)")

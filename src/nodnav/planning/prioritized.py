@@ -269,19 +269,22 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
                 plans[k] = parked
         dt = float(self.params.dt)
         n = len(plans)
-        steps = max(p.arrival for p in plans.values()) + 1
+        motions = [plans[k].motion for k in range(n)]
+        samples = [m.samples for m in motions]
+        ends = [len(x) for x in samples]  # each robot's arrival step + 1
+        steps = max(ends)
         positions = np.empty((steps, n, 2))
-        for k, p in plans.items():
-            positions[:p.arrival + 1, k] = p.motion.samples
-            positions[p.arrival + 1:, k] = p.motion.samples[-1]
+        for k, x in enumerate(samples):
+            positions[:ends[k], k] = x
+            positions[ends[k]:, k] = x[-1]
         trajectory = JointTrajectory.from_positions(t0 + dt * np.arange(steps), positions)
-        arrival = np.array([plans[k].arrival * dt for k in range(n)])
-        lengths = np.array([float(plans[k].motion.segments[2].sum()) for k in range(n)])
+        arrival = np.array([(e - 1) * dt for e in ends])
+        lengths = np.array([float(m.segments[2].sum()) for m in motions])
         # Shared by every result of this order: nobody may change them in place.
         for a in (trajectory.times, trajectory.positions, trajectory.velocities, arrival, lengths):
             a.setflags(write=False)
         return Joint(True, "", float(arrival.sum()), trajectory, arrival, lengths,
-                      tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat),
+                      tuple(m.path for m in motions), tuple(k for k in planned if plans[k].retreat),
                       tuple(k for k in planned if k in deferred))
 
     def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
@@ -389,6 +392,8 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             retreat = self._back_out(world, state, k, here)
             if retreat.success:
                 attempt = retreat
+        if not evasions and not attempt.evasions:  # the same fields: the attempt itself
+            return attempt
         return Attempt(attempt.success, attempt.reason, attempt.plan, attempt.trapped, tuple(sorted(evasions.items())))
 
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:

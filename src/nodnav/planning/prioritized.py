@@ -160,9 +160,9 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         world = request.world
         pos, dest = _points(request.positions), _points(request.destinations)
         radii, vmax = _values(request.radii), _values(request.max_speeds)
-        order = self._int_order(request.order)
-        if sorted(order) != list(range(len(pos))):
-            reject_request(order, pos, dest, radii, vmax)
+        order = self._int_order(request.order, len(pos))
+        if order is None:
+            reject_request(tuple(int(k) for k in request.order), pos, dest, radii, vmax)
         vel = accels = None
         if self.params.timing == "feasible" and request.max_accels is not None:
             vel, accels = _points(request.velocities), _values(request.max_accels)
@@ -213,17 +213,20 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
 
     # -----------------------------------------------------------------------------------------
 
-    def _int_order(self, order) -> tuple:
-        """``tuple(int(k) for k in order)``, remembered: the same few orders come back in every
-        round (an order of NumPy integers hashes and compares as its Python ints)."""
+    def _int_order(self, order, n: int) -> tuple | None:
+        """``tuple(int(k) for k in order)`` if it is a permutation of ``0..n-1``, else None;
+        remembered: the same few orders come back in every round (an order of NumPy integers
+        hashes and compares as its Python ints)."""
         try:
-            hit = self._int_orders.get(order)
+            known = self._int_orders.get((order, n))
         except TypeError:  # a list, say: not a key
-            return tuple(int(k) for k in order)
-        if hit is None:
-            hit = tuple(int(k) for k in order)
-            remember_briefly(self._int_orders, hit if type(order) is not tuple else order, hit)
-        return hit
+            known = None
+            order = tuple(order)
+        if known is None:
+            ints = tuple(int(k) for k in order)
+            known = (ints if sorted(ints) == list(range(n)) else None,)
+            remember_briefly(self._int_orders, (order, n), known)
+        return known[0]
 
     def _joint(self, world: World, state: State, planned: tuple, t0: float,
                deferred: frozenset = frozenset()) -> Joint:

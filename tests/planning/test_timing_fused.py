@@ -208,3 +208,32 @@ def test_blocked_rows_are_blocked_bits_of_the_intervals():
         expected = blocked_bits(len(cells), motion.last_step + 1, [conflict_intervals(cells, [motion], [r])])
         got = blocked_rows(np.ascontiguousarray(cells), motion, r)
         assert got.dtype == expected.dtype and got.tobytes() == expected.tobytes()
+
+
+def test_boxes_apart_against_numpy_and_blocked_rows():
+    """``boxes_apart`` decides as its NumPy form on random cells and motions (boxes exactly the
+    separation apart included), and whenever it says apart, ``blocked_rows`` is all clear: the
+    rows ``_blocked`` writes as zeros are the ones the kernel gives."""
+    from nodnav.planning.occupancy import Motion, blocked_rows, boxes_apart, boxes_apart_plain
+    rng = np.random.default_rng(11)
+    apart = 0
+    for _ in range(600):
+        cells = np.cumsum(rng.normal(0.0, 0.05, (int(rng.integers(1, 120)), 2)), axis=0) + rng.uniform(-3, 3, 2)
+        path = np.cumsum(rng.normal(0.0, 0.6, (int(rng.integers(2, 6)), 2)), axis=0) + rng.uniform(-3, 3, 2)
+        seg = np.hypot(*np.diff(path, axis=0).T)
+        total = float(seg.sum())
+        arc = np.sort(rng.uniform(0.0, total, int(rng.integers(1, 40))))
+        arc[0] = 0.0
+        knots = np.concatenate([[0.0], np.cumsum(seg)])
+        samples = np.stack([np.interp(arc, knots, path[:, d]) for d in (0, 1)], axis=1)
+        motion = Motion(path, samples, arc)
+        required = float(rng.uniform(0.1, 1.5))
+        if rng.random() < 0.1:  # the boxes exactly the separation apart along x
+            required = float(cells[:, 0].min() - max(path[:, 0].max(), samples[:, 0].max()))
+            required = abs(required) if required else 0.5
+        fast = bool(boxes_apart(cells, path, samples, required))
+        assert fast == boxes_apart_plain(cells, path, samples, required)
+        if fast:
+            apart += 1
+            assert not blocked_rows(np.ascontiguousarray(cells), motion, required).any()
+    assert apart > 50

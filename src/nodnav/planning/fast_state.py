@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
 
@@ -214,7 +214,7 @@ def timed_motion(track: Track, timing: "Timing") -> Motion:
     return Motion(path, points_at(track.cells, track.arc, timing.arc), timing.arc, track.segments)
 
 
-def reject_request(order: tuple, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray):
+def reject_request(order: tuple, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray) -> NoReturn:
     """Raise the error for a malformed request."""
     raise ValueError(f"malformed request: order {order} for {len(pos)} robots, positions {pos.shape}, destinations "
                      f"{dest.shape}, radii {radii.tolist()}, max_speeds {vmax.tolist()}")

@@ -233,6 +233,53 @@ def _conflicts_with(cells: np.ndarray, motion: Motion, required: float) -> tuple
                              motion.last_step, required, (required - TOL) ** 2)
 
 
+#: How much farther apart than the separation the boxes of :func:`boxes_apart` must be (m): far
+#: above the rounding of the intervals' arithmetic on coordinates of a few metres.
+BOX_MARGIN = 1e-6
+
+
+def boxes_apart_plain(cells: np.ndarray, path: np.ndarray, samples: np.ndarray, required: float) -> bool:
+    """:func:`boxes_apart` with NumPy (the reference it is tested against)."""
+    if not len(cells) or not len(path):
+        return False
+    lo_c, hi_c = cells.min(axis=0), cells.max(axis=0)
+    pts = np.concatenate((path, samples))
+    lo_m, hi_m = pts.min(axis=0), pts.max(axis=0)
+    gap = np.maximum(np.maximum(lo_c - hi_m, lo_m - hi_c), 0.0)
+    return bool(gap[0] * gap[0] + gap[1] * gap[1] > (required + BOX_MARGIN) ** 2)
+
+
+@_compiled
+def _widen(box, pts):
+    """Widen ``box`` (x min, x max, y min, y max) to hold the points ``pts`` ``(m, 2)``."""
+    for i in range(pts.shape[0]):
+        x, y = pts[i, 0], pts[i, 1]
+        box[0] = min(box[0], x)
+        box[1] = max(box[1], x)
+        box[2] = min(box[2], y)
+        box[3] = max(box[3], y)
+
+
+@_compiled
+def boxes_apart(cells, path, samples, required):
+    """Whether the bounding box of ``cells`` and that of a motion's ``path`` and ``samples`` are
+    more than ``required + BOX_MARGIN`` apart. Everything :func:`blocked_rows` measures the
+    cells against lies in the motion's box (its stretches of the polyline, the chords between
+    its samples, where it parks), so then no cell is closer than ``required`` to it at any step
+    and its rows are all clear."""
+    if cells.shape[0] == 0 or path.shape[0] == 0:
+        return False
+    c = np.array([np.inf, -np.inf, np.inf, -np.inf])
+    m = np.array([np.inf, -np.inf, np.inf, -np.inf])
+    _widen(c, cells)
+    _widen(m, path)
+    _widen(m, samples)
+    gx = max(max(c[0] - m[1], m[0] - c[1]), 0.0)
+    gy = max(max(c[2] - m[3], m[2] - c[3]), 0.0)
+    limit = required + BOX_MARGIN
+    return gx * gx + gy * gy > limit * limit
+
+
 def blocked_rows(cells: np.ndarray, motion: Motion, required: float) -> np.ndarray:
     """:func:`blocked_bits` of :func:`_conflicts_with`'s intervals, one row per step of
     ``motion`` (``cells`` contiguous ``(N, 2)``), in one compiled call: the same bits."""

@@ -113,6 +113,21 @@ from nodnav.scenario.world import World
 logger = logging.getLogger(__name__)
 
 
+def _points(a) -> np.ndarray:
+    """``np.asarray(a, dtype=float).reshape(-1, 2)``; a float array of that shape itself (the
+    same values, without a new view: the closed loop asks many orders of the same arrays)."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 2 and a.shape[1] == 2:
+        return a
+    return np.asarray(a, dtype=float).reshape(-1, 2)
+
+
+def _values(a) -> np.ndarray:
+    """``np.asarray(a, dtype=float).reshape(-1)``; a flat float array itself (see :func:`_points`)."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 1:
+        return a
+    return np.asarray(a, dtype=float).reshape(-1)
+
+
 @register_planner("fast")
 class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredParking):
     """Prioritised space-time planner (see the module docstring); deterministic, no precomputation."""
@@ -136,22 +151,21 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         self._attempts: dict[tuple, Attempt] = {}
         self._joints: dict[tuple, Joint] = {}
         self._orders: dict[tuple, tuple] = {}
+        self._int_orders: dict[tuple, tuple] = {}
+        self._disc_rows: dict[tuple, tuple] = {}
 
     def plan(self, request: PlanRequest) -> PlanResult:
         """Plan every robot of the request through the corridor in its (feasible) passing order."""
         began = time.perf_counter()
         world = request.world
-        pos = np.asarray(request.positions, dtype=float).reshape(-1, 2)
-        dest = np.asarray(request.destinations, dtype=float).reshape(-1, 2)
-        radii = np.asarray(request.radii, dtype=float).reshape(-1)
-        vmax = np.asarray(request.max_speeds, dtype=float).reshape(-1)
-        order = tuple(int(k) for k in request.order)
-        if sorted(order) != list(range(len(pos))):
-            reject_request(order, pos, dest, radii, vmax)
+        pos, dest = _points(request.positions), _points(request.destinations)
+        radii, vmax = _values(request.radii), _values(request.max_speeds)
+        order = self._int_order(request.order, len(pos))
+        if order is None:
+            reject_request(tuple(int(k) for k in request.order), pos, dest, radii, vmax)
         vel = accels = None
         if self.params.timing == "feasible" and request.max_accels is not None:
-            vel = np.asarray(request.velocities, dtype=float).reshape(-1, 2)
-            accels = np.asarray(request.max_accels, dtype=float).reshape(-1)
+            vel, accels = _points(request.velocities), _values(request.max_accels)
         state = self._state(world, pos, dest, radii, vmax, order, vel, accels)
         # The same few (order, entered) pairs come back for every robot: remembered per state.
         asked = (state.key, order, tuple(request.entered))
@@ -199,6 +213,21 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
 
     # -----------------------------------------------------------------------------------------
 
+    def _int_order(self, order, n: int) -> tuple | None:
+        """``tuple(int(k) for k in order)`` if it is a permutation of ``0..n-1``, else None;
+        remembered: the same few orders come back in every round (an order of NumPy integers
+        hashes and compares as its Python ints)."""
+        try:
+            known = self._int_orders.get((order, n))
+        except TypeError:  # a list, say: not a key
+            known = None
+            order = tuple(order)
+        if known is None:
+            ints = tuple(int(k) for k in order)
+            known = (ints if sorted(ints) == list(range(n)) else None,)
+            remember_briefly(self._int_orders, (order, n), known)
+        return known[0]
+
     def _joint(self, world: World, state: State, planned: tuple, t0: float,
                deferred: frozenset = frozenset()) -> Joint:
         """Every robot planned in the order ``planned``, one after the other.
@@ -243,19 +272,22 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
                 plans[k] = parked
         dt = float(self.params.dt)
         n = len(plans)
-        steps = max(p.arrival for p in plans.values()) + 1
+        motions = [plans[k].motion for k in range(n)]
+        samples = [m.samples for m in motions]
+        ends = [len(x) for x in samples]  # each robot's arrival step + 1
+        steps = max(ends)
         positions = np.empty((steps, n, 2))
-        for k, p in plans.items():
-            positions[:p.arrival + 1, k] = p.motion.samples
-            positions[p.arrival + 1:, k] = p.motion.samples[-1]
+        for k, x in enumerate(samples):
+            positions[:ends[k], k] = x
+            positions[ends[k]:, k] = x[-1]
         trajectory = JointTrajectory.from_positions(t0 + dt * np.arange(steps), positions)
-        arrival = np.array([plans[k].arrival * dt for k in range(n)])
-        lengths = np.array([float(plans[k].motion.segments[2].sum()) for k in range(n)])
+        arrival = np.array([(e - 1) * dt for e in ends])
+        lengths = np.array([float(m.segments[2].sum()) for m in motions])
         # Shared by every result of this order: nobody may change them in place.
         for a in (trajectory.times, trajectory.positions, trajectory.velocities, arrival, lengths):
             a.setflags(write=False)
         return Joint(True, "", float(arrival.sum()), trajectory, arrival, lengths,
-                      tuple(plans[k].motion.path for k in range(n)), tuple(k for k in planned if plans[k].retreat),
+                      tuple(m.path for m in motions), tuple(k for k in planned if plans[k].retreat),
                       tuple(k for k in planned if k in deferred))
 
     def _state(self, world: World, pos: np.ndarray, dest: np.ndarray, radii: np.ndarray, vmax: np.ndarray,
@@ -363,21 +395,39 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             retreat = self._back_out(world, state, k, here)
             if retreat.success:
                 attempt = retreat
+        if not evasions and not attempt.evasions:  # the same fields: the attempt itself
+            return attempt
         return Attempt(attempt.success, attempt.reason, attempt.plan, attempt.trapped, tuple(sorted(evasions.items())))
 
     def _track_for(self, world: World, state: State, k: int, layout: Layout) -> Track:
         """Robot ``k``'s prepared path from where it starts (after getting out of the way, if it
         must), around the robots after it standing and the destinations of those before it."""
         dest = state.destinations
-        later, earlier = list(layout.later), sorted(layout.plans)
+        later = layout.later
         start = self._start(state, k, layout)
-        heads = layout.heads
-        if not heads.keys().isdisjoint(later):
+        # The rows of the discs, by the robots before and after it (the same few in every round).
+        rows = self._disc_rows.get((len(dest), later, frozenset(layout.plans)))
+        if rows is None:
+            rows = self._rows_of_discs(len(dest), later, sorted(layout.plans))
+        if not layout.heads.keys().isdisjoint(later):
             stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
-            centres = np.concatenate((stand, dest[earlier]))
+            centres = np.concatenate((stand, dest[rows[2]]))
         else:  # nobody after it has moved: where they stand now, then the destinations (the same values)
-            n = len(dest)
-            centres = state.stands_and_goals[np.array(later + [n + i for i in earlier], dtype=np.intp)]
-        rads = state.required[k][np.array(later + earlier, dtype=np.intp)]
+            centres = state.stands_and_goals[rows[0]]
+        rads = state.required[k][rows[1]]
         return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
                            rads, len(later))
+
+    def _rows_of_discs(self, n: int, later: tuple, earlier: list) -> tuple:
+        """For :meth:`_track_for`: the rows of ``State.stands_and_goals`` (the later robots'
+        positions, then the earlier robots' destinations), of a row of ``State.required``
+        (later, then earlier) and the earlier robots, as index arrays (read-only, remembered by
+        ``n``, ``later`` and the set of ``earlier``)."""
+        stands = np.array(list(later) + [n + i for i in earlier], dtype=np.intp)
+        pairs = np.array(list(later) + earlier, dtype=np.intp)
+        before = np.array(earlier, dtype=np.intp)
+        for a in (stands, pairs, before):
+            a.setflags(write=False)
+        rows = (stands, pairs, before)
+        remember_briefly(self._disc_rows, (n, later, frozenset(earlier)), rows)
+        return rows

@@ -18,7 +18,7 @@ import numpy as np
 from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track, timed_motion
 from nodnav.planning.fused_timing import NO_GEOMETRY, _timing_kernel, stay_geometry
 from nodnav.planning.memo import remember, remember_briefly
-from nodnav.planning.occupancy import Motion, blocked_rows, join_motions, relaxed_bits
+from nodnav.planning.occupancy import Motion, blocked_rows, boxes_apart, join_motions, relaxed_bits
 from nodnav.planning.timing import Timing, timing_of
 from nodnav.scenario.world import World
 
@@ -128,8 +128,13 @@ class VelocityTuning(FastPlannerHooks):
         if hit is not None:
             remember_briefly(self._rows_by_id, same, (cells, motion, hit[1]))
         else:
-            # conflict_intervals for one motion and blocked_bits of them, in one compiled call.
-            bits = blocked_rows(np.ascontiguousarray(cells, dtype=float), motion, float(required))
+            cells_c = np.ascontiguousarray(cells, dtype=float)
+            if boxes_apart(cells_c, motion.path, motion.samples, float(required)):
+                # Too far apart to meet at any step: its rows are all clear (what blocked_rows gives).
+                bits = np.zeros((motion.last_step + 1, (len(cells_c) + 63) // 64), dtype=np.uint64)
+            else:
+                # conflict_intervals for one motion and blocked_bits of them, in one compiled call.
+                bits = blocked_rows(cells_c, motion, float(required))
             # The cells are kept with the bits so that their id stays theirs while remembered.
             hit = (cells, bits)
             remember(self._rows, key, hit)

@@ -113,7 +113,7 @@ class PersonMethod:
         self.scenario = scenario
         self.rngs = rngs
         self.params = params or SocialForceParams()
-        self.model = ForceModel.of(self.params)
+        self.model = ForceModel.of(self.params).array()
         self.dt = scenario.controller.dt
         horizon, samples = scenario.controller.horizon, scenario.controller.samples
         self.sample_times = horizon * np.arange(1, samples + 1) / samples
@@ -283,7 +283,7 @@ class PersonMethod:
         ex, ey = float(e[0]), float(e[1])
         max_accel, max_speed = float(s.robots[i].max_accel), float(s.max_speeds[i])
         clip = world.wall_grid is None  # a map's world: the plain clip_against_walls, through its wall index
-        passed = []
+        passed, marked = [], set(marks.tolist())
         for k in range(1, prm.substeps + 1):
             near = force_exponents(state[0], state[1], r, pj, vj, rj, float(k - 1), h, world.obstacle_array,
                                    world.bounds_array, prm.range + r, prm.B, others_now, wall_points, exponents)
@@ -293,7 +293,7 @@ class PersonMethod:
                            clip, step):
                 c = clip_against_walls(world, state[:2].copy(), step.copy(), r)
                 state[:2], state[2:] = state[:2] + c, c / h
-            if k in marks:
+            if k in marked:
                 passed.append(state[:2].copy())
         return state[:2].copy(), state[2:].copy(), passed
 
@@ -362,8 +362,9 @@ class PersonMethod:
                 if prm.slow_for_turns and speed > 0.0:
                     rooms = bend_rooms(s.world, float(radii[i]), route, p0, prm.turn_lookahead)
                     speed = min(speed, turn_speed(route, p0, rooms, limit, prm.tau, prm.turn_lookahead, v0))
+            apart = np.linalg.norm(view.positions - p0, axis=1)
             others = [k for k in range(s.n_robots) if k != i
-                      and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
+                      and apart[k] < prm.range + radii[i] + radii[k] + self.dt * 4]
             pj, vj, rj = view.positions[others], view.velocities[others], radii[others]
             p, v, passed = self.walk(i, p0, v0, e, speed, pj, vj, rj, marks)
             out[i] = ControlResult(success=True, reason="", velocity=v, next_position=p, next_velocity=v,

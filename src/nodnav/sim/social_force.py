@@ -248,6 +248,17 @@ class ForceModel(NamedTuple):
         return cls(float(p.mass), float(p.tau), float(p.A), float(p.B), float(p.k), float(p.kappa),
                    float(p.behind), math.cos(math.radians(p.fov / 2.0)), bool(p.wall_lateral))
 
+    def array(self) -> np.ndarray:
+        """The constants as a float array, in order: what :func:`substep` is passed (a named tuple
+        costs numba microseconds to type at every call, an array a fraction of one)."""
+        return np.array([float(x) for x in self])
+
+
+@compiled
+def force_model(a):
+    """The :class:`ForceModel` of its :meth:`ForceModel.array`."""
+    return ForceModel(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8] != 0.0)
+
 
 @compiled
 def force_exponents(px, py, r, pj, vj, rj, elapsed, h, walls, bounds, reach, B, others_now, wall_points,
@@ -380,14 +391,15 @@ def clipped_step(px, py, sx, sy, radius, walls, bounds, pieces):
 
 
 @compiled
-def substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, n_walls, exps, c, h, max_accel, max_speed,
-            walls, bounds, pieces, clip, step):
+def substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, n_walls, exps, model, h, max_accel,
+            max_speed, walls, bounds, pieces, clip, step):
     """One semi-implicit Euler sub-step of ``h`` of a person whose position and velocity are
     ``state`` ``(4,)``: the total force of :meth:`PersonMethod.force` (driving force, others,
     walls), the acceleration clipped to ``max_accel``, the velocity to ``max_speed``, and with
     ``clip`` the step clipped against the walls (:func:`clipped_step`) and ``state`` updated;
     without it (a world with a wall index) the unclipped step is left in ``step`` for the caller
-    to clip. Returns whether ``state`` was updated."""
+    to clip. ``model`` is a :meth:`ForceModel.array`. Returns whether ``state`` was updated."""
+    c = force_model(model)
     px, py, vx, vy = state[0], state[1], state[2], state[3]
     fx = c.mass * (speed * ex - vx) / c.tau
     fy = c.mass * (speed * ey - vy) / c.tau

@@ -3,6 +3,8 @@ they replace: the same floating-point operations in the same order, so bitwise t
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -83,3 +85,18 @@ def test_a_person_trial_is_bitwise_the_plain_one(monkeypatch):
     plain = run_trial(scenario, seed=2).history.arrays()
     for key in ("positions", "velocities"):
         assert compiled[key].tobytes() == plain[key].tobytes()
+
+
+def test_walk_in_a_world_with_a_wall_index_is_bitwise_the_plain_walk():
+    # A map's world clips its steps through the wall index (the plain clip_against_walls).
+    s = load_scenario("4r-case4")
+    s = dataclasses.replace(s, world=dataclasses.replace(s.world, map_walls=len(s.world.obstacles)))
+    assert s.world.wall_grid is not None
+    person = PersonMethod(s, [np.random.default_rng(k) for k in range(s.n_robots)])
+    rng = np.random.default_rng(11)
+    for case in range(120):
+        state = random_state(rng, s.world, m=case % 3)
+        p, v, passed = person.walk(0, *state, MARKS)
+        p_ref, v_ref, passed_ref = person.walk_plain(0, *state, MARKS)
+        assert p.tobytes() == p_ref.tobytes() and v.tobytes() == v_ref.tobytes(), case
+        assert np.array(passed).tobytes() == np.array(passed_ref).tobytes(), case

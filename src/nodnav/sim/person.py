@@ -77,15 +77,18 @@ from nodnav.sim.agent import Decision, RobotView, approach_sides
 from nodnav.sim.baselines import NO_OPINION, next_waypoint, route_trajectory
 from nodnav.sim.person_steering import arrival_speed, away_from, bend_rooms, turn_speed
 from nodnav.sim.social_force import (
+    ForceModel,
     SocialForceParams,
     agent_forces,
     clip_against_walls,
     clip_norm,
     driving_force,
+    force_exponents,
     lateral,
     nearest_wall_points,
     preferred_speed,
     social_part,
+    substep,
     view_weights,
     wall_forces,
     wall_social,
@@ -110,6 +113,7 @@ class PersonMethod:
         self.scenario = scenario
         self.rngs = rngs
         self.params = params or SocialForceParams()
+        self.model = ForceModel.of(self.params).array()
         self.dt = scenario.controller.dt
         horizon, samples = scenario.controller.horizon, scenario.controller.samples
         self.sample_times = horizon * np.arange(1, samples + 1) / samples
@@ -259,10 +263,65 @@ class PersonMethod:
         """The free room at ``point``: its distance to the nearest wall (m)."""
         return float(self.scenario.world.clearance(np.asarray(point, dtype=float)[None])[0])
 
+    def walk(self, i: int, p0: np.ndarray, v0: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
+             vj: np.ndarray, rj: np.ndarray, marks: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """Person ``i``'s motion over one control step from ``p0`` at ``v0``, heading ``e`` at
+        preferred ``speed``, the others starting at ``pj`` and moving on at ``vj`` (radii ``rj``):
+        ``substeps`` semi-implicit Euler steps of the force (:meth:`force`), the acceleration
+        clipped to the body's ``max_accel``, the velocity to its ``max_speed``, each step against
+        the walls (:func:`clip_against_walls`). Returns the final position and velocity, and the
+        positions after the sub-steps in ``marks``. The compiled kernels of
+        :mod:`nodnav.sim.social_force`, bitwise :meth:`walk_plain` (np.exp between them: see there)."""
+        s, prm, r = self.scenario, self.params, float(self.scenario.radii[i])
+        world = s.world
+        h = self.dt / prm.substeps
+        m, n_walls = len(pj), len(world.obstacle_array) + 4
+        pj, vj, rj = (np.ascontiguousarray(a, dtype=float) for a in (pj, vj, rj))
+        others_now, wall_points = np.empty((m, 2)), np.empty((n_walls, 2))
+        exponents, exps = np.zeros(m + n_walls), np.empty(m + n_walls)
+        state, step = np.array([p0[0], p0[1], v0[0], v0[1]], dtype=float), np.empty(2)
+        ex, ey = float(e[0]), float(e[1])
+        max_accel, max_speed = float(s.robots[i].max_accel), float(s.max_speeds[i])
+        clip = world.wall_grid is None  # a map's world: the plain clip_against_walls, through its wall index
+        passed, marked = [], set(marks.tolist())
+        for k in range(1, prm.substeps + 1):
+            near = force_exponents(state[0], state[1], r, pj, vj, rj, float(k - 1), h, world.obstacle_array,
+                                   world.bounds_array, prm.range + r, prm.B, others_now, wall_points, exponents)
+            np.exp(exponents, out=exps)  # NumPy's exp, as the plain functions take it
+            if not substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, near, exps, self.model, h,
+                           max_accel, max_speed, world.obstacle_array, world.bounds_array, world.piece_array,
+                           clip, step):
+                c = clip_against_walls(world, state[:2].copy(), step.copy(), r)
+                state[:2], state[2:] = state[:2] + c, c / h
+            if k in marked:
+                passed.append(state[:2].copy())
+        return state[:2].copy(), state[2:].copy(), passed
+
+    def walk_plain(self, i: int, p0: np.ndarray, v0: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
+                   vj: np.ndarray, rj: np.ndarray, marks: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+        """:meth:`walk` in plain NumPy from the pure functions of :mod:`nodnav.sim.social_force`:
+        the reference its kernels are tested against."""
+        s, prm = self.scenario, self.params
+        h = self.dt / prm.substeps
+        p, v = p0.copy(), v0.copy()
+        passed = []
+        for k in range(1, prm.substeps + 1):
+            accel = clip_norm(self.force(i, p, v, e, speed, pj + vj * (k - 1) * h, vj, rj) / prm.mass,
+                              float(s.robots[i].max_accel))
+            v = clip_norm(v + accel * h, float(s.max_speeds[i]))
+            step = clip_against_walls(s.world, p, v * h, float(s.radii[i]))
+            v = step / h
+            p = p + step
+            if k in marks:
+                passed.append(p.copy())
+        return p, v, passed
+
     def force(self, i: int, p: np.ndarray, v: np.ndarray, e: np.ndarray, speed: float, pj: np.ndarray,
               vj: np.ndarray, rj: np.ndarray) -> np.ndarray:
         """The total force on person ``i`` at ``p`` moving at ``v``, heading ``e`` at preferred
-        ``speed``, with others at ``pj`` (velocities ``vj``, radii ``rj``) (N)."""
+        ``speed``, with others at ``pj`` (velocities ``vj``, radii ``rj``) (N), in plain NumPy
+        (:meth:`walk_plain`; :func:`~nodnav.sim.social_force.substep` is its compiled twin)."""
         s, prm, r = self.scenario, self.params, float(self.scenario.radii[i])
         force = driving_force(v, speed * e, prm.mass, prm.tau)
         if len(pj):
@@ -283,9 +342,7 @@ class PersonMethod:
         in ``substeps`` semi-implicit Euler steps (the others move on at their observed velocity)."""
         s, prm, out = self.scenario, self.params, {}
         radii = s.radii
-        n_sub = prm.substeps
-        h = self.dt / n_sub
-        marks = np.round(STEP_FRACTIONS * n_sub).astype(int)
+        marks = np.round(STEP_FRACTIONS * prm.substeps).astype(int)
         for i, view in views.items():
             start = time.perf_counter()
             p0, v0 = view.positions[i], view.velocities[i]
@@ -305,20 +362,11 @@ class PersonMethod:
                 if prm.slow_for_turns and speed > 0.0:
                     rooms = bend_rooms(s.world, float(radii[i]), route, p0, prm.turn_lookahead)
                     speed = min(speed, turn_speed(route, p0, rooms, limit, prm.tau, prm.turn_lookahead, v0))
+            apart = np.linalg.norm(view.positions - p0, axis=1)
             others = [k for k in range(s.n_robots) if k != i
-                      and np.linalg.norm(view.positions[k] - p0) < prm.range + radii[i] + radii[k] + self.dt * 4]
+                      and apart[k] < prm.range + radii[i] + radii[k] + self.dt * 4]
             pj, vj, rj = view.positions[others], view.velocities[others], radii[others]
-            p, v = p0.copy(), v0.copy()
-            passed = []
-            for k in range(1, n_sub + 1):
-                accel = clip_norm(self.force(i, p, v, e, speed, pj + vj * (k - 1) * h, vj, rj) / prm.mass,
-                                  float(s.robots[i].max_accel))
-                v = clip_norm(v + accel * h, float(s.max_speeds[i]))
-                step = clip_against_walls(s.world, p, v * h, float(radii[i]))
-                v = step / h
-                p = p + step
-                if k in marks:
-                    passed.append(p.copy())
+            p, v, passed = self.walk(i, p0, v0, e, speed, pj, vj, rj, marks)
             out[i] = ControlResult(success=True, reason="", velocity=v, next_position=p, next_velocity=v,
                                    planned_positions=p + v * self.sample_times[:, None],
                                    solve_time=time.perf_counter() - start, step_positions=np.array(passed),

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
+from nodnav.compiled import compiled
+from nodnav.geometry import piece_signed_distance_one, segment_clearance_one
 from nodnav.scenario.world import World
 
 
@@ -207,3 +210,214 @@ def preferred_speed(rng: np.random.Generator, max_speed: float, p: SocialForcePa
     clipped to ``[min(min_speed, max_speed), max_speed]``."""
     low = min(p.min_speed, max_speed)
     return float(np.clip(rng.normal(p.speed_mean, p.speed_sd), low, max_speed))
+
+
+# ---------------------------------------------------------------------------------------------
+# The same equations compiled, for the sub-step loop of PersonMethod.act
+#
+# One sub-step of a person: the exponents of every exponential term (:func:`force_exponents`),
+# their exponentials by NumPy (``np.exp``, see below), then the total force, the clipped
+# acceleration and velocity and the step clipped against the walls (:func:`substep`). Each
+# kernel does the floating-point operations of the plain functions above in the same order
+# (``np.linalg.norm`` of a 2-vector is ``sqrt(x*x + y*y)``, ``np.hypot`` is C's ``hypot``, as
+# numba's ``math.hypot``), so a person walks bitwise the same path (tests/sim/test_social_force_kernels.py
+# compares them). Why the exponentials are NumPy's, between two kernels: on a processor with
+# AVX-512, ``np.exp`` of an array is NumPy's own vectorised routine, which differs from the C
+# library's ``exp`` (what compiled code calls) in the last bit for about 5% of arguments; the
+# plain functions take NumPy's for the people's and walls' terms (and the C library's
+# ``math.exp`` in :func:`wall_social`, which the kernel keeps).
+
+
+class ForceModel(NamedTuple):
+    """The constants of :class:`SocialForceParams` the kernels read (numba takes a named tuple, not a dataclass)."""
+
+    mass: float
+    tau: float
+    A: float
+    B: float
+    k: float
+    kappa: float
+    behind: float
+    cos_half_fov: float
+    """``cos(fov / 2)``: someone at a smaller angle from the heading is in view."""
+    wall_lateral: bool
+
+    @classmethod
+    def of(cls, p: SocialForceParams) -> "ForceModel":
+        """The constants of ``p``."""
+        return cls(float(p.mass), float(p.tau), float(p.A), float(p.B), float(p.k), float(p.kappa),
+                   float(p.behind), math.cos(math.radians(p.fov / 2.0)), bool(p.wall_lateral))
+
+    def array(self) -> np.ndarray:
+        """The constants as a float array, in order: what :func:`substep` is passed (a named tuple
+        costs numba microseconds to type at every call, an array a fraction of one)."""
+        return np.array([float(x) for x in self])
+
+
+@compiled
+def force_model(a):
+    """The :class:`ForceModel` of its :meth:`ForceModel.array`."""
+    return ForceModel(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8] != 0.0)
+
+
+@compiled
+def force_exponents(px, py, r, pj, vj, rj, elapsed, h, walls, bounds, reach, B, others_now, wall_points,
+                    exponents):
+    """The exponents of HFV's exponential terms on a person at ``(px, py)`` of radius ``r`` one
+    sub-step: ``exponents[j] = ((r + r_j) - d_ij) / B`` for each of the ``m`` others, now at
+    ``pj + vj * elapsed * h`` (written to ``others_now`` ``(m, 2)``), then ``(r - d_iW) / B`` for
+    each nearest wall point (:func:`nearest_wall_points`) nearer than ``reach``, in order (written
+    to the first rows of ``wall_points``). Returns how many wall points are near."""
+    m = pj.shape[0]
+    for j in range(m):
+        qx = pj[j, 0] + vj[j, 0] * elapsed * h
+        qy = pj[j, 1] + vj[j, 1] * elapsed * h
+        others_now[j, 0], others_now[j, 1] = qx, qy
+        dx, dy = px - qx, py - qy
+        d = max(math.sqrt(dx * dx + dy * dy), 1e-9)
+        exponents[j] = ((r + rj[j]) - d) / B
+    n = 0
+    for w in range(walls.shape[0] + 4):
+        if w < walls.shape[0]:  # the nearest point of a wall rectangle: the point clipped to it
+            wx = min(max(px, walls[w, 0]), walls[w, 2])
+            wy = min(max(py, walls[w, 1]), walls[w, 3])
+        else:  # then the four sides of the world's boundary
+            side = w - walls.shape[0]
+            wx = bounds[0] if side == 0 else (bounds[2] if side == 1 else px)
+            wy = py if side < 2 else (bounds[1] if side == 2 else bounds[3])
+        dx, dy = px - wx, py - wy
+        dist = math.sqrt(dx * dx + dy * dy)
+        if dist < reach:
+            wall_points[n, 0], wall_points[n, 1] = wx, wy
+            exponents[m + n] = (r - max(dist, 1e-9)) / B
+            n += 1
+    return n
+
+
+@compiled
+def agent_force_sum(px, py, vx, vy, r, ex, ey, others_now, vj, rj, exps, c):
+    """``sum_j w_ij f_ij`` (N) on a person at ``(px, py)`` moving at ``(vx, vy)`` heading ``(ex, ey)``
+    from the others at ``others_now`` (velocities ``vj``, radii ``rj``), ``exps[j]`` the exponential
+    of their exponent (:func:`force_exponents`): :func:`agent_forces` less ``(1 - w_ij)`` times
+    :func:`social_part`, with the field-of-view weight of :func:`view_weights` (``c`` a
+    :class:`ForceModel`); summed in order. Where NumPy's matrix product takes a fused
+    multiply-add for the weight's cosine (two others or more), this takes ``x0 y0 + x1 y1``:
+    the weight can differ only for someone within about 1e-16 of the edge of the field of view."""
+    hn = math.hypot(ex, ey)
+    sx, sy = 0.0, 0.0
+    for j in range(others_now.shape[0]):
+        dx, dy = px - others_now[j, 0], py - others_now[j, 1]
+        d = max(math.sqrt(dx * dx + dy * dy), 1e-9)
+        nx, ny = dx / d, dy / d
+        tx, ty = -ny, nx
+        overlap = (r + rj[j]) - d
+        dv_t = (vj[j, 0] - vx) * tx + (vj[j, 1] - vy) * ty
+        g = max(overlap, 0.0)
+        normal = c.A * exps[j] + c.k * g
+        slide = c.kappa * g * dv_t
+        fx, fy = normal * nx + slide * tx, normal * ny + slide * ty
+        weight = 1.0
+        if hn != 0.0:
+            tox, toy = others_now[j, 0] - px, others_now[j, 1] - py
+            dist = max(math.sqrt(tox * tox + toy * toy), 1e-9)
+            cos = (tox * (ex / hn) + toy * (ey / hn)) / dist
+            weight = 1.0 if cos >= c.cos_half_fov else c.behind
+        social = c.A * exps[j]
+        fx -= (1.0 - weight) * (social * (dx / d))
+        fy -= (1.0 - weight) * (social * (dy / d))
+        if j == 0:
+            sx, sy = fx, fy
+        else:
+            sx, sy = sx + fx, sy + fy
+    return sx, sy
+
+
+@compiled
+def wall_force_sum(fx, fy, px, py, vx, vy, r, ex, ey, wall_points, n_walls, exps, c):
+    """``(fx, fy)`` plus ``sum_W f_iW`` (N) from the first ``n_walls`` of ``wall_points``, their
+    exponentials in ``exps`` (:func:`force_exponents`), added one by one as the plain loop does:
+    :func:`wall_forces`, then, with ``wall_lateral`` and a heading, :func:`wall_social` replaced by
+    its :func:`lateral` part."""
+    heading = ex != 0.0 or ey != 0.0
+    for w in range(n_walls):
+        dx, dy = px - wall_points[w, 0], py - wall_points[w, 1]
+        d = max(math.sqrt(dx * dx + dy * dy), 1e-9)
+        nx, ny = dx / d, dy / d
+        tx, ty = -ny, nx
+        overlap = r - d
+        g = max(overlap, 0.0)
+        normal = c.A * exps[w] + c.k * g
+        slide = c.kappa * g * (tx * vx + ty * vy)
+        fx, fy = fx + (normal * nx - slide * tx), fy + (normal * ny - slide * ty)
+        if c.wall_lateral and heading:
+            dh = max(math.hypot(dx, dy), 1e-9)
+            push = c.A * math.exp((r - dh) / c.B)
+            socx, socy = push * dx / dh, push * dy / dh
+            along = socx * ex + socy * ey
+            latx, laty = (socx - along * ex, socy - along * ey) if along < 0.0 else (socx, socy)
+            fx, fy = (fx - socx) + latx, (fy - socy) + laty
+    return fx, fy
+
+
+@compiled
+def point_clearance(px, py, walls, bounds, pieces):
+    """:meth:`World.clearance` of one point in a world without a wall index (m)."""
+    d = min(min(px - bounds[0], bounds[2] - px), min(py - bounds[1], bounds[3] - py))
+    for o in range(walls.shape[0]):
+        dx = max(walls[o, 0] - px, px - walls[o, 2])
+        dy = max(walls[o, 1] - py, py - walls[o, 3])
+        d = min(d, math.hypot(max(dx, 0.0), max(dy, 0.0)) + min(max(dx, dy), 0.0))
+    if pieces.shape[0]:
+        nearest = np.inf
+        for w in range(pieces.shape[0]):
+            nearest = min(nearest, piece_signed_distance_one(px, py, pieces[w]))
+        d = min(d, nearest)
+    return d
+
+
+@compiled
+def clipped_step(px, py, sx, sy, radius, walls, bounds, pieces):
+    """:func:`clip_against_walls` in a world without a wall index: the step ``(sx, sy)``, else its
+    longer possible component along x or y (x first when as long), else none."""
+    need = min(radius, point_clearance(px, py, walls, bounds, pieces))
+    if (sx != 0.0 or sy != 0.0) and segment_clearance_one(px, py, px + sx, py + sy, walls, bounds, pieces) >= need:
+        return sx, sy
+    for along_x in (abs(sx) >= abs(sy), abs(sx) < abs(sy)):
+        cx, cy = (sx, 0.0) if along_x else (0.0, sy)
+        if (cx != 0.0 or cy != 0.0) and segment_clearance_one(px, py, px + cx, py + cy, walls, bounds,
+                                                              pieces) >= need:
+            return cx, cy
+    return 0.0, 0.0
+
+
+@compiled
+def substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, n_walls, exps, model, h, max_accel,
+            max_speed, walls, bounds, pieces, clip, step):
+    """One semi-implicit Euler sub-step of ``h`` of a person whose position and velocity are
+    ``state`` ``(4,)``: the total force of :meth:`PersonMethod.force` (driving force, others,
+    walls), the acceleration clipped to ``max_accel``, the velocity to ``max_speed``, and with
+    ``clip`` the step clipped against the walls (:func:`clipped_step`) and ``state`` updated;
+    without it (a world with a wall index) the unclipped step is left in ``step`` for the caller
+    to clip. ``model`` is a :meth:`ForceModel.array`. Returns whether ``state`` was updated."""
+    c = force_model(model)
+    px, py, vx, vy = state[0], state[1], state[2], state[3]
+    fx = c.mass * (speed * ex - vx) / c.tau
+    fy = c.mass * (speed * ey - vy) / c.tau
+    if others_now.shape[0]:
+        ax, ay = agent_force_sum(px, py, vx, vy, r, ex, ey, others_now, vj, rj, exps, c)
+        fx, fy = fx + ax, fy + ay
+    fx, fy = wall_force_sum(fx, fy, px, py, vx, vy, r, ex, ey, wall_points, n_walls, exps[others_now.shape[0]:], c)
+    ax, ay = fx / c.mass, fy / c.mass
+    norm = math.hypot(ax, ay)
+    if not (norm <= max_accel or norm == 0.0):
+        ax, ay = ax * (max_accel / norm), ay * (max_accel / norm)
+    vx, vy = vx + ax * h, vy + ay * h
+    norm = math.hypot(vx, vy)
+    if not (norm <= max_speed or norm == 0.0):
+        vx, vy = vx * (max_speed / norm), vy * (max_speed / norm)
+    step[0], step[1] = vx * h, vy * h
+    if not clip:
+        return False
+    cx, cy = clipped_step(px, py, step[0], step[1], r, walls, bounds, pieces)
+    state[0], state[1], state[2], state[3] = px + cx, py + cy, cx / h, cy / h
+    return True

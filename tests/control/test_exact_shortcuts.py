@@ -20,7 +20,7 @@ from nodnav.control.braking import (
     tail_rows,
 )
 from nodnav.control.mpc_rows import plan_extremes
-from nodnav.control.qp import QPSolution, start_flags, start_from
+from nodnav.control.qp import QPSolution, start_flags, start_from, warm_flags
 from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
@@ -168,3 +168,26 @@ def test_start_flags_are_numpys_and_the_start_is_flatnonzero():
         assert got.dtype == np.intc and np.array_equal(got, want)
         lam = np.where(rng.random(n) < 0.05, -rng.random(n), 0.0)
         assert np.array_equal(start_from(QPSolution(True, "", np.zeros(2), 1, lam)), np.flatnonzero(lam))
+
+
+def test_warm_flags_are_the_flags_of_start_from_or_a_cold_start():
+    """The flags from an earlier solution's multipliers in one pass (:func:`warm_flags`) are
+    those of its nonzero indices (:func:`start_from`, then :func:`start_flags`), and empty exactly
+    where :func:`solve_qp` started cold from those indices: none, or one beyond the bounds."""
+    rng = np.random.default_rng(11)
+    for trial in range(400):
+        n = int(rng.integers(1, 600))
+        low = rng.normal(size=n)
+        low[rng.random(n) < 0.2] = -np.inf
+        size = n + int(rng.integers(-3, 4)) if trial % 4 == 0 else n  # the wrong length now and then
+        lam = np.where(rng.random(max(size, 0)) < (0.0 if trial % 7 == 0 else 0.05), -rng.random(max(size, 0)), 0.0)
+        lam[rng.random(lam.shape[0]) < 0.01] = np.nan  # truthy, as in np.flatnonzero
+        lam[rng.random(lam.shape[0]) < 0.01] = -0.0  # falsy
+        start = start_from(QPSolution(True, "", np.zeros(2), 1, lam))
+        got = warm_flags(low, lam)
+        assert got.dtype == np.intc
+        if len(start) and start[-1] < len(low):
+            assert np.array_equal(got, start_flags(low, start))
+        else:
+            assert len(got) == 0
+

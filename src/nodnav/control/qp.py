@@ -52,7 +52,7 @@ class QPSolution:
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
              bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
-             start: np.ndarray | None = None) -> QPSolution:
+             start: np.ndarray | None = None, start_multipliers: np.ndarray | None = None) -> QPSolution:
     """Minimise ``x^T H x / 2 + g^T x`` subject to ``rows @ x >= lower`` and ``x >= bounds`` (DAQP).
 
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
@@ -67,7 +67,9 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     DAQP's path to its unique minimiser: DAQP drops constraints of the start whose multipliers
     have the wrong sign and stops adding them at the first linearly dependent one. A
     warm-started solve that fails for any reason but infeasibility (which DAQP proves from a
-    dual ray, whatever the start) is solved again cold.
+    dual ray, whatever the start) is solved again cold. ``start_multipliers`` (an earlier
+    solution's :attr:`QPSolution.multipliers`, instead of ``start``) is the same start as
+    ``start_from`` of that solution, its flags found in one pass (:func:`warm_flags`).
     """
     if bounds is None:
         low = lower if _plain(lower) else np.ascontiguousarray(lower, dtype=float)
@@ -79,6 +81,10 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     sense = cold
     if start is not None and len(start) and start[-1] < len(low):
         sense = start_flags(low, start)
+    elif start_multipliers is not None:
+        flags = warm_flags(low, start_multipliers)
+        if len(flags):  # else the start is empty or does not fit: cold, as with start_from's indices
+            sense = flags
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
     g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
     a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
@@ -108,6 +114,25 @@ def start_flags(low, start):
     for i in start:
         if np.isfinite(low[i]):
             sense[i] = 3
+    return sense
+
+
+@compiled
+def warm_flags(low, multipliers):
+    """:func:`start_flags` of ``start_from``'s indices (the nonzero ``multipliers``, NaN
+    included) in one pass; empty where :func:`solve_qp` would start cold instead: no nonzero
+    multiplier, or one beyond ``low`` (a start of the wrong length)."""
+    sense = np.zeros(low.shape[0], dtype=np.intc)
+    found = False
+    for i in range(multipliers.shape[0]):
+        if multipliers[i] != 0.0:
+            if i >= low.shape[0]:
+                return np.zeros(0, dtype=np.intc)
+            found = True
+            if np.isfinite(low[i]):
+                sense[i] = 3
+    if not found:
+        return np.zeros(0, dtype=np.intc)
     return sense
 
 
@@ -186,8 +211,9 @@ class SolverEffort:
     constraints: int = 0
     """Most constraints (rows and finite bounds) of one QP."""
     starts: dict | None = None
-    """Warm starts by kind of QP (the controller's, kept between steps): the flags
-    (:func:`start_from`) of the last solution of each kind; None: every solve starts cold."""
+    """Warm starts by kind of QP (the controller's, kept between steps): the multipliers of the
+    last solution of each kind (its start is :func:`start_from`'s, :func:`warm_flags`); None:
+    every solve starts cold."""
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
               bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
@@ -202,7 +228,7 @@ class SolverEffort:
             if warm is None and like is not None:
                 warm = starts.get(like)
         t = time.perf_counter()
-        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, warm)
+        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm)
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations
@@ -211,7 +237,8 @@ class SolverEffort:
         if starts is not None and kind is not None and sol.success:
             if len(starts) >= MAX_STARTS and kind not in starts:
                 starts.pop(next(iter(starts)))
-            starts[kind] = start_from(sol)
+            # The multipliers, not their nonzero indices: the next solve's flags take one pass over them.
+            starts[kind] = sol.multipliers
         return sol
 
     def certificate(self, rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -172,8 +172,8 @@ def test_start_flags_are_numpys_and_the_start_is_flatnonzero():
 
 def test_warm_flags_are_the_flags_of_start_from_or_a_cold_start():
     """The flags from an earlier solution's multipliers in one pass (:func:`warm_flags`) are
-    those of its nonzero indices (:func:`start_from`, then :func:`start_flags`), and empty exactly
-    where :func:`solve_qp` started cold from those indices: none, or one beyond the bounds."""
+    those of its nonzero indices (:func:`start_from`, then :func:`start_flags`), and it returns
+    False exactly where :func:`solve_qp` started cold from those indices: none, or one beyond the bounds."""
     rng = np.random.default_rng(11)
     for trial in range(400):
         n = int(rng.integers(1, 600))
@@ -184,10 +184,9 @@ def test_warm_flags_are_the_flags_of_start_from_or_a_cold_start():
         lam[rng.random(lam.shape[0]) < 0.01] = np.nan  # truthy, as in np.flatnonzero
         lam[rng.random(lam.shape[0]) < 0.01] = -0.0  # falsy
         start = start_from(QPSolution(True, "", np.zeros(2), 1, lam))
-        got = warm_flags(low, lam)
-        assert got.dtype == np.intc
-        if len(start) and start[-1] < len(low):
+        got = np.full(n, 7, dtype=np.intc)  # every entry is written
+        warm = warm_flags(low, lam, got)
+        assert warm == bool(len(start) and start[-1] < len(low))
+        if warm:
             assert np.array_equal(got, start_flags(low, start))
-        else:
-            assert len(got) == 0
 

@@ -82,8 +82,8 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     if start is not None and len(start) and start[-1] < len(low):
         sense = start_flags(low, start)
     elif start_multipliers is not None:
-        flags = warm_flags(low, start_multipliers)
-        if len(flags):  # else the start is empty or does not fit: cold, as with start_from's indices
+        flags = _flags_buffer(len(low))
+        if warm_flags(low, start_multipliers, flags):  # else cold, as with start_from's indices
             sense = flags
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
     g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
@@ -118,22 +118,33 @@ def start_flags(low, start):
 
 
 @compiled
-def warm_flags(low, multipliers):
+def warm_flags(low, multipliers, sense):
     """:func:`start_flags` of ``start_from``'s indices (the nonzero ``multipliers``, NaN
-    included) in one pass; empty where :func:`solve_qp` would start cold instead: no nonzero
-    multiplier, or one beyond ``low`` (a start of the wrong length)."""
-    sense = np.zeros(low.shape[0], dtype=np.intc)
+    included) in one pass, written into ``sense`` (``(len(low),)``, every entry; a returned array
+    would cost numba a Python call to box it). Returns False where :func:`solve_qp` would start
+    cold instead: no nonzero multiplier, or one beyond ``low`` (a start of the wrong length)."""
+    sense[:] = 0
     found = False
     for i in range(multipliers.shape[0]):
         if multipliers[i] != 0.0:
             if i >= low.shape[0]:
-                return np.zeros(0, dtype=np.intc)
+                return False
             found = True
             if np.isfinite(low[i]):
                 sense[i] = 3
-    if not found:
-        return np.zeros(0, dtype=np.intc)
-    return sense
+    return found
+
+
+_FLAGS: dict[int, np.ndarray] = {}
+
+
+def _flags_buffer(n: int) -> np.ndarray:
+    """DAQP's constraint flags for ``n`` constraints, one array per size: :func:`warm_flags` writes
+    every entry before each solve, and DAQP copies the flags into its own workspace."""
+    flags = _FLAGS.get(n)
+    if flags is None:
+        flags = _FLAGS[n] = np.zeros(n, dtype=np.intc)
+    return flags
 
 
 _F64 = np.dtype(np.float64)
@@ -223,7 +234,8 @@ class SolverEffort:
         object), else from that of the kind ``like`` (the same rows and variables, other data)."""
         starts = self.starts
         warm = None
-        if starts is not None and kind is not None:
+        remember = starts is not None and kind is not None
+        if remember:
             warm = starts.get(kind)
             if warm is None and like is not None:
                 warm = starts.get(like)
@@ -232,9 +244,10 @@ class SolverEffort:
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations
-        self.constraints = max(self.constraints,
-                               len(lower) + (0 if bounds is None else int(np.isfinite(bounds).sum())))
-        if starts is not None and kind is not None and sol.success:
+        n = len(lower) if bounds is None else len(lower) + int(np.isfinite(bounds).sum())
+        if n > self.constraints:
+            self.constraints = n
+        if remember and sol.success:
             if len(starts) >= MAX_STARTS and kind not in starts:
                 starts.pop(next(iter(starts)))
             # The multipliers, not their nonzero indices: the next solve's flags take one pass over them.

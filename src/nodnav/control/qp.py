@@ -232,10 +232,9 @@ class SolverEffort:
         """:func:`solve_qp`, counted, and warm-started from the last solution of the same
         ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
         object), else from that of the kind ``like`` (the same rows and variables, other data)."""
-        starts = self.starts
+        starts = self.starts if kind is not None else None  # where this kind's start is kept, if anywhere
         warm = None
-        remember = starts is not None and kind is not None
-        if remember:
+        if starts is not None:
             warm = starts.get(kind)
             if warm is None and like is not None:
                 warm = starts.get(like)
@@ -247,7 +246,7 @@ class SolverEffort:
         n = len(lower) if bounds is None else len(lower) + int(np.isfinite(bounds).sum())
         if n > self.constraints:
             self.constraints = n
-        if remember and sol.success:
+        if starts is not None and sol.success:
             if len(starts) >= MAX_STARTS and kind not in starts:
                 starts.pop(next(iter(starts)))
             # The multipliers, not their nonzero indices: the next solve's flags take one pass over them.

@@ -190,3 +190,31 @@ def test_warm_flags_are_the_flags_of_start_from_or_a_cold_start():
         if warm:
             assert np.array_equal(got, start_flags(low, start))
 
+
+
+def _braking_profile_with_norm(position, velocity, max_accel, times):
+    """The braking profile as written with ``np.linalg.norm`` (the plain version)."""
+    p, v = np.asarray(position, dtype=float), np.asarray(velocity, dtype=float)
+    t = np.asarray(times, dtype=float)[:, None]
+    speed = float(np.linalg.norm(v))
+    if speed == 0.0:
+        return np.repeat(p[None], len(t), axis=0), np.zeros((len(t), 2))
+    u = v / speed
+    tt = np.minimum(t, speed / max_accel)
+    return p + (speed * tt - 0.5 * max_accel * tt**2) * u, np.maximum(speed - max_accel * t, 0.0) * u
+
+
+def test_braking_profile_takes_the_speed_as_numpys_norm_bit_for_bit():
+    from nodnav.control.braking import braking_profile
+
+    rng = np.random.default_rng(4)
+    times = np.concatenate([[0.1], 0.25 * np.arange(1, 9)])
+    pairs = rng.normal(size=(3000, 2)) * 10.0 ** rng.uniform(-150, 150, (3000, 1))
+    pairs[::7, 0] = 0.0  # along an axis
+    pairs[::11] = 0.0  # at rest
+    strided = np.zeros((3000, 4))
+    strided[:, ::2] = pairs  # views that are not contiguous
+    for v in (*pairs[:1500], *strided[1500:, ::2]):
+        p = rng.normal(size=2)
+        for got, want in zip(braking_profile(p, v, 2.0, times), _braking_profile_with_norm(p, v, 2.0, times)):
+            assert np.array_equal(got, want, equal_nan=True)

@@ -20,7 +20,7 @@ from nodnav.control.braking import (
     tail_rows,
 )
 from nodnav.control.mpc_rows import plan_extremes
-from nodnav.control.qp import QPSolution, start_flags, start_from
+from nodnav.control.qp import QPSolution, start_flags, start_from, warm_flags
 from nodnav.scenario.world import paper_world
 
 WORLD = paper_world()
@@ -168,3 +168,53 @@ def test_start_flags_are_numpys_and_the_start_is_flatnonzero():
         assert got.dtype == np.intc and np.array_equal(got, want)
         lam = np.where(rng.random(n) < 0.05, -rng.random(n), 0.0)
         assert np.array_equal(start_from(QPSolution(True, "", np.zeros(2), 1, lam)), np.flatnonzero(lam))
+
+
+def test_warm_flags_are_the_flags_of_start_from_or_a_cold_start():
+    """The flags from an earlier solution's multipliers in one pass (:func:`warm_flags`) are
+    those of its nonzero indices (:func:`start_from`, then :func:`start_flags`), and it returns
+    False exactly where :func:`solve_qp` started cold from those indices: none, or one beyond the bounds."""
+    rng = np.random.default_rng(11)
+    for trial in range(400):
+        n = int(rng.integers(1, 600))
+        low = rng.normal(size=n)
+        low[rng.random(n) < 0.2] = -np.inf
+        size = n + int(rng.integers(-3, 4)) if trial % 4 == 0 else n  # the wrong length now and then
+        lam = np.where(rng.random(max(size, 0)) < (0.0 if trial % 7 == 0 else 0.05), -rng.random(max(size, 0)), 0.0)
+        lam[rng.random(lam.shape[0]) < 0.01] = np.nan  # truthy, as in np.flatnonzero
+        lam[rng.random(lam.shape[0]) < 0.01] = -0.0  # falsy
+        start = start_from(QPSolution(True, "", np.zeros(2), 1, lam))
+        got = np.full(n, 7, dtype=np.intc)  # every entry is written
+        warm = warm_flags(low, lam, got)
+        assert warm == bool(len(start) and start[-1] < len(low))
+        if warm:
+            assert np.array_equal(got, start_flags(low, start))
+
+
+
+def _braking_profile_with_norm(position, velocity, max_accel, times):
+    """The braking profile as written with ``np.linalg.norm`` (the plain version)."""
+    p, v = np.asarray(position, dtype=float), np.asarray(velocity, dtype=float)
+    t = np.asarray(times, dtype=float)[:, None]
+    speed = float(np.linalg.norm(v))
+    if speed == 0.0:
+        return np.repeat(p[None], len(t), axis=0), np.zeros((len(t), 2))
+    u = v / speed
+    tt = np.minimum(t, speed / max_accel)
+    return p + (speed * tt - 0.5 * max_accel * tt**2) * u, np.maximum(speed - max_accel * t, 0.0) * u
+
+
+def test_braking_profile_takes_the_speed_as_numpys_norm_bit_for_bit():
+    from nodnav.control.braking import braking_profile
+
+    rng = np.random.default_rng(4)
+    times = np.concatenate([[0.1], 0.25 * np.arange(1, 9)])
+    pairs = rng.normal(size=(3000, 2)) * 10.0 ** rng.uniform(-150, 150, (3000, 1))
+    pairs[::7, 0] = 0.0  # along an axis
+    pairs[::11] = 0.0  # at rest
+    strided = np.zeros((3000, 4))
+    strided[:, ::2] = pairs  # views that are not contiguous
+    for v in (*pairs[:1500], *strided[1500:, ::2]):
+        p = rng.normal(size=2)
+        for got, want in zip(braking_profile(p, v, 2.0, times), _braking_profile_with_norm(p, v, 2.0, times)):
+            assert np.array_equal(got, want, equal_nan=True)

@@ -191,7 +191,8 @@ def braking_profile(position: np.ndarray, velocity: np.ndarray, max_accel: float
     p = np.asarray(position, dtype=float)
     v = np.asarray(velocity, dtype=float)
     t = np.asarray(times, dtype=float)[:, None]
-    speed = float(np.linalg.norm(v))
+    flat = v.ravel(order="K")
+    speed = math.sqrt(flat.dot(flat))  # np.linalg.norm(v)'s own operations, without its overhead
     if speed == 0.0:
         return np.repeat(p[None], len(t), axis=0), np.zeros((len(t), 2))
     u = v / speed

@@ -20,31 +20,36 @@ from nodnav.control.mpc_rows import plan_check
 def plan_values(z, p0, v0, greville, free_map, b_post):
     """Control points ``c`` ``(n, 2)`` of the line ``p0 + v0 tau`` plus the deviation
     ``free_map @ [z_x, z_y]`` (``z`` stacks the coordinates), and ``b_post @ c``."""
+    c = np.empty((free_map.shape[0], 2))
+    post = np.empty((b_post.shape[0], 2))
+    plan_values_into(z, p0, v0, greville, free_map, b_post, c, post)
+    return c, post
+
+
+@compiled
+def plan_values_into(z, p0, v0, greville, free_map, b_post, c, post):
+    """:func:`plan_values` written into ``c`` and ``post`` (every entry)."""
     n, nz = free_map.shape
-    c = np.empty((n, 2))
     for i in range(n):
         for d in range(2):
             s = 0.0
             for k in range(nz):
                 s += free_map[i, k] * z[d * nz + k]
             c[i, d] = (p0[d] + greville[i] * v0[d]) + s
-    post = np.empty((b_post.shape[0], 2))
     for r in range(b_post.shape[0]):
         for d in range(2):
             s = 0.0
             for i in range(n):
                 s += b_post[r, i] * c[i, d]
             post[r, d] = s
-    return c, post
 
 
 @compiled
 def plan_after_qp(z, p0, v0, greville, free_map, b_post, n_check_rates, n_points, n_speed, boxes, pieces, bounds,
-                  preds, need_others, tail_decel):
-    """:func:`plan_values`, then :func:`~nodnav.control.mpc_rows.plan_check` of the plan (its
-    check points and rates are ``post[:n_check_rates]``, then ``p(T), v(T)``)."""
-    c, post = plan_values(z, p0, v0, greville, free_map, b_post)
-    clear, short, worst, fastest, hardest, tail = plan_check(
-        post[:n_check_rates], n_points, n_speed, boxes, pieces, bounds, preds, need_others,
-        post[n_check_rates:n_check_rates + 2], tail_decel)
-    return c, post, clear, short, worst, fastest, hardest, tail
+                  preds, need_others, tail_decel, c, post):
+    """:func:`plan_values` into ``c`` and ``post`` (the caller's new arrays: numba would box
+    each returned array through a Python call), then :func:`~nodnav.control.mpc_rows.plan_check`
+    of the plan (its check points and rates are ``post[:n_check_rates]``, then ``p(T), v(T)``)."""
+    plan_values_into(z, p0, v0, greville, free_map, b_post, c, post)
+    return plan_check(post[:n_check_rates], n_points, n_speed, boxes, pieces, bounds, preds, need_others,
+                      post[n_check_rates:n_check_rates + 2], tail_decel)

@@ -411,10 +411,12 @@ class MPCProblem:
         """The plan of the QP's solution ``z``: :meth:`control_points`, :meth:`evaluate`'s values and
         :meth:`violation`'s verdict, in one compiled call (:func:`~nodnav.control.mpc_plan.plan_after_qp`)."""
         setup, (a, b, o, _) = self.setup, self.post_slices
-        c, post, *checks = plan_after_qp(
+        # New arrays each plan: the plan is kept (committed) and its values are returned.
+        c, post = np.empty((len(self.free_map), 2)), np.empty((len(self.b_post), 2))
+        checks = plan_after_qp(
             z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
             setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
-            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0)
+            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0, c, post)
         return c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, separation, *checks)
 
     def _verdict(self, data: StepData, separation: bool, clear: float, short: float, j: int, speed: float,

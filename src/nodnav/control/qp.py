@@ -52,7 +52,7 @@ class QPSolution:
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
              bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
-             start: np.ndarray | None = None) -> QPSolution:
+             start: np.ndarray | None = None, start_multipliers: np.ndarray | None = None) -> QPSolution:
     """Minimise ``x^T H x / 2 + g^T x`` subject to ``rows @ x >= lower`` and ``x >= bounds`` (DAQP).
 
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
@@ -67,7 +67,9 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     DAQP's path to its unique minimiser: DAQP drops constraints of the start whose multipliers
     have the wrong sign and stops adding them at the first linearly dependent one. A
     warm-started solve that fails for any reason but infeasibility (which DAQP proves from a
-    dual ray, whatever the start) is solved again cold.
+    dual ray, whatever the start) is solved again cold. ``start_multipliers`` (an earlier
+    solution's :attr:`QPSolution.multipliers`, instead of ``start``) is the same start as
+    ``start_from`` of that solution, its flags found in one pass (:func:`warm_flags`).
     """
     if bounds is None:
         low = lower if _plain(lower) else np.ascontiguousarray(lower, dtype=float)
@@ -79,6 +81,10 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     sense = cold
     if start is not None and len(start) and start[-1] < len(low):
         sense = start_flags(low, start)
+    elif start_multipliers is not None:
+        flags = _flags_buffer(len(low))
+        if warm_flags(low, start_multipliers, flags):  # else cold, as with start_from's indices
+            sense = flags
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
     g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
     a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
@@ -109,6 +115,36 @@ def start_flags(low, start):
         if np.isfinite(low[i]):
             sense[i] = 3
     return sense
+
+
+@compiled
+def warm_flags(low, multipliers, sense):
+    """:func:`start_flags` of ``start_from``'s indices (the nonzero ``multipliers``, NaN
+    included) in one pass, written into ``sense`` (``(len(low),)``, every entry; a returned array
+    would cost numba a Python call to box it). Returns False where :func:`solve_qp` would start
+    cold instead: no nonzero multiplier, or one beyond ``low`` (a start of the wrong length)."""
+    sense[:] = 0
+    found = False
+    for i in range(multipliers.shape[0]):
+        if multipliers[i] != 0.0:
+            if i >= low.shape[0]:
+                return False
+            found = True
+            if np.isfinite(low[i]):
+                sense[i] = 3
+    return found
+
+
+_FLAGS: dict[int, np.ndarray] = {}
+
+
+def _flags_buffer(n: int) -> np.ndarray:
+    """DAQP's constraint flags for ``n`` constraints, one array per size: :func:`warm_flags` writes
+    every entry before each solve, and DAQP copies the flags into its own workspace."""
+    flags = _FLAGS.get(n)
+    if flags is None:
+        flags = _FLAGS[n] = np.zeros(n, dtype=np.intc)
+    return flags
 
 
 _F64 = np.dtype(np.float64)
@@ -186,8 +222,9 @@ class SolverEffort:
     constraints: int = 0
     """Most constraints (rows and finite bounds) of one QP."""
     starts: dict | None = None
-    """Warm starts by kind of QP (the controller's, kept between steps): the flags
-    (:func:`start_from`) of the last solution of each kind; None: every solve starts cold."""
+    """Warm starts by kind of QP (the controller's, kept between steps): the multipliers of the
+    last solution of each kind (its start is :func:`start_from`'s, :func:`warm_flags`); None:
+    every solve starts cold."""
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
               bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
@@ -195,23 +232,25 @@ class SolverEffort:
         """:func:`solve_qp`, counted, and warm-started from the last solution of the same
         ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
         object), else from that of the kind ``like`` (the same rows and variables, other data)."""
-        starts = self.starts
+        starts = self.starts if kind is not None else None  # where this kind's start is kept, if anywhere
         warm = None
-        if starts is not None and kind is not None:
+        if starts is not None:
             warm = starts.get(kind)
             if warm is None and like is not None:
                 warm = starts.get(like)
         t = time.perf_counter()
-        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, warm)
+        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm)
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations
-        self.constraints = max(self.constraints,
-                               len(lower) + (0 if bounds is None else int(np.isfinite(bounds).sum())))
-        if starts is not None and kind is not None and sol.success:
+        n = len(lower) if bounds is None else len(lower) + int(np.isfinite(bounds).sum())
+        if n > self.constraints:
+            self.constraints = n
+        if starts is not None and sol.success:
             if len(starts) >= MAX_STARTS and kind not in starts:
                 starts.pop(next(iter(starts)))
-            starts[kind] = start_from(sol)
+            # The multipliers, not their nonzero indices: the next solve's flags take one pass over them.
+            starts[kind] = sol.multipliers
         return sol
 
     def certificate(self, rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -82,7 +82,7 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     if start is not None and len(start) and start[-1] < len(low):
         sense = start_flags(low, start)
     elif start_multipliers is not None:
-        flags = _flags_buffer(len(low))
+        flags = np.empty(len(low), dtype=np.intc)  # DAQP copies the flags into its own workspace
         if warm_flags(low, start_multipliers, flags):  # else cold, as with start_from's indices
             sense = flags
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
@@ -133,18 +133,6 @@ def warm_flags(low, multipliers, sense):
             if np.isfinite(low[i]):
                 sense[i] = 3
     return found
-
-
-_FLAGS: dict[int, np.ndarray] = {}
-
-
-def _flags_buffer(n: int) -> np.ndarray:
-    """DAQP's constraint flags for ``n`` constraints, one array per size: :func:`warm_flags` writes
-    every entry before each solve, and DAQP copies the flags into its own workspace."""
-    flags = _FLAGS.get(n)
-    if flags is None:
-        flags = _FLAGS[n] = np.zeros(n, dtype=np.intc)
-    return flags
 
 
 _F64 = np.dtype(np.float64)

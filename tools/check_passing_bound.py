@@ -41,7 +41,7 @@ def main(argv: list[str]) -> int:
         if request.braking is not None:
             mpc_braking.passing_bound = real_bound
             try:
-                hopeless = mpc_braking.no_plan_passes(request.braking, self._walls_around(), request.position,
+                hopeless = mpc_braking.no_plan_passes(request.braking, self._walls, request.position,
                                                       request.velocity, self.dt)
             finally:
                 mpc_braking.passing_bound = never

@@ -117,6 +117,7 @@ class BSplineMPC:
         # The trial's robots of the same body share one setup (building it is most of the start-up).
         self.setup, self._problems = (shared if shared is not None else SharedSetups()).get(world, robot, params)
         self.obstacles = self.setup.obstacles
+        self._walls = self._walls_around()
         self._valid_times = b""
         self._last_problem: tuple[tuple, MPCProblem] | None = None
         # Beyond this distance a wall cannot be reached within the horizon.
@@ -192,7 +193,7 @@ class BSplineMPC:
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
         if request.braking is not None:
-            hopeless = no_plan_passes(request.braking, self._walls_around(), p0, v0, self.dt)
+            hopeless = no_plan_passes(request.braking, self._walls, p0, v0, self.dt)
             if hopeless:  # every plan would be refused below: skip solving for one
                 return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)
 
@@ -252,6 +253,8 @@ class BSplineMPC:
         return self._brake(request, prob, start, effort, why)
 
     def _walls_around(self) -> WallsAround:
+        """What the mutual braking checks read of the robot and its walls (taken again when the
+        walls kept change, :meth:`_local_walls`)."""
         return WallsAround(self.obstacles, self.setup.pieces, self.setup.world_bounds, self.robot.radius,
                            self.robot.max_accel, self.settings.check_tolerance)
 
@@ -263,9 +266,12 @@ class BSplineMPC:
         if request.braking is None:
             return ""
         end = post[1]
-        committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
-                              end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
-        return fallback_conflict(request.braking, self._walls_around(), post[2][:2], committed, self.robot.max_speed)
+
+        def committed() -> Committed:  # the plan's committed trajectory, read from its next step
+            return Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
+                             end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
+
+        return fallback_conflict(request.braking, self._walls, post[2][:2], committed, self.robot.max_speed)
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
         """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,
@@ -410,6 +416,7 @@ class BSplineMPC:
         kept.setflags(write=False)  # as the world's array: the compiled kernels' same specialisation
         self.setup = dataclasses.replace(self._all_setup, obstacles=kept)
         self.obstacles = self.setup.obstacles
+        self._walls = self._walls_around()
         self._problems, self._last_problem = {}, None
         self._starts.clear()  # they name the old problems' rows (and would keep them alive)
         self._anchor, self._local_radius = p0.copy(), radius

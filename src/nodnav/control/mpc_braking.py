@@ -11,6 +11,7 @@ evasive QPs at every step only to refuse their plans.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -45,15 +46,16 @@ class WallsAround(NamedTuple):
 
 
 def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
-                      committed: Committed, max_speed: float) -> str:
+                      committed_trajectory: Callable[[], Committed], max_speed: float) -> str:
     """Why the robot's fallback from a plan's next state fails the mutual braking check
     (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
     what the next step does if it finds no plan: straight braking where that stops clear of the
-    walls, else the plan's ``committed`` trajectory (read from one step on), moving at most
-    ``max_speed``."""
+    walls, else the plan's committed trajectory (read from one step on; made by
+    ``committed_trajectory`` only then), moving at most ``max_speed``."""
     position, velocity = next_state
     fallback = None
     if walls.braking_clearance(position, velocity) < walls.radius - walls.tolerance:
+        committed = committed_trajectory()
         end_speed = math.hypot(committed.end_velocity[0], committed.end_velocity[1])
         stop = committed.horizon - committed.elapsed + end_speed / committed.decel
         samples = committed.motion(SAMPLE_STEP * np.arange(int(math.ceil(stop / SAMPLE_STEP)) + 1))

@@ -47,10 +47,12 @@ relative speed (:func:`braking_slack`), so a coarser step is only more careful."
 MAX_SAMPLES = 4000
 """At most this many samples per pair; a longer stop (very slow braking) spaces them wider."""
 
-CONVENTIONS = ("speed", "index", "strong")
+CONVENTIONS = ("speed", "index", "strong", "stopping")
 """Who of two robots that keep the rule takes the weak check (``execution.mutual_braking``), in
 the order of their codes in :class:`BrakingPartners`: the faster (of two standing still, the
-lower- and the higher-numbered in turn, :attr:`BrakingPartners.turn`), the lower-numbered, neither."""
+lower- and the higher-numbered in turn, :attr:`BrakingPartners.turn`), the lower-numbered,
+neither, and the one that needs longer to stop (``|v| / max_accel``), counting a robot that can
+stop within one control step as standing still (:func:`takes_weak_check`)."""
 
 REST_SPEED = 1e-3
 """Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still."""
@@ -123,21 +125,35 @@ def _braked(px: float, py: float, vx: float, vy: float, speed: float, decel: flo
 
 @compiled
 def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bool, convention: int,
-                     turn: int) -> bool:
+                     turn: int, a_i: float = 1.0, a_j: float = 1.0, dt: float = 0.0) -> bool:
     """Whether robot ``i`` (at ``speed_i`` now) takes the weak check towards robot ``j``: only if
     ``j`` keeps the rule, and then by the convention (:data:`CONVENTIONS`); ``j`` evaluates the
     same from the same observation and takes the other check. With ``speed``, of two robots
     standing still the role alternates with ``turn``: with the strong check a robot cannot start
     past one standing closer than :func:`braking_deviation` beyond contact, and a fixed choice
-    would keep the same robot from ever doing so."""
+    would keep the same robot from ever doing so.
+
+    With ``stopping`` robots are compared by their stopping times ``|v| / a`` (``a_i``, ``a_j``:
+    their decelerations), and one that can stop within the control step ``dt`` counts as standing
+    still: a robot starting (or crawling, or trembling at a few mm/s as the MPC's plans at rest
+    do) keeps the role ``turn`` gave it for the whole period, where with ``speed`` the role went to
+    whichever of two such robots was a hair faster at the moment and flipped from step to step,
+    each flip stopping the one that had just started; and of two moving robots the one that needs
+    longer to stop keeps its plan, the other (whose strong check is then against the smaller
+    deviation of a robot that brakes gently) gives way (docs/mutual-braking-restart.md)."""
     if not keeps_j or convention == 2:
         return False
-    if convention == 0:
-        rest_i, rest_j = speed_i <= REST_SPEED, speed_j <= REST_SPEED
+    if convention == 0 or convention == 3:
+        key_i, key_j = speed_i, speed_j
+        still_i, still_j = REST_SPEED, REST_SPEED
+        if convention == 3:
+            key_i, key_j = speed_i / a_i, speed_j / a_j
+            still_i, still_j = max(REST_SPEED / a_i, dt), max(REST_SPEED / a_j, dt)
+        rest_i, rest_j = key_i <= still_i, key_j <= still_j
         if rest_i and rest_j:
             return (i < j) != (turn == 1)
-        if rest_i or rest_j or speed_i != speed_j:
-            return (0.0 if rest_i else speed_i) > (0.0 if rest_j else speed_j)
+        if rest_i or rest_j or key_i != key_j:
+            return (0.0 if rest_i else key_i) > (0.0 if rest_j else key_j)
     return i < j
 
 
@@ -221,7 +237,7 @@ def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, d
         if j == i or not seen[j] or not keeps[j]:  # the rule is mutual: not checked towards others
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
-        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn, decels[i], decels[j], dt)
         if own.shape[0] == 0:
             out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
                                  positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],

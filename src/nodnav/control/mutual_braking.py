@@ -22,9 +22,19 @@ Of two robots that both keep the rule, one (by a fixed convention, ``execution.m
 takes the weak check towards the other and the other the strong one. Then after every step: if
 the strong one passed, ``B_j(k+1)`` is clear of whatever ``i`` did; if it braked, ``B_j(k+1) =
 B_j(k)``, from which ``i`` kept clear (weak) or which ``i`` did not change (``i`` braked: the
-invariant at ``k``). Towards a robot that does not keep the rule (a person, another method) there
-is no check: it may not brake, so braking is no safer than evading it, and the MPC's predictions
-and evasive plans handle it as before (an ORCA robot ran into NOD robots that braked for it).
+invariant at ``k``). The argument asks nothing of the convention but that, at every step and for
+every pair, the two robots evaluate it from the same observation and it gives the weak check to
+exactly one of them: any function of what both observe (their states, their accelerations, the
+common clock) antisymmetric in the pair will do, however often it hands the role over; a hand-over
+at ``k`` only changes which of the two cases above happens at ``k``. ``stopping``
+(:func:`takes_weak_check`) is one: stopping times ``|v| / a`` and the test ``|v| / a <= dt`` are
+computed alike by both from the same numbers, of two robots that both pass the test the turn
+decides (``i < j`` xor ``turn``), of one that passes and one that does not the other, and of two
+that do not the larger stopping time, the lower number at a tie.
+
+Towards a robot that does not keep the rule (a person, another method) there is no check: it may
+not brake, so braking is no safer than evading it, and the MPC's predictions and evasive plans
+handle it as before (an ORCA robot ran into NOD robots that braked for it).
 
 Assumptions: exact observations and exact motion (as the wall guarantee), and braking as the
 only fallback; a robot whose straight braking would reach a wall follows its committed
@@ -55,7 +65,8 @@ neither, and the one that needs longer to stop (``|v| / max_accel``), counting a
 stop within one control step as standing still (:func:`takes_weak_check`)."""
 
 REST_SPEED = 1e-3
-"""Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still."""
+"""Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still
+(``stopping`` counts one as standing still up to ``max_accel dt``, never below this)."""
 
 
 class BrakingPartners(NamedTuple):
@@ -79,7 +90,8 @@ class BrakingPartners(NamedTuple):
     """Which robots the robot sees now ``(N,)`` (bool); the others are not checked."""
     turn: int
     """0 or 1, the same for every robot at a given time: of two robots standing still (speed at
-    most :data:`REST_SPEED`), the lower-numbered takes the weak check when 0, the other when 1."""
+    most :data:`REST_SPEED`; with ``stopping``, able to stop within ``dt``), the lower-numbered
+    takes the weak check when 0, the other when 1."""
     convention: int
     """Index in :data:`CONVENTIONS`."""
     dt: float

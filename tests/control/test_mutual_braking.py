@@ -160,6 +160,27 @@ def test_robots_that_do_not_keep_the_rule_are_not_checked():
     assert worst == -1 and np.all(out == np.inf)
 
 
+def test_the_kernel_applies_the_stopping_convention_with_each_robots_deceleration():
+    """Robot 0 at rest, robot 1 0.005 m beyond contact (0.4 m), both at 2 m/s^2, dt = 0.1 s: the
+    strong check from rest needs 1.5 a dt^2 = 0.03 m, so staying put passes only the weak check.
+    Robot 1 drifting away at 0.1 m/s (below a dt = 0.2 m/s, it can stop within the step; its
+    braking from one step on stands at 0.4075 m): with ``stopping`` it still counts as standing
+    still, and the turn gives robot 0 the weak check (slack 0.005-0.0075 m) in even periods and
+    the strong one (below 0.0075 - 0.03) in odd ones; with ``speed`` the drifting robot is the
+    faster and robot 0 is strong in both."""
+    def partners(v1, convention, turn):
+        return BrakingPartners(0, np.array([[0.0, 0.0], [0.405, 0.0]]), np.array([[0.0, 0.0], [v1, 0.0]]),
+                               np.array([2.0, 2.0]), np.full(2, 0.2), np.ones(2, bool), np.ones(2, bool), turn,
+                               convention, 0.1)
+
+    for v1, most in ((0.0, 0.005), (0.1, 0.0075)):
+        weak = _slack([0.0, 0.0], [0.0, 0.0], partners(v1, 3, 0))
+        assert 0.005 - 0.001 <= weak <= most + 1e-12
+        assert _slack([0.0, 0.0], [0.0, 0.0], partners(v1, 3, 1)) <= most - 0.03 + 1e-12
+    for turn in (0, 1):
+        assert _slack([0.0, 0.0], [0.0, 0.0], partners(0.1, 0, turn)) <= 0.0075 - 0.03 + 1e-12
+
+
 def _brake_at(p, v, a, s):
     """Braking along ``v`` at ``a`` from ``(p, v)``, where it is after ``s`` (seconds, an array) ``(len(s), 2)``."""
     speed = np.linalg.norm(v)

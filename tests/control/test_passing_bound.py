@@ -16,7 +16,7 @@ from nodnav.scenario.world import paper_world
 
 def _partners(p_i, v_i, p_j, v_j, a_i, a_j, convention, contact=0.4, dt=0.1):
     """Robot 0 (checked) at ``(p_i, v_i)`` now and robot 1 at ``(p_j, v_j)``; convention 0 (speed),
-    1 (index: robot 0 takes the weak check) or 2 (strong)."""
+    1 (index: robot 0 takes the weak check), 2 (strong) or 3 (stopping)."""
     return BrakingPartners(robot=0, positions=np.array([p_i, p_j], float), velocities=np.array([v_i, v_j], float),
                            decels=np.array([a_i, a_j], float), radii=np.full(2, contact / 2),
                            keeps_rule=np.ones(2, bool), seen=np.ones(2, bool), turn=0, convention=convention, dt=dt)
@@ -34,7 +34,7 @@ def test_bound_is_above_the_slack_of_every_reachable_next_state():
         v_i = rng.normal(size=2) * rng.choice([0.0, 0.05, rng.uniform(0.0, 1.5)])
         p_j = rng.normal(size=2) * rng.uniform(0.3, 1.5)
         v_j = rng.normal(size=2) * rng.choice([0.0, rng.uniform(0.0, 1.5)])
-        partners = _partners(p_i, v_i, p_j, v_j, a_i, a_j, int(rng.integers(3)))
+        partners = _partners(p_i, v_i, p_j, v_j, a_i, a_j, int(rng.integers(4)))
         bound, j = passing_bound(p_i, v_i, partners)
         negative += bound < 0
         steps = [a_i * f * np.array([np.cos(t), np.sin(t)]) for t in np.linspace(0, 2 * np.pi, 13)[:-1]

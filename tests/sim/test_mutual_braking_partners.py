@@ -43,3 +43,16 @@ def test_robots_standing_still_take_turns_one_opinion_period_each():
     view = SimpleNamespace(positions=np.zeros((4, 2)), velocities=np.zeros((4, 2)), age=None)
     period = scenario.opinion.T
     assert [method._partners(0, k * period + 0.5 * period, view).turn for k in range(4)] == [0, 1, 0, 1]
+
+
+def test_stopping_reads_every_robots_own_deceleration():
+    """``stopping`` compares |v| / a with each robot's own ``max_accel``: the partners carry them."""
+    overrides = {"execution.mutual_braking": "stopping", "robots[2].max_accel": 0.5}
+    scenario = load_scenario("4r-case1", overrides)
+    rngs, _ = trial_generators(0, scenario.n_robots)
+    method = make_team(scenario, "nod", rngs)
+    view = SimpleNamespace(positions=np.zeros((4, 2)), velocities=np.zeros((4, 2)), age=None)
+    partners = method._partners(0, 0.0, view)
+    assert CONVENTIONS[partners.convention] == "stopping"
+    assert partners.decels.tolist() == [r.max_accel for r in scenario.robots] and partners.decels[2] == 0.5
+    assert partners.dt == scenario.controller.dt

@@ -64,6 +64,7 @@ CASES = [
     ("mirror-abreast-both-first.yaml", (20, 23, 26)),
     ("committed-tail-into-a-stopped-robot.yaml", (182,)),
     ("braking-off-the-committed-trajectory.yaml", (189,)),
+    ("slow-braker-among-hard-brakers-inside.yaml", (115,)),
 ]
 
 

@@ -22,9 +22,19 @@ Of two robots that both keep the rule, one (by a fixed convention, ``execution.m
 takes the weak check towards the other and the other the strong one. Then after every step: if
 the strong one passed, ``B_j(k+1)`` is clear of whatever ``i`` did; if it braked, ``B_j(k+1) =
 B_j(k)``, from which ``i`` kept clear (weak) or which ``i`` did not change (``i`` braked: the
-invariant at ``k``). Towards a robot that does not keep the rule (a person, another method) there
-is no check: it may not brake, so braking is no safer than evading it, and the MPC's predictions
-and evasive plans handle it as before (an ORCA robot ran into NOD robots that braked for it).
+invariant at ``k``). The argument asks nothing of the convention but that, at every step and for
+every pair, the two robots evaluate it from the same observation and it gives the weak check to
+exactly one of them: any function of what both observe (their states, their accelerations, the
+common clock) antisymmetric in the pair will do, however often it hands the role over; a hand-over
+at ``k`` only changes which of the two cases above happens at ``k``. ``stopping``
+(:func:`takes_weak_check`) is one: stopping times ``|v| / a`` and the test ``|v| / a <= dt`` are
+computed alike by both from the same numbers, of two robots that both pass the test the turn
+decides (``i < j`` xor ``turn``), of one that passes and one that does not the other, and of two
+that do not the larger stopping time, the lower number at a tie.
+
+Towards a robot that does not keep the rule (a person, another method) there is no check: it may
+not brake, so braking is no safer than evading it, and the MPC's predictions and evasive plans
+handle it as before (an ORCA robot ran into NOD robots that braked for it).
 
 Assumptions: exact observations and exact motion (as the wall guarantee), and braking as the
 only fallback; a robot whose straight braking would reach a wall follows its committed
@@ -47,13 +57,16 @@ relative speed (:func:`braking_slack`), so a coarser step is only more careful."
 MAX_SAMPLES = 4000
 """At most this many samples per pair; a longer stop (very slow braking) spaces them wider."""
 
-CONVENTIONS = ("speed", "index", "strong")
+CONVENTIONS = ("speed", "index", "strong", "stopping")
 """Who of two robots that keep the rule takes the weak check (``execution.mutual_braking``), in
 the order of their codes in :class:`BrakingPartners`: the faster (of two standing still, the
-lower- and the higher-numbered in turn, :attr:`BrakingPartners.turn`), the lower-numbered, neither."""
+lower- and the higher-numbered in turn, :attr:`BrakingPartners.turn`), the lower-numbered,
+neither, and the one that needs longer to stop (``|v| / max_accel``), counting a robot that can
+stop within one control step as standing still (:func:`takes_weak_check`)."""
 
 REST_SPEED = 1e-3
-"""Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still."""
+"""Speed (m/s) at or below which the ``speed`` convention counts a robot as standing still
+(``stopping`` counts one as standing still up to ``max_accel dt``, never below this)."""
 
 
 class BrakingPartners(NamedTuple):
@@ -77,7 +90,8 @@ class BrakingPartners(NamedTuple):
     """Which robots the robot sees now ``(N,)`` (bool); the others are not checked."""
     turn: int
     """0 or 1, the same for every robot at a given time: of two robots standing still (speed at
-    most :data:`REST_SPEED`), the lower-numbered takes the weak check when 0, the other when 1."""
+    most :data:`REST_SPEED`; with ``stopping``, able to stop within ``dt``), the lower-numbered
+    takes the weak check when 0, the other when 1."""
     convention: int
     """Index in :data:`CONVENTIONS`."""
     dt: float
@@ -123,21 +137,35 @@ def _braked(px: float, py: float, vx: float, vy: float, speed: float, decel: flo
 
 @compiled
 def takes_weak_check(i: int, j: int, speed_i: float, speed_j: float, keeps_j: bool, convention: int,
-                     turn: int) -> bool:
+                     turn: int, a_i: float, a_j: float, dt: float) -> bool:
     """Whether robot ``i`` (at ``speed_i`` now) takes the weak check towards robot ``j``: only if
     ``j`` keeps the rule, and then by the convention (:data:`CONVENTIONS`); ``j`` evaluates the
     same from the same observation and takes the other check. With ``speed``, of two robots
     standing still the role alternates with ``turn``: with the strong check a robot cannot start
     past one standing closer than :func:`braking_deviation` beyond contact, and a fixed choice
-    would keep the same robot from ever doing so."""
+    would keep the same robot from ever doing so.
+
+    With ``stopping`` robots are compared by their stopping times ``|v| / a`` (``a_i``, ``a_j``:
+    their decelerations), and one that can stop within the control step ``dt`` counts as standing
+    still: a robot starting (or crawling, or trembling at a few mm/s as the MPC's plans at rest
+    do) keeps the role ``turn`` gave it for the whole period, where with ``speed`` the role went to
+    whichever of two such robots was a hair faster at the moment and flipped from step to step,
+    each flip stopping the one that had just started; and of two moving robots the one that needs
+    longer to stop keeps its plan, the other (whose strong check is then against the smaller
+    deviation of a robot that brakes gently) gives way (docs/mutual-braking-restart.md)."""
     if not keeps_j or convention == 2:
         return False
-    if convention == 0:
-        rest_i, rest_j = speed_i <= REST_SPEED, speed_j <= REST_SPEED
+    if convention == 0 or convention == 3:
+        key_i, key_j = speed_i, speed_j
+        still_i, still_j = REST_SPEED, REST_SPEED
+        if convention == 3:
+            key_i, key_j = speed_i / a_i, speed_j / a_j
+            still_i, still_j = max(REST_SPEED / a_i, dt), max(REST_SPEED / a_j, dt)
+        rest_i, rest_j = key_i <= still_i, key_j <= still_j
         if rest_i and rest_j:
             return (i < j) != (turn == 1)
-        if rest_i or rest_j or speed_i != speed_j:
-            return (0.0 if rest_i else speed_i) > (0.0 if rest_j else speed_j)
+        if rest_i or rest_j or key_i != key_j:
+            return (0.0 if rest_i else key_i) > (0.0 if rest_j else key_j)
     return i < j
 
 
@@ -221,7 +249,7 @@ def _slack_kernel(i, p_next, v_next, own, h, own_speed, positions, velocities, d
         if j == i or not seen[j] or not keeps[j]:  # the rule is mutual: not checked towards others
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
-        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn, decels[i], decels[j], dt)
         if own.shape[0] == 0:
             out[j] = _pair_slack(p_next[0], p_next[1], v_next[0], v_next[1], decels[i], positions[j, 0],
                                  positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
@@ -306,7 +334,7 @@ def _bound_kernel(i, position, velocity, positions, velocities, decels, radii, k
         if j == i or not seen[j] or not keeps[j]:
             continue
         speed_j = math.hypot(velocities[j, 0], velocities[j, 1])
-        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn)
+        strong = not takes_weak_check(i, j, speed_i, speed_j, keeps[j], convention, turn, decels[i], decels[j], dt)
         bound = _pair_bound(position[0], position[1], velocity[0], velocity[1], decels[i], positions[j, 0],
                             positions[j, 1], velocities[j, 0], velocities[j, 1], decels[j], radii[i] + radii[j],
                             strong, dt, step, max_samples)

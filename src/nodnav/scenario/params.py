@@ -276,14 +276,17 @@ class ExecutionParams:
     ``moving`` (default) every robot that moves, that came at this one unexpectedly
     (``unexpected_approach``) within the last second, and every robot while this one cannot
     follow its plan; ``surprised`` the last two only; ``conflict`` the last only; ``off`` none."""
-    mutual_braking: Literal["speed", "index", "strong", "none"] = "speed"
+    mutual_braking: Literal["speed", "index", "strong", "stopping", "none"] = "speed"
     """Which check a robot's braking from its next step must pass towards each other robot
     (``nodnav.control.mutual_braking``, docs/safety.md). Of two robots that keep the rule, one
     takes the weak check (clear of the other's braking trajectory), the other the strong one (clear
     of wherever that trajectory can move in one step): ``speed`` (default) the faster one takes the
     weak check, the lower-numbered one at equal speeds; ``index`` the lower-numbered one; ``strong``
-    both the strong one; ``none`` no check (before this setting; the paper has none). Towards a
-    robot that does not keep the rule (another method, a person) there is no check."""
+    both the strong one; ``stopping`` the one that needs longer to stop (``|v| / max_accel``),
+    counting one that can stop within a control step as standing still, so that the role the
+    opinion period gives two robots at rest holds while one starts (docs/mutual-braking-restart.md);
+    ``none`` no check (before this setting; the paper has none). Towards a robot that does not
+    keep the rule (another method, a person) there is no check."""
     surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as

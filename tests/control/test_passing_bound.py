@@ -78,9 +78,9 @@ def test_no_bound_towards_robots_not_checked():
 
 def test_the_mpc_skips_solving_only_where_solving_would_be_refused(monkeypatch):
     """A robot at 1 m/s whose braking stops 0.15 m from a robot standing ahead, which it checks
-    strongly: no plan can pass. The MPC brakes without a QP, and the full solve (the bound
-    switched off) ends in the same fallback, with the same next state."""
-    world, params = paper_world(), MPCParams()
+    strongly: no plan can pass. With ``skip_unpassable`` the MPC brakes without a QP, and the
+    full solve (the default) ends in the same fallback, with the same next state."""
+    world, params = paper_world(), MPCParams(skip_unpassable=True)
     robot = RobotSpec(origin=(-5.0, 0.0), destination=(5.0, 0.0))  # radius 0.2, 1 m/s, 2 m/s^2
     times = params.dt * np.arange(1, 9)
     p, v, other = np.array([-5.0, 0.0]), np.array([1.0, 0.0]), np.array([-4.6, 0.0])
@@ -94,8 +94,7 @@ def test_the_mpc_skips_solving_only_where_solving_would_be_refused(monkeypatch):
     assert passing_bound(p, v, partners)[0] < 0
     skipped = BSplineMPC(world, robot, params).control(request)
     assert not skipped.success and "no plan can pass" in skipped.reason and skipped.info["qps"] == 0
-    monkeypatch.setattr(mpc_braking, "passing_bound", lambda *args: (np.inf, -1))
-    solved = BSplineMPC(world, robot, replace(params)).control(request)
+    solved = BSplineMPC(world, robot, replace(params, skip_unpassable=False)).control(request)
     assert not solved.success and solved.info["fallback"] == skipped.info["fallback"]
     assert np.array_equal(solved.next_position, skipped.next_position)
     assert np.array_equal(solved.next_velocity, skipped.next_velocity)

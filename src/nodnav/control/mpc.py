@@ -192,7 +192,7 @@ class BSplineMPC:
             return self._brake(request, prob, start, effort,
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
-        if request.braking is not None:
+        if request.braking is not None and self.settings.skip_unpassable:
             hopeless = no_plan_passes(request.braking, self._walls, p0, v0, self.dt)
             if hopeless:  # every plan would be refused below: skip solving for one
                 return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)

@@ -237,9 +237,8 @@ class MPCParams(ControllerParams):
     skip_unpassable: bool = False
     """Whether the MPC brakes without solving where no plan can pass mutual braking
     (:func:`~nodnav.control.mpc_braking.no_plan_passes`): the same decision at that step, half the
-    QP time in crowds, but off by default: the QPs not solved no longer warm-start the next ones,
-    and 4r-case1 with one game player deadlocked in 21 of 200 seeds with it against 5 without
-    (docs/performance-9.md)."""
+    QP time in crowds, but off by default: later trajectories differ, and 4r-case1 with one game
+    player deadlocked in 21 of 200 seeds with it against 5 without (docs/performance-9.md)."""
     local_walls: bool = True
     """On a map's world (hundreds of wall boxes), whether the controller's rows and checks hold
     only the walls within reach of the robot (horizon plus braking distance, refreshed as it

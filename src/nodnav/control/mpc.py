@@ -45,9 +45,10 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
-from nodnav.control.mpc_problem import DEGREE, MPCProblem, MPCSetup, StepData
+from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_rows import all_finite, step_state
 from nodnav.control.qp import SolverEffort
+from nodnav.control.shared_setups import SharedSetups
 from nodnav.registry import register_controller
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import World
@@ -73,29 +74,6 @@ def _apart(a: np.ndarray, b: np.ndarray) -> bool:
     if dx + dy <= 0.5e-6:
         return False
     return bool(np.hypot(a[0] - b[0], a[1] - b[1]) > 1e-6)
-
-
-class SharedSetups:
-    """MPC setups, and their problems by number of other robots and sample times, shared by the
-    controllers of one trial whose robots have the same body and limits in the same world.
-
-    One object per trial (the method builds it with its controllers), never per process: a
-    problem's rows and step state are scratch space that a step writes before it reads them (and
-    reads no more once it returns), which is safe only
-    while the controllers sharing it step one after another, as one trial's do.
-    """
-
-    def __init__(self) -> None:
-        self._by_body: dict[tuple, tuple[MPCSetup, dict[tuple, MPCProblem]]] = {}
-
-    def get(self, world: World, robot: RobotSpec, params: MPCParams) -> tuple[MPCSetup, dict[tuple, MPCProblem]]:
-        """The setup of a controller of ``robot`` in ``world`` and its problems (the setup's
-        ``robot`` is the first such robot; only its radius and limits are read)."""
-        key = (id(world), robot.radius, robot.max_speed, robot.max_accel, params)
-        shared = self._by_body.get(key)
-        if shared is None:
-            shared = self._by_body[key] = (MPCSetup.of(world, robot, params), {})
-        return shared
 
 
 @register_controller("mpc")

@@ -118,6 +118,17 @@ def braking_deviation(speed: np.ndarray | float, decel: np.ndarray | float, dt: 
     return dp + dv * np.minimum(np.asarray(elapsed, dtype=float), (speed + decel * dt) / decel)
 
 
+def restart_gap(decel_i: float, decels_j: np.ndarray | float, dt: float) -> np.ndarray:
+    """The gap beyond contact (m) from which either of two robots at rest may take a step under
+    the strong check: :func:`braking_deviation` of the other robot at rest, once it has grown
+    fully, ``1.5 a dt^2`` at the larger of the two decelerations (0.03 m at 2 m/s^2 and 0.1 s).
+    Robots that park closer than this cannot start again towards each other, and a ring of them,
+    each the strong one towards a neighbour, cannot start at all (docs/safety.md, "Parking
+    where one can start again")."""
+    decel = np.maximum(float(decel_i), np.asarray(decels_j, dtype=float))
+    return braking_deviation(np.zeros_like(decel), decel, dt, math.inf)
+
+
 def _step_deviation(speed, decel, dt):
     """``(dp, dv)`` of :func:`braking_deviation` (NumPy arrays or floats alike)."""
     sigma = np.minimum(dt, speed / decel)

@@ -5,7 +5,13 @@ import numpy as np
 import pytest
 
 from nodnav.control.braking import braking_profile
-from nodnav.control.mutual_braking import BrakingPartners, braking_deviation, braking_slack, restart_gap, takes_weak_check
+from nodnav.control.mutual_braking import (
+    BrakingPartners,
+    braking_deviation,
+    braking_slack,
+    restart_gap,
+    takes_weak_check,
+)
 
 
 def _after_step(p, v, accel, dt):

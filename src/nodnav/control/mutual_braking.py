@@ -118,6 +118,12 @@ def braking_deviation(speed: np.ndarray | float, decel: np.ndarray | float, dt: 
     return dp + dv * np.minimum(np.asarray(elapsed, dtype=float), (speed + decel * dt) / decel)
 
 
+RESTART_HEADROOM = 1e-4
+"""What a robot keeps beyond :func:`restart_gap` from a robot that keeps the rule (m): room for the
+rounding of the QP and of the exact checks (the MPC's ``check_tolerance`` by default), so that a
+plan that keeps the gap leaves the strong check's slack at least zero."""
+
+
 def restart_gap(decel_i: float, decels_j: np.ndarray | float, dt: float) -> np.ndarray:
     """The gap beyond contact (m) from which either of two robots at rest passes the strong check
     towards the other while holding still: :func:`braking_deviation` of the other at rest once

@@ -295,10 +295,10 @@ class ExecutionParams:
     restart_gap: bool = True
     """Whether a robot keeps, from every other robot that keeps the mutual braking rule, at least
     the gap from which either can start again under the strong check (``restart_gap`` in
-    ``nodnav.control.mutual_braking``, ``1.5 a dt^2`` plus ``controller.check_tolerance``) where
-    that exceeds ``controller.safety_margin``: robots that parked at the margin (0.02 m, below the
-    0.03 m that 2 m/s^2 needs) knotted at a mouth and deadlocked (docs/safety.md). Off: the
-    margin alone (before this setting); no effect with ``mutual_braking: none``."""
+    ``nodnav.control.mutual_braking``: ``1.5 a dt^2`` and the check's allowance, 0.031 m at
+    2 m/s^2, plus 1e-4 m) where that exceeds ``controller.safety_margin``: robots that parked at
+    the margin (0.02 m) knotted at a mouth and deadlocked (docs/safety.md). Off: the margin alone
+    (before this setting); no effect with ``mutual_braking: none`` (the paper's)."""
     surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as

@@ -15,7 +15,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
-from nodnav.control.mutual_braking import CONVENTIONS, BrakingPartners, restart_gap
+from nodnav.control.mutual_braking import CONVENTIONS, RESTART_HEADROOM, BrakingPartners, restart_gap
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
@@ -315,9 +315,9 @@ class PlannedMethod:
         cached = self._margins.get(i)
         if cached is None or cached[0] != stamp:
             others = self._others_array[i]
-            ctl = self.scenario.controller
-            restart = restart_gap(self._accel[i], self._accel[others], self.dt) + ctl.check_tolerance
-            margin = np.where(self.keeps_rule[others], np.maximum(ctl.safety_margin, restart), ctl.safety_margin)
+            safety = self.scenario.controller.safety_margin
+            restart = restart_gap(self._accel[i], self._accel[others], self.dt) + RESTART_HEADROOM
+            margin = np.where(self.keeps_rule[others], np.maximum(safety, restart), safety)
             cached = self._margins[i] = (stamp, np.tile(margin, 3))  # once per prediction, as the radii
         return cached[1]
 

@@ -171,7 +171,7 @@ class PlannedMethod:
         # Robots standing still take the weak check in turn, one opinion period each (the speed convention).
         self._turn_period = scenario.opinion.T
         self._radii = scenario.radii
-        self._margins: dict[int, tuple[bytes, np.ndarray]] = {}  # per robot: (keeps_rule's bytes, margins)
+        self._margins: dict[int, tuple[bytes, np.ndarray | None]] = {}  # per robot: (keeps_rule's bytes, margins)
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
@@ -318,7 +318,8 @@ class PlannedMethod:
             safety = self.scenario.controller.safety_margin
             restart = restart_gap(self._accel[i], self._accel[others], self.dt) + RESTART_HEADROOM
             margin = np.where(self.keeps_rule[others], np.maximum(safety, restart), safety)
-            cached = self._margins[i] = (stamp, np.tile(margin, 3))  # once per prediction, as the radii
+            # Once per prediction, as the radii; None where the safety margin holds throughout.
+            cached = self._margins[i] = (stamp, None if np.all(margin == safety) else np.tile(margin, 3))
         return cached[1]
 
     def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:

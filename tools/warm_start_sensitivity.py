@@ -5,10 +5,11 @@ about 1e-12 (docs/safety.md, "Parking where one can start again").
     python tools/warm_start_sensitivity.py 4r-case1 --players 1 --seeds 1-200 --mode tracking-cold \
         --set execution.restart_gap=false
 
-Modes: ``default``; ``skip`` (``controller.skip_unpassable``); ``tracking-cold`` (every tracking
-QP solved without a warm start); ``drop-evasive-after-hopeless`` (the full solve as by default,
-then the evasive QPs' warm starts forgotten after every step where no plan could pass: what the
-skip does to the warm starts, without skipping). Prints the outcomes and the seeds that did not
+Modes: ``default`` (every step solved: ``controller.skip_unpassable`` off); ``skip`` (on);
+``tracking-cold`` (every step solved, every tracking QP without a warm start);
+``drop-evasive-after-hopeless`` (every step solved, then the evasive QPs' warm starts forgotten
+after every step where no plan could pass: what the skip does to the warm starts, without
+skipping). Prints the outcomes and the seeds that did not
 succeed. Changes nothing in the package: the modes wrap its functions in this process only.
 """
 
@@ -71,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     overrides = {k: {"true": True, "false": False}.get(v, v) for k, v in overrides.items()}
-    if args.mode == "skip":
-        overrides["controller.skip_unpassable"] = True
+    overrides.setdefault("controller.skip_unpassable", args.mode == "skip")
     scenario = load_scenario(args.scenario, overrides=overrides)
     if args.players is not None:
         scenario = scenario.with_overrides(game_players=args.players)

@@ -234,11 +234,11 @@ class MPCParams(ControllerParams):
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
-    skip_unpassable: bool = False
+    skip_unpassable: bool = True
     """Whether the MPC brakes without solving where no plan can pass mutual braking
     (:func:`~nodnav.control.mpc_braking.no_plan_passes`): the same decision at that step, half the
-    QP time in crowds, but off by default: later trajectories differ, and 4r-case1 with one game
-    player deadlocked in 21 of 200 seeds with it against 5 without (docs/performance-9.md)."""
+    QP time in crowds. Later trajectories differ in their last bits (the QPs not solved leave no
+    warm start); off: every step solved (before 2026-11-27; docs/safety.md)."""
     local_walls: bool = True
     """On a map's world (hundreds of wall boxes), whether the controller's rows and checks hold
     only the walls within reach of the robot (horizon plus braking distance, refreshed as it

@@ -23,10 +23,11 @@ FINE = np.linspace(0.0, PARAMS.dt, 21)
 NO_OTHERS = np.zeros((0, 8, 2))
 
 
-def request(p, v, reference, others=NO_OTHERS, radii=()):
+def request(p, v, reference, others=NO_OTHERS, radii=(), margins=None):
     return ControlRequest(position=np.asarray(p, float), velocity=np.asarray(v, float),
                           reference=np.asarray(reference, float), sample_times=TIMES,
-                          others=np.asarray(others, float), other_radii=np.asarray(radii, float))
+                          others=np.asarray(others, float), other_radii=np.asarray(radii, float),
+                          margins=None if margins is None else np.asarray(margins, float))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -236,14 +237,14 @@ def test_rows_with_a_private_slack_never_enter_a_certificate():
 # The controller in closed loop
 
 
-def closed_loop(ctl, p, v, steps, reference, obstacles=None, radii=(), check=None):
+def closed_loop(ctl, p, v, steps, reference, obstacles=None, radii=(), check=None, margins=None):
     """Apply next_position / next_velocity; ``check(t, ctl, result)`` sees every step."""
     p, v = np.asarray(p, float), np.asarray(v, float)
     results = []
     for k in range(steps):
         t = k * PARAMS.dt
         others = NO_OTHERS if obstacles is None else obstacles(t + TIMES)
-        res = ctl.control(request(p, v, reference(t, p), others, radii))
+        res = ctl.control(request(p, v, reference(t, p), others, radii, margins))
         if check is not None:
             check(t, ctl, res)
         results.append(res)
@@ -318,11 +319,13 @@ def test_never_closes_in_on_a_robot_coming_head_on(offset):
                 obstacles=lambda t: other(t)[None], radii=[ROBOT.radius], check=check)
 
 
-def test_stops_behind_a_robot_standing_in_the_corridor():
-    """Inside the single-file corridor there is no way round: at full speed, it must stop in time."""
+@pytest.mark.parametrize("margin", [None, 0.031, 0.1])
+def test_stops_behind_a_robot_standing_in_the_corridor(margin):
+    """Inside the single-file corridor there is no way round: at full speed, it must stop in time,
+    as close as the request's margin allows (the controller's own without one)."""
     ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
     standing = np.array([0.0, 0.0])
-    need = 2 * ROBOT.radius + PARAMS.safety_margin
+    need = 2 * ROBOT.radius + (PARAMS.safety_margin if margin is None else margin)
 
     states = []
 
@@ -333,7 +336,8 @@ def test_stops_behind_a_robot_standing_in_the_corridor():
         states.append((np.linalg.norm(res.next_velocity), np.linalg.norm(res.next_position - standing)))
 
     closed_loop(ctl, [-2.5, 0.0], [0.97, 0.0], 40, lambda t, p: p + TIMES[:, None] * [1.0, 0.0],
-                obstacles=lambda t: np.tile(standing, (1, 8, 1)), radii=[ROBOT.radius], check=check)
+                obstacles=lambda t: np.tile(standing, (1, 8, 1)), radii=[ROBOT.radius], check=check,
+                margins=None if margin is None else [margin])
     speed, gap = states[-1]
     assert speed < 0.01 and gap < need + 0.01           # stopped, close behind
 
@@ -541,6 +545,10 @@ def test_malformed_requests_raise():
         ctl.control(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2)), others=np.zeros((1, 8, 2)), radii=[]))
     with pytest.raises(ValueError):
         ctl.control(replace(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2))), firm=np.array([True])))
+    for margins in ([0.02, 0.02], [-0.01], [np.nan]):  # one clearance >= 0 per prediction
+        with pytest.raises(ValueError):
+            ctl.control(request([-5.0, 0.0], [0.0, 0.0], np.zeros((8, 2)), others=np.full((1, 8, 2), 3.0),
+                                radii=[0.2], margins=margins))
     with pytest.raises(ValueError):
         BSplineMPC(WORLD, ROBOT, MPCParams(dt=1.0, horizon=0.8))
 

@@ -5,7 +5,13 @@ import numpy as np
 import pytest
 
 from nodnav.control.braking import braking_profile
-from nodnav.control.mutual_braking import BrakingPartners, braking_deviation, braking_slack, takes_weak_check
+from nodnav.control.mutual_braking import (
+    BrakingPartners,
+    braking_deviation,
+    braking_slack,
+    restart_gap,
+    takes_weak_check,
+)
 
 
 def _after_step(p, v, accel, dt):
@@ -237,3 +243,24 @@ def test_the_invariant_holds_in_a_random_crowd_by_each_convention():
             assert _crowd_run(convention, rng) >= -1e-9
     rng = np.random.default_rng(3)
     assert min(_crowd_run(3, rng, checked=False) for _ in range(3)) < -0.01
+
+
+def test_restart_gap_by_hand_and_against_the_strong_check():
+    """1.5 a dt^2 plus the check's allowance between samples (a dt times half its 0.01 s spacing),
+    1.55 a dt^2 at the larger deceleration (0.031 m at 2 m/s^2 and 0.1 s); at rest, robot 0
+    holding still passes the strong check towards robot 1 just beyond that gap and fails just
+    inside it, whichever of the two brakes harder."""
+    assert restart_gap(2.0, 2.0, 0.1) == pytest.approx(0.031)
+    assert restart_gap(0.5, np.array([2.0, 0.2]), 0.1) == pytest.approx([0.031, 0.00775])
+    for a_i, a_j in ((2.0, 2.0), (0.4, 2.9), (2.9, 0.4)):
+        gap = float(restart_gap(a_i, a_j, 0.1))
+        for extra, passes in ((1e-6, True), (-1e-3, False)):
+            partners = _partners([0.4 + gap + extra, 0.0], [0.0, 0.0], True, a=a_j, a_i=a_i)
+            # The strong check bounds robot 1's deviation with its own deceleration a_j: 1.5 a_j
+            # dt^2, less at most a_j dt times half the samples' spacing (0.01 s at most).
+            slack = _slack([0.0, 0.0], [0.0, 0.0], partners)
+            assert gap + extra - 1.55 * a_j * 0.01 - 1e-12 <= slack <= gap + extra - 1.5 * a_j * 0.01 + 1e-12
+            if passes:
+                assert slack >= 0.0  # the gap lets either start again, whichever brakes harder
+            elif a_j >= a_i:
+                assert slack < 0.0  # and is no larger than the harder braker needs

@@ -46,8 +46,8 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     # Into buffers full of garbage (NaN), as a problem's scratch state is between steps: every entry is written.
     state = [np.full_like(a, np.nan) if a.dtype == float else np.ones_like(a) for a in prob.state]
     scalars = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends,
-                         prob.intervals, WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii, margin, eps0,
-                         reach, tol, static, prob.eps_end, *state)
+                         prob.intervals, WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii,
+                         np.full(3, margin), eps0, reach, tol, static, prob.eps_end, *state)
     out = (*state, *scalars)
     m_w = prob.n_walls
     full = np.concatenate([np.full(m_w, r), r + radii + margin])

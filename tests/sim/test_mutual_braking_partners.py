@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from nodnav.api import load_scenario
-from nodnav.control.mutual_braking import CONVENTIONS
+from nodnav.control.mutual_braking import CONVENTIONS, RESTART_HEADROOM
 from nodnav.sim.methods import make_team
 from nodnav.sim.simulator import trial_generators
 
@@ -56,3 +56,25 @@ def test_stopping_reads_every_robots_own_deceleration():
     assert CONVENTIONS[partners.convention] == "stopping"
     assert partners.decels.tolist() == [r.max_accel for r in scenario.robots] and partners.decels[2] == 0.5
     assert partners.dt == scenario.controller.dt
+
+
+def test_margins_keep_the_restart_gap_from_robots_that_keep_the_rule():
+    """From a robot that keeps the rule: 1.55 max(a_i, a_j) dt^2 (the restart gap) plus the check
+    headroom (1e-4 m) where that exceeds the safety margin (0.0311 m at 2 m/s^2 and 0.1 s); from a person,
+    or with the setting off or without mutual braking, the safety margin alone."""
+    overrides = {"robots[2].max_accel": 0.5, "robots[3].method": "person"}
+    scenario = load_scenario("4r-case1", overrides)
+    rngs, _ = trial_generators(0, scenario.n_robots)
+    nod = make_team(scenario, "nod", rngs).members["nod"]
+    safety, tol = scenario.controller.safety_margin, RESTART_HEADROOM
+    # Robot 2 (0.5 m/s^2) towards robots 0, 1 (2 m/s^2, the larger) and 3 (a person): three predictions each.
+    margins = nod._margins_of(2).reshape(3, -1)
+    np.testing.assert_allclose(margins, np.tile([0.031 + tol, 0.031 + tol, safety], (3, 1)))
+    # Robot 0 towards 1 (2 m/s^2), 2 (0.5 m/s^2: the gap of the harder braker, robot 0) and 3.
+    np.testing.assert_allclose(nod._margins_of(0).reshape(3, -1), np.tile([0.031 + tol, 0.031 + tol, safety], (3, 1)))
+    slow = load_scenario("4r-case1", {f"robots[{i}].max_accel": 0.5 for i in range(4)})
+    # 1.55 * 0.5 * 0.01 = 0.00775 m: below the safety margin, which is kept (the controller's own).
+    assert make_team(slow, "nod", rngs)._margins_of(0) is None
+    for off in ({"execution.restart_gap": False}, {"execution.mutual_braking": "none"}):
+        plain = load_scenario("4r-case1", off)
+        assert make_team(plain, "nod", trial_generators(0, 4)[0])._margins_of(0) is None

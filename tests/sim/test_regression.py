@@ -65,6 +65,8 @@ CASES = [
     ("committed-tail-into-a-stopped-robot.yaml", (182,)),
     ("braking-off-the-committed-trajectory.yaml", (189,)),
     ("slow-braker-among-hard-brakers-inside.yaml", (115,)),
+    ("knot-at-the-mouth-one-player.yaml", (35, 61, 98, 99, 197)),
+    ("knot-at-the-mouth-skipping.yaml", (4, 19)),
 ]
 
 

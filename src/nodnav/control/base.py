@@ -39,6 +39,9 @@ class ControlRequest:
     braking: BrakingPartners | None = None
     """The robots whose braking trajectories the robot's own braking from its next step must keep
     clear of (:mod:`nodnav.control.mutual_braking`); ``None``: no such check."""
+    margins: np.ndarray | None = None
+    """Clearance beyond contact to keep from each prediction ``(m,)`` (m); ``None``: the
+    controller's own ``safety_margin`` from every one. A controller that keeps no margin may ignore it."""
 
 
 @dataclass(frozen=True)

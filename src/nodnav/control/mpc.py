@@ -157,11 +157,11 @@ class BSplineMPC:
         malformed request (shapes, non-finite values, sample times outside ``(0, horizon]``).
         """
         start = time.perf_counter()
-        p0, v0, ref, times, others, other_radii, firm = self._validated(request)
+        p0, v0, ref, times, others, other_radii, firm, margins = self._validated(request)
         if self._grid is not None:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
-        data = self._step_data(prob, p0, v0, ref, others, other_radii)
+        data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
         effort = SolverEffort(starts=self._starts)
         committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
@@ -365,7 +365,13 @@ class BSplineMPC:
         firm = np.zeros(len(radii), dtype=bool) if request.firm is None else np.asarray(request.firm, dtype=bool)
         if firm.shape != radii.shape:
             raise ValueError(f"firm must have one flag per prediction {radii.shape}, got {firm.shape}")
-        return p0, v0, ref, times, others, radii, firm
+        if request.margins is None:
+            margins = np.full(len(radii), self.params.safety_margin)
+        else:
+            margins = np.asarray(request.margins, dtype=float).reshape(-1)
+            if margins.shape != radii.shape or not np.all(margins >= 0.0):  # NaN fails too
+                raise ValueError(f"margins must be one clearance >= 0 per prediction {radii.shape}, got {margins}")
+        return p0, v0, ref, times, others, radii, firm, margins
 
     def wall_reach(self, v0: np.ndarray) -> float:
         """How far (m) from its position a wall can matter to this step: a plan's positions
@@ -410,7 +416,7 @@ class BSplineMPC:
         self._last_problem = (exact, prob)
         return prob
 
-    def _step_data(self, prob: MPCProblem, p0, v0, ref, others, other_radii) -> StepData:
+    def _step_data(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins=None) -> StepData:
         """Predictions at the interval ends and what must be kept from every robot and wall.
 
         Between two interval ends where the distance is at least ``R'`` the chord stays at least
@@ -422,6 +428,8 @@ class BSplineMPC:
         """
         robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
         r = robot.radius
+        if margins is None:
+            margins = np.full(len(other_radii), self.params.safety_margin)
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         static = prob.static_lower_base(v0)
         # The robot's own displacement over an interval: at most its reachable speed times it.
@@ -429,7 +437,7 @@ class BSplineMPC:
         x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = state
         need_clear, clear_now, overlap = step_state(
             pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends, prob.intervals,
-            self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii, self.params.safety_margin,
+            self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii, margins,
             prob.eps[0], self._reach, self.settings.contact_tolerance, static, prob.eps_end, *state)
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:

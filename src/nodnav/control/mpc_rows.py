@@ -286,10 +286,10 @@ def all_finite(p0, v0, ref, others, radii):
 
 @compiled
 def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
-               other_radii, margin, eps0, reach, contact_tolerance, static, eps_end, x_now, away, dist_now, need,
+               other_radii, margins, eps0, reach, contact_tolerance, static, eps_end, x_now, away, dist_now, need,
                delta_sq, far, full, contact, gap, need_box, box_low, box_high):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
-    (``radius`` from a wall, ``radius + r_j + margin`` from another robot) and ``contact``
+    (``radius`` from a wall, ``radius + r_j + margins[j]`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
     interval end (``min(max_speed, now + max_accel * ends)``), and the box: the distances ``gap``
     to the ``bounds`` ``(x0, y0, x1, y1)``, the clearance kept from each (``min(radius, gap -
@@ -306,7 +306,7 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     for g in range(n_walls):
         full[g], contact[g] = radius, 1e-12
     for j in range(other_radii.shape[0]):
-        full[n_walls + j] = radius + other_radii[j] + margin
+        full[n_walls + j] = radius + other_radii[j] + margins[j]
         contact[n_walls + j] = radius + other_radii[j]
     speed = np.empty(ends.shape[0])
     for e in range(ends.shape[0]):

@@ -118,6 +118,29 @@ def braking_deviation(speed: np.ndarray | float, decel: np.ndarray | float, dt: 
     return dp + dv * np.minimum(np.asarray(elapsed, dtype=float), (speed + decel * dt) / decel)
 
 
+RESTART_HEADROOM = 1e-4
+"""What a robot keeps beyond :func:`restart_gap` from a robot that keeps the rule (m): room for the
+rounding of the QP and of the exact checks (the MPC's ``check_tolerance`` by default), so that a
+plan that keeps the gap leaves the strong check's slack at least zero."""
+
+
+def restart_gap(decel_i: float, decels_j: np.ndarray | float, dt: float) -> np.ndarray:
+    """The gap beyond contact (m) from which either of two robots at rest passes the strong check
+    towards the other while holding still: :func:`braking_deviation` of the other at rest once
+    it has grown fully, ``1.5 a dt^2``, plus what the check subtracts between its samples
+    (``growth h / 2``, :func:`_pair_slack`), at the larger of the two decelerations (0.031 m at
+    2 m/s^2 and 0.1 s). Robots that park closer than this cannot start again towards each other,
+    and a knot of them, each the strong one towards a neighbour, cannot start at all
+    (docs/safety.md, "Parking where one can start again")."""
+    decel = np.maximum(float(decel_i), np.asarray(decels_j, dtype=float))
+    out = np.empty(decel.shape)
+    for k, a in np.ndenumerate(decel):
+        dp, growth = _deviation_terms(0.0, float(a), dt, True)
+        _, h = _sample_grid(0.0, 0.0, float(a), dt, True, SAMPLE_STEP, MAX_SAMPLES)
+        out[k] = dp + growth * dt + 0.5 * h * growth
+    return out
+
+
 def _step_deviation(speed, decel, dt):
     """``(dp, dv)`` of :func:`braking_deviation` (NumPy arrays or floats alike)."""
     sigma = np.minimum(dt, speed / decel)

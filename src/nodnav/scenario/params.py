@@ -234,11 +234,11 @@ class MPCParams(ControllerParams):
     evasive: bool = True
     """Whether a failed tracking QP is followed by the evasive QP (else the robot brakes at once,
     the controller's earlier behaviour, kept for comparison)."""
-    skip_unpassable: bool = False
+    skip_unpassable: bool = True
     """Whether the MPC brakes without solving where no plan can pass mutual braking
     (:func:`~nodnav.control.mpc_braking.no_plan_passes`): the same decision at that step, half the
-    QP time in crowds, but off by default: later trajectories differ, and 4r-case1 with one game
-    player deadlocked in 21 of 200 seeds with it against 5 without (docs/performance-9.md)."""
+    QP time in crowds. Later trajectories differ in their last bits (the QPs not solved leave no
+    warm start); off: every step solved (before 2026-11-27; docs/safety.md)."""
     local_walls: bool = True
     """On a map's world (hundreds of wall boxes), whether the controller's rows and checks hold
     only the walls within reach of the robot (horizon plus braking distance, refreshed as it
@@ -292,6 +292,13 @@ class ExecutionParams:
     opinion period gives two robots at rest holds while one starts (docs/mutual-braking-restart.md);
     ``none`` no check (before this setting; the paper has none). Towards a robot that does not
     keep the rule (another method, a person) there is no check."""
+    restart_gap: bool = True
+    """Whether a robot keeps, from every other robot that keeps the mutual braking rule, at least
+    the gap from which either can start again under the strong check (``restart_gap`` in
+    ``nodnav.control.mutual_braking``: ``1.5 a dt^2`` and the check's allowance, 0.031 m at
+    2 m/s^2, plus 1e-4 m) where that exceeds ``controller.safety_margin``: robots that parked at
+    the margin (0.02 m) knotted at a mouth and deadlocked (docs/safety.md). Off: the margin alone
+    (before this setting); no effect with ``mutual_braking: none`` (the paper's)."""
     surprise: float = field(default=5e-3, metadata=accepted(0.0, 1.0, False))
     """How far another robot must come at this one beyond where its velocity would have taken it
     in one control step to count as unexpected, and how far it must move in a step to count as

@@ -15,7 +15,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
-from nodnav.control.mutual_braking import CONVENTIONS, BrakingPartners
+from nodnav.control.mutual_braking import CONVENTIONS, RESTART_HEADROOM, BrakingPartners, restart_gap
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
@@ -171,6 +171,7 @@ class PlannedMethod:
         # Robots standing still take the weak check in turn, one opinion period each (the speed convention).
         self._turn_period = scenario.opinion.T
         self._radii = scenario.radii
+        self._margins: dict[int, tuple[bytes, np.ndarray | None]] = {}  # per robot: (keeps_rule's bytes, margins)
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
@@ -287,9 +288,9 @@ class PlannedMethod:
                 if cap < limit:
                     reference = slowed_reference(positions[i], reference, self.sample_times, cap)
             radii = self.reactions.radii(i, view, self._other_radii[i])
-            firm = self._firm
+            firm, margins = self._firm, self._margins_of(i)
             if view.age is not None or view.sigma is not None:
-                predictions, radii, firm = self._sensed(i, view, predictions, radii)
+                predictions, radii, firm, margins = self._sensed(i, view, predictions, radii, margins)
             if self._rest is not None and at_rest_and_clear(positions[i], velocities[i], reference,
                                                             predictions, radii, *self._rest[i]):
                 out[i] = self._stay(positions[i])
@@ -297,10 +298,29 @@ class PlannedMethod:
                 continue
             request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
                                      sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=firm, braking=self._partners(i, t, view))
+                                     other_radii=radii, firm=firm, braking=self._partners(i, t, view),
+                                     margins=margins)
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
+
+    def _margins_of(self, i: int) -> np.ndarray | None:
+        """The clearance robot ``i`` keeps from each of its predictions (``ControlRequest.margins``):
+        the safety margin, and from a robot that keeps the mutual braking rule as ``i`` does at
+        least the gap from which either can start again (``execution.restart_gap``); None (the
+        controller's margin) when that changes nothing."""
+        if self._convention < 0 or not self.scenario.execution.restart_gap or not self.keeps_rule[i]:
+            return None
+        stamp = self.keeps_rule.tobytes()  # a Team narrows keeps_rule after construction
+        cached = self._margins.get(i)
+        if cached is None or cached[0] != stamp:
+            others = self._others_array[i]
+            safety = self.scenario.controller.safety_margin
+            restart = restart_gap(self._accel[i], self._accel[others], self.dt) + RESTART_HEADROOM
+            margin = np.where(self.keeps_rule[others], np.maximum(safety, restart), safety)
+            # Once per prediction, as the radii; None where the safety margin holds throughout.
+            cached = self._margins[i] = (stamp, None if np.all(margin == safety) else np.tile(margin, 3))
+        return cached[1]
 
     def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:
         """What robot ``i``'s next step is checked against (``execution.mutual_braking``): every
@@ -319,8 +339,8 @@ class PlannedMethod:
                              planned_positions=np.tile(p, (len(self.sample_times), 1)),
                              step_positions=np.tile(p, (4, 1)), info={"fallback": "", "at_rest": True})
 
-    def _sensed(self, i: int, view: RobotView, predictions: np.ndarray,
-                radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _sensed(self, i: int, view: RobotView, predictions: np.ndarray, radii: np.ndarray,
+                margins: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """Robot ``i``'s predictions, radii and firm flags of the others under limited or noisy
         sight (:mod:`nodnav.sim.sensing`): a robot it does not know of is not predicted; one it
         remembers is held where it was last seen (its observed state holds it still) with its
@@ -343,7 +363,7 @@ class PlannedMethod:
             allowed = np.clip(np.minimum(growth, gap - self.scenario.execution.reaction_slack), 0.0, None)
             radii = radii + np.tile(allowed, 3)
         keep = np.tile(known, 3)
-        return predictions[keep], radii[keep], self._firm[keep]
+        return predictions[keep], radii[keep], self._firm[keep], None if margins is None else margins[keep]
 
 
 @register_method("nod", help="the paper: every robot runs Algorithm 1 (opinions, game players, planning per "

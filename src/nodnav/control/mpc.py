@@ -97,6 +97,10 @@ class BSplineMPC:
         self.obstacles = self.setup.obstacles
         self._walls = self._walls_around()
         self._valid_times = b""
+        # The margins of the last request, checked, and the safety margin once per prediction count:
+        # a method passes the same read-only array step after step (checked once).
+        self._valid_margins: np.ndarray | None = None
+        self._default_margins: dict[int, np.ndarray] = {}
         self._last_problem: tuple[tuple, MPCProblem] | None = None
         # Beyond this distance a wall cannot be reached within the horizon.
         self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
@@ -365,12 +369,16 @@ class BSplineMPC:
         firm = np.zeros(len(radii), dtype=bool) if request.firm is None else np.asarray(request.firm, dtype=bool)
         if firm.shape != radii.shape:
             raise ValueError(f"firm must have one flag per prediction {radii.shape}, got {firm.shape}")
-        if request.margins is None:
-            margins = np.full(len(radii), self.params.safety_margin)
-        else:
-            margins = np.asarray(request.margins, dtype=float).reshape(-1)
+        margins = request.margins
+        if margins is None:
+            margins = self._default_margins.get(len(radii))
+            if margins is None:
+                margins = self._default_margins[len(radii)] = np.full(len(radii), self.params.safety_margin)
+        elif margins is not self._valid_margins or margins.flags.writeable or margins.shape != radii.shape:
+            margins = np.asarray(margins, dtype=float).reshape(-1)
             if margins.shape != radii.shape or not np.all(margins >= 0.0):  # NaN fails too
                 raise ValueError(f"margins must be one clearance >= 0 per prediction {radii.shape}, got {margins}")
+            self._valid_margins = request.margins if isinstance(request.margins, np.ndarray) else None
         return p0, v0, ref, times, others, radii, firm, margins
 
     def wall_reach(self, v0: np.ndarray) -> float:

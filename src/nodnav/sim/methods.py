@@ -318,8 +318,12 @@ class PlannedMethod:
             safety = self.scenario.controller.safety_margin
             restart = restart_gap(self._accel[i], self._accel[others], self.dt) + RESTART_HEADROOM
             margin = np.where(self.keeps_rule[others], np.maximum(safety, restart), safety)
-            # Once per prediction, as the radii; None where the safety margin holds throughout.
-            cached = self._margins[i] = (stamp, None if np.all(margin == safety) else np.tile(margin, 3))
+            # Once per prediction, as the radii; None where the safety margin holds throughout. Read-only:
+            # the controller checks an array it has seen before only once.
+            tiled = None if np.all(margin == safety) else np.tile(margin, 3)
+            if tiled is not None:
+                tiled.setflags(write=False)
+            cached = self._margins[i] = (stamp, tiled)
         return cached[1]
 
     def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:

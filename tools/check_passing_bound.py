@@ -1,6 +1,6 @@
 """Check in closed loop that the MPC skips solving only where the full solve would refuse every plan.
 
-Runs trials with the decisions of the full solve (``controller.skip_unpassable`` off, the
+Runs trials with the decisions of the full solve (``controller.skip_unpassable`` off, not the
 default) and, at every control step with mutual braking, evaluates ``no_plan_passes`` on the
 same request: wherever it says no plan can pass, the full solve must have ended in a refused plan
 (braking or the committed trajectory), never in an accepted or evasive one. Exit code 1 if one did.

@@ -371,15 +371,20 @@ class BSplineMPC:
             raise ValueError(f"firm must have one flag per prediction {radii.shape}, got {firm.shape}")
         margins = request.margins
         if margins is None:
-            margins = self._default_margins.get(len(radii))
-            if margins is None:
-                margins = self._default_margins[len(radii)] = np.full(len(radii), self.params.safety_margin)
+            margins = self._safety_margins(len(radii))
         elif margins is not self._valid_margins or margins.flags.writeable or margins.shape != radii.shape:
             margins = np.asarray(margins, dtype=float).reshape(-1)
             if margins.shape != radii.shape or not np.all(margins >= 0.0):  # NaN fails too
                 raise ValueError(f"margins must be one clearance >= 0 per prediction {radii.shape}, got {margins}")
             self._valid_margins = request.margins if isinstance(request.margins, np.ndarray) else None
         return p0, v0, ref, times, others, radii, firm, margins
+
+    def _safety_margins(self, n: int) -> np.ndarray:
+        """The controller's own ``safety_margin`` once for each of ``n`` predictions (kept per ``n``)."""
+        margins = self._default_margins.get(n)
+        if margins is None:
+            margins = self._default_margins[n] = np.full(n, self.params.safety_margin)
+        return margins
 
     def wall_reach(self, v0: np.ndarray) -> float:
         """How far (m) from its position a wall can matter to this step: a plan's positions
@@ -437,7 +442,7 @@ class BSplineMPC:
         robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
         r = robot.radius
         if margins is None:
-            margins = np.full(len(other_radii), self.params.safety_margin)
+            margins = self._safety_margins(len(other_radii))
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
         static = prob.static_lower_base(v0)
         # The robot's own displacement over an interval: at most its reachable speed times it.

@@ -172,6 +172,7 @@ class PlannedMethod:
         self._turn_period = scenario.opinion.T
         self._radii = scenario.radii
         self._margins: dict[int, tuple[bytes, np.ndarray | None]] = {}  # per robot: (keeps_rule's bytes, margins)
+        self._restart_gap = self._convention >= 0 and ex.restart_gap  # read at every step: once here
         # execution.skip_at_rest: per robot (its radius plus the safety margin, the clearance, the tolerance).
         self._rest = None if not ex.skip_at_rest else [
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
@@ -309,7 +310,7 @@ class PlannedMethod:
         the safety margin, and from a robot that keeps the mutual braking rule as ``i`` does at
         least the gap from which either can start again (``execution.restart_gap``); None (the
         controller's margin) when that changes nothing."""
-        if self._convention < 0 or not self.scenario.execution.restart_gap or not self.keeps_rule[i]:
+        if not self._restart_gap or not self.keeps_rule[i]:
             return None
         stamp = self.keeps_rule.tobytes()  # a Team narrows keeps_rule after construction
         cached = self._margins.get(i)

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 #: (scenario, seed, method, overrides): the paper's scenarios with every robot a game player and
-#: with one, every method once, the PRM* planner on a small roadmap, and a drawn scenario.
+#: with one, every method once, the PRM* planner on a small roadmap, a drawn scenario, a trial
+#: that deadlocks (no game players: the evasive fallback at most steps) and eight robots.
 TRIALS = (
     [(s, seed, "nod", {}) for s in ("2r-case1", "3r-case4", "4r-case2") for seed in (1, 2, 3)]
     + [(s, seed, "nod", {"game_players": 1}) for s in ("3r-case4", "4r-case2") for seed in (1, 2, 3)]
@@ -27,6 +28,7 @@ TRIALS = (
                        "planner.cache_dir": "/tmp/nodnav-same-histories-cache"})
        for s, v in (("2r-case1", 300), ("2r-case1", 600), ("3r-case4", 500))]
     + [("mixed:5", 5, "nod", {})]
+    + [("4r-case3", 1, "nod", {"game_players": 0}), ("8r-head-on", 1, "nod", {"game_players": 2})]
 )
 
 

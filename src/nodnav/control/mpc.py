@@ -76,6 +76,14 @@ def _apart(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.hypot(a[0] - b[0], a[1] - b[1]) > 1e-6)
 
 
+def _floats(x, shape: tuple[int]) -> np.ndarray:
+    """``np.asarray(x, dtype=float).reshape(shape)``, ``x`` itself where it is already that (a
+    method's arrays, as a rule: the conversion's cost is most of a request's validation)."""
+    if type(x) is np.ndarray and x.dtype == np.float64 and x.ndim == 1 and (shape[0] < 0 or x.shape == shape):
+        return x
+    return np.asarray(x, dtype=float).reshape(shape)
+
+
 @register_controller("mpc")
 class BSplineMPC:
     """Cubic B-spline MPC (paper appendix) for one robot; keeps the previous plan between steps."""
@@ -347,12 +355,11 @@ class BSplineMPC:
         return best, best_post, why, conflict
 
     def _validated(self, request: ControlRequest):
-        p0 = np.asarray(request.position, dtype=float).reshape(2)
-        v0 = np.asarray(request.velocity, dtype=float).reshape(2)
-        times = np.asarray(request.sample_times, dtype=float).reshape(-1)
+        p0, v0 = _floats(request.position, (2,)), _floats(request.velocity, (2,))
+        times = _floats(request.sample_times, (-1,))
         ref = np.asarray(request.reference, dtype=float)
         k = len(times)
-        radii = np.asarray(request.other_radii, dtype=float).reshape(-1)
+        radii = _floats(request.other_radii, (-1,))
         others = np.asarray(request.others, dtype=float)
         if others.size == 0:
             others = np.zeros((0, k, 2))

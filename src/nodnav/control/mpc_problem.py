@@ -37,6 +37,7 @@ from nodnav.control.mpc_plan import plan_after_qp
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
+    gradient_into,
     plan_check,
     polygon_normals,
     step_rows,
@@ -324,6 +325,12 @@ class MPCProblem:
     def gradient(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
         """Gradient at ``z = 0`` of the tracking cost, ``[g_x, g_y]`` with ``g_d = 2 (v0_d q_line - W ref_d)``
         (the Hessian is :attr:`hessian`)."""
+        out = np.empty(2 * len(self.q_line))
+        gradient_into(self.q_line, v0, self.ref_weights @ ref_local, out)
+        return out
+
+    def gradient_plain(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
+        """:meth:`gradient` in NumPy, the reference its compiled loop is tested against."""
         return (2.0 * (self.q_line[:, None] * v0 - self.ref_weights @ ref_local)).T.ravel()
 
     def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:

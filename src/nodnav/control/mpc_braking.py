@@ -54,20 +54,36 @@ class WallsAround(NamedTuple):
         return tail_clearance(position, velocity, self.max_accel, self.obstacles, self.pieces, self.bounds)
 
 
+class StraightCheck(NamedTuple):
+    """:func:`_straight_slack_kernel`'s answer, made where the plan was checked
+    (:meth:`~nodnav.control.mpc_problem.MPCProblem.checked_plan_braking`)."""
+
+    straight: bool
+    """Whether straight braking stops clear of the walls (then it is the fallback)."""
+    worst: int
+    """The index of the smallest slack (-1: none, or not computed)."""
+    slack: np.ndarray
+    """Every robot's slack ``(N,)`` (m), where ``straight``."""
+
+
 def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
-                      committed_trajectory: Callable[[], Committed], max_speed: float) -> str:
+                      committed_trajectory: Callable[[], Committed], max_speed: float,
+                      checked: StraightCheck | None = None) -> str:
     """Why the robot's fallback from a plan's next state fails the mutual braking check
     (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
     what the next step does if it finds no plan: straight braking where that stops clear of the
     walls, else the plan's committed trajectory (read from one step on; made by
     ``committed_trajectory`` only then), moving at most ``max_speed``."""
     position, velocity = next_state
-    out = np.empty(len(partners.positions))
-    straight, j = _straight_slack_kernel(position, velocity, walls.max_accel, walls.obstacles, walls.pieces,
-                                         walls.bounds, walls.radius - walls.tolerance, partners.robot,
-                                         partners.positions, partners.velocities, partners.decels, partners.radii,
-                                         partners.keeps_rule, partners.seen, int(partners.turn), partners.convention,
-                                         float(partners.dt), SAMPLE_STEP, MAX_SAMPLES, out)
+    if checked is None:
+        out = np.empty(len(partners.positions))
+        straight, j = _straight_slack_kernel(position, velocity, walls.max_accel, walls.obstacles, walls.pieces,
+                                             walls.bounds, walls.radius - walls.tolerance, partners.robot,
+                                             partners.positions, partners.velocities, partners.decels,
+                                             partners.radii, partners.keeps_rule, partners.seen, int(partners.turn),
+                                             partners.convention, float(partners.dt), SAMPLE_STEP, MAX_SAMPLES, out)
+    else:
+        straight, j, out = checked
     if straight:  # the usual case: straight braking stops clear of the walls, checked in the same call
         if j < 0 or out[j] >= 0.0:
             return ""

@@ -75,8 +75,8 @@ def test_checked_plan_braking_is_checked_plan_then_fallback_conflict():
         n = 3
         partners = BrakingPartners(robot=0, positions=np.vstack([p0, others[:, 0]]),
                                    velocities=np.vstack([v0, rng.normal(0.0, 0.5, (2, 2))]), decels=np.full(n, 2.0),
-                                   radii=np.full(n, 0.2), keeps_rule=np.ones(n, dtype=bool), seen=np.ones(n, dtype=bool),
-                                   turn=0, convention=0, dt=0.1)
+                                   radii=np.full(n, 0.2), keeps_rule=np.ones(n, dtype=bool),
+                                   seen=np.ones(n, dtype=bool), turn=0, convention=0, dt=0.1)
         z = rng.normal(0.0, 0.05, 2 * prob.free_map.shape[1])
         c, post, why, checked = prob.checked_plan_braking(data, z, partners, ctl._walls)
         c_ref, post_ref, why_ref = prob.checked_plan(data, z, separation=True)

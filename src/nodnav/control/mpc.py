@@ -44,9 +44,11 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
-from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_braking import StraightCheck, WallsAround, fallback_conflict, no_plan_passes
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
+from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
+from nodnav.control.mutual_braking import BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.shared_setups import SharedSetups
 from nodnav.registry import register_controller
@@ -61,19 +63,6 @@ LOCAL_SLACK = 1.0
 set holds every wall within its reach plus this, so it serves until the robot has moved this far
 (at 0.4 m/s, about every 25 control steps)."""
 
-
-
-def _apart(a: np.ndarray, b: np.ndarray) -> bool:
-    """``np.hypot(*(a - b)) > 1e-6`` for two points ``(2,)``, deciding without the hypot where
-    the coordinates' differences alone do, with room to spare for rounding (``max(|dx|, |dy|)
-    <= hypot <= |dx| + |dy|``): as a rule the robot is exactly where the last step said (both
-    differences zero)."""
-    dx, dy = abs(float(a[0]) - float(b[0])), abs(float(a[1]) - float(b[1]))
-    if dx > 2e-6 or dy > 2e-6:
-        return True
-    if dx + dy <= 0.5e-6:
-        return False
-    return bool(np.hypot(a[0] - b[0], a[1] - b[1]) > 1e-6)
 
 
 @register_controller("mpc")
@@ -189,8 +178,8 @@ class BSplineMPC:
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
         else:
-            best, post, why, conflict = self._track(prob, data, lin, cold, effort)
-            unsafe = "" if best is None else self._braking_conflict(request, post, best, prob)
+            best, post, why, conflict, checked = self._track(prob, data, lin, cold, effort, request.braking)
+            unsafe = "" if best is None else self._braking_conflict(request, post, best, prob, checked)
             if best is not None and not unsafe:
                 self._accept(best, prob, post)
                 return self._result(True, "", post, data, start, {"fallback": "", **effort.as_info()})
@@ -240,11 +229,12 @@ class BSplineMPC:
         return WallsAround(self.obstacles, self.setup.pieces, self.setup.world_bounds, self.robot.radius,
                            self.robot.max_accel, self.settings.check_tolerance)
 
-    def _braking_conflict(self, request: ControlRequest, post: tuple, c: np.ndarray, prob: MPCProblem) -> str:
+    def _braking_conflict(self, request: ControlRequest, post: tuple, c: np.ndarray, prob: MPCProblem,
+                          checked: StraightCheck | None = None) -> str:
         """Why the robot's fallback from the plan ``c``'s next state (``post``:
         :meth:`MPCProblem.evaluate`) fails the mutual braking check towards a robot of
-        ``request.braking`` (:func:`~nodnav.control.mpc_braking.fallback_conflict`); "" when it
-        passes or there is none."""
+        ``request.braking`` (:func:`~nodnav.control.mpc_braking.fallback_conflict`; ``checked``:
+        its straight braking's part, made with the plan's check); "" when it passes or there is none."""
         if request.braking is None:
             return ""
         end = post[1]
@@ -253,7 +243,7 @@ class BSplineMPC:
             return Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
                              end_velocity=end[1], decel=prob.tail_decel, elapsed=self.dt)
 
-        return fallback_conflict(request.braking, self._walls, post[2][:2], committed, self.robot.max_speed)
+        return fallback_conflict(request.braking, self._walls, post[2][:2], committed, self.robot.max_speed, checked)
 
     def _accept(self, c: np.ndarray, prob: MPCProblem, post: tuple) -> None:
         """Make the plan ``c`` (its braking tail checked clear; ``post``: its values,
@@ -272,7 +262,7 @@ class BSplineMPC:
         c.elapsed += self.dt
         # Where the last step said the robot would be (the committed trajectory one step on).
         at, vel = self._expected
-        if _apart(at, p0) or _apart(vel, v0):
+        if apart(at, p0) or apart(vel, v0):
             self._committed = None
             return None
         return c
@@ -316,13 +306,16 @@ class BSplineMPC:
             step_positions=post[3],
         )
 
-    def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort):
+    def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort,
+               partners: BrakingPartners | None = None):
         """The tracking QP (re-linearised once more after a cold start if the solution moved far).
 
-        Returns (control points or None, why not, the other robots involved in the failure: those
-        owning rows of an infeasibility certificate (:func:`infeasibility_certificate`), else all).
+        Returns (control points or None, their values (:meth:`MPCProblem.evaluate`), why not, the
+        other robots involved in the failure: those owning rows of an infeasibility certificate
+        (:func:`infeasibility_certificate`), else all; the mutual braking check's straight part
+        towards ``partners``, made with the plan's check, or None without partners).
         """
-        best, best_post, why, conflict = None, None, "", np.arange(prob.n_others)
+        best, best_post, why, conflict, best_checked = None, None, "", np.arange(prob.n_others), None
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = prob.write_separation(data, lin, cold, data.need)
@@ -334,25 +327,28 @@ class BSplineMPC:
                 if certified is not None and certified.size:
                     conflict = certified
                 break
-            c, post, why = prob.checked_plan(data, sol.x, separation=True)
+            if partners is None:
+                c, post, why = prob.checked_plan(data, sol.x, separation=True)
+                checked = None
+            else:
+                c, post, why, checked = prob.checked_plan_braking(data, sol.x, partners, self._walls)
             if why:
                 break
-            best, best_post = c, post
+            best, best_post, best_checked = c, post, checked
             if not cold:
                 break
             moved = prob.b_ends @ c
             if np.max(np.hypot(*(moved - lin).T)) <= self.settings.sqp_tolerance:
                 break
             lin, cold = moved, False
-        return best, best_post, why, conflict
+        return best, best_post, why, conflict, best_checked
 
     def _validated(self, request: ControlRequest):
-        p0 = np.asarray(request.position, dtype=float).reshape(2)
-        v0 = np.asarray(request.velocity, dtype=float).reshape(2)
-        times = np.asarray(request.sample_times, dtype=float).reshape(-1)
+        p0, v0 = floats(request.position, (2,)), floats(request.velocity, (2,))
+        times = floats(request.sample_times, (-1,))
         ref = np.asarray(request.reference, dtype=float)
         k = len(times)
-        radii = np.asarray(request.other_radii, dtype=float).reshape(-1)
+        radii = floats(request.other_radii, (-1,))
         others = np.asarray(request.others, dtype=float)
         if others.size == 0:
             others = np.zeros((0, k, 2))

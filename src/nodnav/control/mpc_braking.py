@@ -16,8 +16,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-from nodnav.control.braking import Committed, braking_profile, tail_clearance
-from nodnav.control.mutual_braking import SAMPLE_STEP, BrakingPartners, braking_deviation, braking_slack, passing_bound
+from nodnav.compiled import compiled
+from nodnav.control.braking import Committed, _tail_clearance_kernel, braking_profile, tail_clearance
+from nodnav.control.mutual_braking import (
+    MAX_SAMPLES,
+    SAMPLE_STEP,
+    BrakingPartners,
+    _slack_kernel,
+    braking_deviation,
+    braking_slack,
+    passing_bound,
+)
 
 BOUND_TOLERANCE = 1e-9
 """How far below zero (m) :func:`passing_bound` must be before the MPC skips solving: rounding
@@ -45,14 +54,41 @@ class WallsAround(NamedTuple):
         return tail_clearance(position, velocity, self.max_accel, self.obstacles, self.pieces, self.bounds)
 
 
+class StraightCheck(NamedTuple):
+    """:func:`_straight_slack_kernel`'s answer, made where the plan was checked
+    (:meth:`~nodnav.control.mpc_problem.MPCProblem.checked_plan_braking`)."""
+
+    straight: bool
+    """Whether straight braking stops clear of the walls (then it is the fallback)."""
+    worst: int
+    """The index of the smallest slack (-1: none, or not computed)."""
+    slack: np.ndarray
+    """Every robot's slack ``(N,)`` (m), where ``straight``."""
+
+
 def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
-                      committed_trajectory: Callable[[], Committed], max_speed: float) -> str:
+                      committed_trajectory: Callable[[], Committed], max_speed: float,
+                      checked: StraightCheck | None = None) -> str:
     """Why the robot's fallback from a plan's next state fails the mutual braking check
     (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
     what the next step does if it finds no plan: straight braking where that stops clear of the
     walls, else the plan's committed trajectory (read from one step on; made by
     ``committed_trajectory`` only then), moving at most ``max_speed``."""
     position, velocity = next_state
+    if checked is None:
+        out = np.empty(len(partners.positions))
+        straight, j = _straight_slack_kernel(position, velocity, walls.max_accel, walls.obstacles, walls.pieces,
+                                             walls.bounds, walls.radius - walls.tolerance, partners.robot,
+                                             partners.positions, partners.velocities, partners.decels,
+                                             partners.radii, partners.keeps_rule, partners.seen, int(partners.turn),
+                                             partners.convention, float(partners.dt), SAMPLE_STEP, MAX_SAMPLES, out)
+    else:
+        straight, j, out = checked
+    if straight:  # the usual case: straight braking stops clear of the walls, checked in the same call
+        if j < 0 or out[j] >= 0.0:
+            return ""
+        return (f"its braking from its next step would come {-out[j]:.3f} m too close to robot {j}'s braking "
+                "trajectory (mutual braking)")
     fallback = None
     if walls.braking_clearance(position, velocity) < walls.radius - walls.tolerance:
         committed = committed_trajectory()
@@ -66,6 +102,20 @@ def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state:
     kind = "braking" if fallback is None else "committed trajectory"
     return (f"its {kind} from its next step would come {-slack[j]:.3f} m too close to robot {j}'s braking "
             "trajectory (mutual braking)")
+
+
+@compiled
+def _straight_slack_kernel(p, v, decel, boxes, pieces, bounds, limit, i, positions, velocities, decels, radii, keeps,
+                           seen, turn, convention, dt, step, max_samples, out):
+    """:meth:`WallsAround.braking_clearance` of ``(p, v)`` and, where it is at least ``limit`` (the
+    fallback is straight braking), :func:`~nodnav.control.mutual_braking.braking_slack` of it into
+    ``out`` in the same call (the same operations): whether straight braking is the fallback, and
+    the index of the smallest slack (-1: none, or not computed)."""
+    if _tail_clearance_kernel(p, v, decel, boxes, pieces, bounds) < limit:
+        return False, -1
+    own = np.zeros((0, 2))
+    return True, _slack_kernel(i, p, v, own, 0.0, 0.0, positions, velocities, decels, radii, keeps, seen, turn,
+                               convention, dt, step, max_samples, out)
 
 
 def no_plan_passes(partners: BrakingPartners, walls: WallsAround, p0: np.ndarray, v0: np.ndarray,

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.compiled import compiled
+from nodnav.control.mpc_braking import _straight_slack_kernel
 from nodnav.control.mpc_rows import plan_check
 
 
@@ -53,3 +54,21 @@ def plan_after_qp(z, p0, v0, greville, free_map, b_post, n_check_rates, n_points
     plan_values_into(z, p0, v0, greville, free_map, b_post, c, post)
     return plan_check(post[:n_check_rates], n_points, n_speed, boxes, pieces, bounds, preds, need_others,
                       post[n_check_rates:n_check_rates + 2], tail_decel)
+
+
+@compiled
+def plan_after_qp_braking(z, p0, v0, greville, free_map, b_post, n_check_rates, n_points, n_speed, boxes, pieces,
+                          bounds, preds, need_others, tail_decel, c, post, next_row, decel, limit, i, positions,
+                          velocities, decels, radii, keeps, seen, turn, convention, dt, step, max_samples, out):
+    """:func:`plan_after_qp`, then the mutual braking check's usual case for the plan's next state
+    (``post[next_row]``, ``post[next_row + 1]``: position and velocity), as
+    :func:`~nodnav.control.mpc_braking.fallback_conflict` makes it
+    (:func:`~nodnav.control.mpc_braking._straight_slack_kernel`, slacks into ``out``): the plan
+    check's six values, whether straight braking is the fallback and the smallest slack's index."""
+    clear, short, worst, fastest, hardest, tail = plan_after_qp(
+        z, p0, v0, greville, free_map, b_post, n_check_rates, n_points, n_speed, boxes, pieces, bounds, preds,
+        need_others, tail_decel, c, post)
+    straight, j = _straight_slack_kernel(post[next_row], post[next_row + 1], decel, boxes, pieces, bounds, limit, i,
+                                         positions, velocities, decels, radii, keeps, seen, turn, convention, dt,
+                                         step, max_samples, out)
+    return clear, short, worst, fastest, hardest, tail, straight, j

@@ -33,15 +33,18 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
-from nodnav.control.mpc_plan import plan_after_qp
+from nodnav.control.mpc_braking import StraightCheck, WallsAround
+from nodnav.control.mpc_plan import plan_after_qp, plan_after_qp_braking
 from nodnav.control.mpc_rows import (
     chord_inflation,
     constraint_grid,
+    gradient_into,
     plan_check,
     polygon_normals,
     step_rows,
     stopping_rows,
 )
+from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.step_data import StepData
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -324,6 +327,12 @@ class MPCProblem:
     def gradient(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
         """Gradient at ``z = 0`` of the tracking cost, ``[g_x, g_y]`` with ``g_d = 2 (v0_d q_line - W ref_d)``
         (the Hessian is :attr:`hessian`)."""
+        out = np.empty(2 * len(self.q_line))
+        gradient_into(self.q_line, v0, self.ref_weights @ ref_local, out)
+        return out
+
+    def gradient_plain(self, v0: np.ndarray, ref_local: np.ndarray) -> np.ndarray:
+        """:meth:`gradient` in NumPy, the reference its compiled loop is tested against."""
         return (2.0 * (self.q_line[:, None] * v0 - self.ref_weights @ ref_local)).T.ravel()
 
     def static_lower(self, p0: np.ndarray, v0: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> np.ndarray:
@@ -419,6 +428,25 @@ class MPCProblem:
             setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
             data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0, c, post)
         return c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, separation, *checks)
+
+    def checked_plan_braking(self, data: StepData, z: np.ndarray, partners: BrakingPartners, walls: WallsAround
+                             ) -> tuple[np.ndarray, tuple, str, StraightCheck]:
+        """:meth:`checked_plan` (with separation) and, in the same compiled call, the mutual braking
+        check of the plan's next state towards ``partners`` where straight braking is its
+        fallback (:class:`~nodnav.control.mpc_braking.StraightCheck`, for
+        :func:`~nodnav.control.mpc_braking.fallback_conflict`)."""
+        setup, (a, b, o, _) = self.setup, self.post_slices
+        c, post = np.empty((len(self.free_map), 2)), np.empty((len(self.b_post), 2))
+        slack = np.empty(len(partners.positions))
+        *checks, straight, j = plan_after_qp_braking(
+            z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
+            setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
+            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0, c, post, o.start,
+            walls.max_accel, walls.radius - walls.tolerance, partners.robot, partners.positions, partners.velocities,
+            partners.decels, partners.radii, partners.keeps_rule, partners.seen, int(partners.turn),
+            partners.convention, float(partners.dt), SAMPLE_STEP, MAX_SAMPLES, slack)
+        return (c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, True, *checks),
+                StraightCheck(straight, j, slack))
 
     def _verdict(self, data: StepData, separation: bool, clear: float, short: float, j: int, speed: float,
                  accel: float, tail: float) -> str:

@@ -345,6 +345,17 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
 
 
 @compiled
+def gradient_into(q_line, v0, weighted_ref, out):
+    """The tracking cost's gradient ``[g_x, g_y]``, ``g_d = 2 (q_line v0_d - weighted_ref[:, d])``,
+    into ``out`` ``(2 n,)``: the NumPy expression's operations in its order, without its temporaries
+    (:meth:`~nodnav.control.mpc_problem.MPCProblem.gradient`; the product ``W ref`` stays NumPy's)."""
+    n = q_line.shape[0]
+    for d in range(2):
+        for i in range(n):
+            out[d * n + i] = 2.0 * (q_line[i] * v0[d] - weighted_ref[i, d])
+
+
+@compiled
 def step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact, delta_sq, far, vel, p0, v0,
               static_lower, boxes, pieces, eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line,
               tail_weight, tail_reach, box_low, box_high, last_interval, tail_phi, tail_line, tol, rows, lower):

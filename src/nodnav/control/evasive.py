@@ -44,7 +44,8 @@ def evasive_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     for keep_arrangement in (False, True):
         if not soft.any():
             break
-        c, softened = elastic_plan(prob, data, lin, cold, soft, firm, effort, keep_arrangement)
+        # The second starts with the hard rows of the first's last QP (or LP): known consistent.
+        c, softened = elastic_plan(prob, data, lin, cold, soft, firm, effort, keep_arrangement, keep_arrangement)
         if softened is None:
             break  # walls, bounds, limits and firm predictions alone conflict
         soft = softened
@@ -65,7 +66,7 @@ def evasive_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
 
 def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, soft: np.ndarray,
                  firm: np.ndarray, effort: SolverEffort,
-                 keep_arrangement: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+                 keep_arrangement: bool, hard_consistent: bool = False) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The tracking QP with the separation rows of the ``soft`` groups softened.
 
     Each interval end (and the terminal rows together) of a softened robot gets a slack
@@ -98,22 +99,37 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
         robots = np.flatnonzero(soft[prob.n_walls:])
         lower = prob.write_separation(data, lin, cold, np.where(soft, data.full, data.need),
                                       soft if keep_arrangement else None)
-        var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
-        rows[:, :n] = prob.rows
-        sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
-                           start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
-                           like=(prob, robots.tobytes(), not keep_arrangement))
-        if sol.success:
-            c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
-            return (None if why else c), soft
         hard = np.where(prob.softened_rows(soft), -np.inf, lower)
-        certified = prob.certified_conflict(prob.rows, hard, effort)
-        if certified is None:
+        support = None
+        if not hard_consistent:
+            # The QP is feasible exactly when its hard rows are: decide that first, with the LP
+            # that names the robots to soften next, and skip a QP certain to fail.
+            support, excess = effort.relaxation(prob.rows, hard)
+        if support is None or excess <= CERTAINLY_INFEASIBLE:
+            var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
+            rows[:, :n] = prob.rows
+            sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
+                               start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
+                               like=(prob, robots.tobytes(), not keep_arrangement))
+            if sol.success:
+                c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
+                return (None if why else c), soft
+            if support is None:
+                support = effort.certificate(prob.rows, hard)
+        if not support.size:
             return None, soft  # the solver failed on a problem the certificate finds consistent
+        certified = prob.conflicting_others(support)
         more = prob.n_walls + certified[~firm[certified]]
         if soft[more].all():  # also when the certificate names no robot at all
             return None, None
         soft[more] = True
+        hard_consistent = False
+
+
+#: Least uniform relaxation of the hard rows (m, :func:`~nodnav.control.qp.least_relaxation`) above
+#: which the evasive QP is not solved: far above DAQP's tolerances (the QP's 1e-9 m, the LP's own
+#: 1e-6), so the QP could not have succeeded and skipping it changes no plan.
+CERTAINLY_INFEASIBLE = 1e-4
 
 
 #: How many sets of softened robots :func:`evasive_structure` remembers per problem.

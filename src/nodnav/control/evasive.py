@@ -5,7 +5,10 @@ same dynamics, limits and (hard) wall constraints softens the separation rows of
 involved in the conflict (those owning rows of a Farkas certificate of the infeasibility,
 :func:`~nodnav.control.qp.infeasibility_certificate`) with non-negative slacks under a large
 exact (L1) penalty, weighted towards the near future (:func:`elastic_plan`), and so returns the
-plan that intrudes least into the others' predicted discs. Which side to pass a robot on is a
+plan that intrudes least into the others' predicted discs. Such a QP is feasible exactly when
+its hard rows are, so each is first decided by the certificate's linear program on those rows
+(:func:`~nodnav.control.qp.least_relaxation`), which also names the robots to soften next: a QP
+certain to fail is never solved. Which side to pass a robot on is a
 non-convex choice: the evasive QP is solved linearised about the previous plan and about the
 current arrangement of the robots, and the plan whose true intrusion comes later is kept
 (:func:`evasive_plan`). Only if no evasive plan keeps clear of the walls does the robot brake
@@ -83,7 +86,13 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     are softened as well, except the request's ``firm`` predictions, which stay hard like
     walls. A row with its own slack can always be met, so it never takes part in a
     certificate: the certificate is computed on the rows kept hard alone (fewer variables),
-    and they do not depend on the linearisation of the softened ones. The robots kept hard
+    and they do not depend on the linearisation of the softened ones. For the same reason the
+    QP is feasible exactly when its hard rows are, so the certificate's LP comes first (about
+    a fifth of a failing QP's time) and the QP is solved only if the LP's least relaxation of
+    the hard rows is at most :data:`CERTAINLY_INFEASIBLE`: above it the QP could not succeed at
+    its tolerance, and the certificate is the one the LP would have given after the QP's
+    failure, so the plans are those of solving every QP. ``hard_consistent`` (the hard rows
+    are known consistent, e.g. the last ones of the other linearisation) solves the QP first. The robots kept hard
     are kept clear whatever that costs in intrusion into the softened ones: softening every
     robot at once instead let the plan trade a late intrusion into an uninvolved robot for a
     smaller early one, and collided more often in closed loop.

@@ -87,15 +87,15 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     walls. A row with its own slack can always be met, so it never takes part in a
     certificate: the certificate is computed on the rows kept hard alone (fewer variables),
     and they do not depend on the linearisation of the softened ones. For the same reason the
-    QP is feasible exactly when its hard rows are, so the certificate's LP comes first (about
-    a fifth of a failing QP's time) and the QP is solved only if the LP's least relaxation of
+    QP is feasible exactly when its hard rows are, so the certificate's LP comes first (a
+    fraction of a failing QP's time) and the QP is solved only if the LP's least relaxation of
     the hard rows is at most :data:`CERTAINLY_INFEASIBLE`: above it the QP could not succeed at
     its tolerance, and the certificate is the one the LP would have given after the QP's
     failure, so the plans are those of solving every QP. ``hard_consistent`` (the hard rows
-    are known consistent, e.g. the last ones of the other linearisation) solves the QP first. The robots kept hard
-    are kept clear whatever that costs in intrusion into the softened ones: softening every
-    robot at once instead let the plan trade a late intrusion into an uninvolved robot for a
-    smaller early one, and collided more often in closed loop.
+    are known consistent, e.g. the last ones of the other linearisation) solves the QP first,
+    as before. The robots kept hard are kept clear whatever that costs in intrusion into the
+    softened ones: softening every robot at once instead let the plan trade a late intrusion
+    into an uninvolved robot for a smaller early one, and collided more often in closed loop.
 
     Returns (control points or None if the QP fails or its plan fails the exact check of
     walls, bounds and limits; the softened groups, or None if walls, bounds, limits and firm

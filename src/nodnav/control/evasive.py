@@ -5,7 +5,10 @@ same dynamics, limits and (hard) wall constraints softens the separation rows of
 involved in the conflict (those owning rows of a Farkas certificate of the infeasibility,
 :func:`~nodnav.control.qp.infeasibility_certificate`) with non-negative slacks under a large
 exact (L1) penalty, weighted towards the near future (:func:`elastic_plan`), and so returns the
-plan that intrudes least into the others' predicted discs. Which side to pass a robot on is a
+plan that intrudes least into the others' predicted discs. Such a QP is feasible exactly when
+its hard rows are, so each is first decided by the certificate's linear program on those rows
+(:func:`~nodnav.control.qp.least_relaxation`), which also names the robots to soften next: a QP
+certain to fail is never solved. Which side to pass a robot on is a
 non-convex choice: the evasive QP is solved linearised about the previous plan and about the
 current arrangement of the robots, and the plan whose true intrusion comes later is kept
 (:func:`evasive_plan`). Only if no evasive plan keeps clear of the walls does the robot brake
@@ -44,7 +47,8 @@ def evasive_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     for keep_arrangement in (False, True):
         if not soft.any():
             break
-        c, softened = elastic_plan(prob, data, lin, cold, soft, firm, effort, keep_arrangement)
+        # The second starts with the hard rows of the first's last QP (or LP): known consistent.
+        c, softened = elastic_plan(prob, data, lin, cold, soft, firm, effort, keep_arrangement, keep_arrangement)
         if softened is None:
             break  # walls, bounds, limits and firm predictions alone conflict
         soft = softened
@@ -65,7 +69,7 @@ def evasive_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
 
 def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, soft: np.ndarray,
                  firm: np.ndarray, effort: SolverEffort,
-                 keep_arrangement: bool) -> tuple[np.ndarray | None, np.ndarray | None]:
+                 keep_arrangement: bool, hard_consistent: bool = False) -> tuple[np.ndarray | None, np.ndarray | None]:
     """The tracking QP with the separation rows of the ``soft`` groups softened.
 
     Each interval end (and the terminal rows together) of a softened robot gets a slack
@@ -82,10 +86,16 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     are softened as well, except the request's ``firm`` predictions, which stay hard like
     walls. A row with its own slack can always be met, so it never takes part in a
     certificate: the certificate is computed on the rows kept hard alone (fewer variables),
-    and they do not depend on the linearisation of the softened ones. The robots kept hard
-    are kept clear whatever that costs in intrusion into the softened ones: softening every
-    robot at once instead let the plan trade a late intrusion into an uninvolved robot for a
-    smaller early one, and collided more often in closed loop.
+    and they do not depend on the linearisation of the softened ones. For the same reason the
+    QP is feasible exactly when its hard rows are, so the certificate's LP comes first (a
+    fraction of a failing QP's time) and the QP is solved only if the LP's least relaxation of
+    the hard rows is at most :data:`CERTAINLY_INFEASIBLE`: above it the QP could not succeed at
+    its tolerance, and the certificate is the one the LP would have given after the QP's
+    failure, so the plans are those of solving every QP. ``hard_consistent`` (the hard rows
+    are known consistent, e.g. the last ones of the other linearisation) solves the QP first,
+    as before. The robots kept hard are kept clear whatever that costs in intrusion into the
+    softened ones: softening every robot at once instead let the plan trade a late intrusion
+    into an uninvolved robot for a smaller early one, and collided more often in closed loop.
 
     Returns (control points or None if the QP fails or its plan fails the exact check of
     walls, bounds and limits; the softened groups, or None if walls, bounds, limits and firm
@@ -98,22 +108,37 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
         robots = np.flatnonzero(soft[prob.n_walls:])
         lower = prob.write_separation(data, lin, cold, np.where(soft, data.full, data.need),
                                       soft if keep_arrangement else None)
-        var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
-        rows[:, :n] = prob.rows
-        sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
-                           start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
-                           like=(prob, robots.tobytes(), not keep_arrangement))
-        if sol.success:
-            c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
-            return (None if why else c), soft
         hard = np.where(prob.softened_rows(soft), -np.inf, lower)
-        certified = prob.certified_conflict(prob.rows, hard, effort)
-        if certified is None:
+        support = None
+        if not hard_consistent:
+            # The QP is feasible exactly when its hard rows are: decide that first, with the LP
+            # that names the robots to soften next, and skip a QP certain to fail.
+            support, excess = effort.relaxation(prob.rows, hard)
+        if support is None or excess <= CERTAINLY_INFEASIBLE:
+            var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
+            rows[:, :n] = prob.rows
+            sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
+                               start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
+                               like=(prob, robots.tobytes(), not keep_arrangement))
+            if sol.success:
+                c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
+                return (None if why else c), soft
+            if support is None:
+                support = effort.certificate(prob.rows, hard)
+        if not support.size:
             return None, soft  # the solver failed on a problem the certificate finds consistent
+        certified = prob.conflicting_others(support)
         more = prob.n_walls + certified[~firm[certified]]
         if soft[more].all():  # also when the certificate names no robot at all
             return None, None
         soft[more] = True
+        hard_consistent = False
+
+
+#: Least uniform relaxation of the hard rows (m, :func:`~nodnav.control.qp.least_relaxation`) above
+#: which the evasive QP is not solved: far above DAQP's tolerances (the QP's 1e-9 m, the LP's own
+#: 1e-6), so the QP could not have succeeded and skipping it changes no plan.
+CERTAINLY_INFEASIBLE = 1e-4
 
 
 #: How many sets of softened robots :func:`evasive_structure` remembers per problem.

@@ -172,6 +172,14 @@ def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray
     the indices of the rows with ``y > 0`` (empty if the rows are consistent). Rows at ``-inf``
     never take part.
     """
+    return least_relaxation(rows, lower)[0]
+
+
+def least_relaxation(rows: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, float]:
+    """:func:`infeasibility_certificate`'s support, and the LP's optimal value: the least ``t >= 0``
+    with some ``x`` meeting ``rows @ x + t >= lower`` (m for the MPC's rows; 0 when consistent).
+    No ``x`` violates every row by at most ``t``, less the LP's own tolerance: a QP on these
+    rows whose primal tolerance is far below ``t`` cannot succeed."""
     rows, lower = np.asarray(rows, dtype=float), np.asarray(lower, dtype=float)
     finite = np.flatnonzero(np.isfinite(lower))
     a, b = rows[finite], lower[finite]
@@ -185,15 +193,14 @@ def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray
                                    eps_prox=1.0)
     if flag == 1:
         if tx[0] <= 0.0:
-            return np.zeros(0, dtype=int)
+            return np.zeros(0, dtype=int), 0.0
         # DAQP's multipliers of active lower bounds are negative.
-        return finite[-np.asarray(info["lam"])[1:] > 1e-12]
+        return finite[-np.asarray(info["lam"])[1:] > 1e-12], float(tx[0])
     res = linprog(-b, A_eq=np.vstack([a.T, np.ones(len(finite))]), b_eq=np.append(np.zeros(n), 1.0),
                   bounds=(0.0, None), method="highs")
     if res.status != 0 or -res.fun <= 0.0:
-        return np.zeros(0, dtype=int)
-    return finite[res.x > 1e-12]
-
+        return np.zeros(0, dtype=int), 0.0
+    return finite[res.x > 1e-12], float(-res.fun)
 
 
 @dataclass
@@ -247,6 +254,13 @@ class SolverEffort:
         support = infeasibility_certificate(rows, lower)
         self.qp_time += time.perf_counter() - t
         return support
+
+    def relaxation(self, rows: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, float]:
+        """:func:`least_relaxation`, its time counted."""
+        t = time.perf_counter()
+        found = least_relaxation(rows, lower)
+        self.qp_time += time.perf_counter() - t
+        return found
 
     def as_info(self) -> dict:
         """The counts as ``ControlResult.info`` entries."""

@@ -148,3 +148,18 @@ def test_joint_arrays_by_hand():
     assert times.tolist() == [10.0, 10.5]
     assert positions[:, 1].tolist() == [[5.0, 5.0], [5.0, 5.0]]
     assert velocities[0].tolist() == [[2.0, 0.0], [0.0, 0.0]] and velocities[1].tolist() == [[0.0, 0.0], [0.0, 0.0]]
+
+
+def test_search_from_any_hint_is_searchsorted():
+    from nodnav.planning.occupancy import search_from
+
+    rng = np.random.default_rng(19)
+    for _ in range(400):
+        a = _knots(rng, int(rng.integers(1, 120)))
+        if rng.random() < 0.3:
+            a[rng.random(len(a)) < 0.5] = a[0]
+            a.sort()  # long runs of one value (a robot waiting)
+        for x in np.concatenate([rng.uniform(a[0] - 0.3, a[-1] + 0.3, 20), a]):
+            h = int(rng.integers(-3, len(a) + 4))
+            for right in (False, True):
+                assert search_from(a, x, h, right) == np.searchsorted(a, x, side="right" if right else "left")

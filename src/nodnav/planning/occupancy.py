@@ -300,6 +300,35 @@ def _blocked_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, 
 
 
 @_compiled
+def search_from(a, x, h, right):
+    """``np.searchsorted(a, x, side="right" if right else "left")`` for a sorted ``a`` (no NaN),
+    galloping from the index ``h`` (an earlier answer): doubling steps away from it bracket the
+    answer, a binary search finds it in the bracket. The cells along a path ask for nearby arc
+    lengths one after another, so the answer is mostly a step or two away."""
+    n = a.shape[0]
+    h = min(max(h, 0), n)
+    if h < n and (a[h] <= x if right else a[h] < x):  # the answer is past h
+        lo, width = h + 1, 1
+        while lo + width - 1 < n and (a[lo + width - 1] <= x if right else a[lo + width - 1] < x):
+            lo += width
+            width *= 2
+        hi = min(lo + width - 1, n)
+    else:  # the answer is h or before it
+        hi, width = h, 1
+        while hi - width >= 0 and not (a[hi - width] <= x if right else a[hi - width] < x):
+            hi -= width
+            width *= 2
+        lo = max(hi - width + 1, 0)
+    while lo < hi:  # the first index in [lo, hi] whose value is past x (hi itself if none)
+        mid = (lo + hi) // 2
+        if a[mid] <= x if right else a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@_compiled
 def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
     """The loops of :func:`_conflicts_with`: ``frame`` holds each cell's coordinates along
     (first half of the columns) and across (second half) every segment, ``parked2`` is the
@@ -318,6 +347,9 @@ def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b
             k += 1
     if moving:
         r2, floor = required * required, TOL * required
+        # Per segment, where the searches of the cell before ended (see search_from).
+        near_lo = np.zeros(n_seg, dtype=np.int64)
+        near_hi = np.zeros(n_seg, dtype=np.int64)
         for c in range(n_cells):
             for j in range(n_seg):
                 along, perp = frame[c, j], frame[c, n_seg + j]
@@ -328,8 +360,10 @@ def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b
                 lo, hi = max(along - half, 0.0), min(along + half, length[j])
                 if not lo <= hi:
                     continue
-                first = max(np.searchsorted(arc, lo + s0[j], side="left") - 1, 0)
-                last = min(np.searchsorted(arc, hi + s0[j], side="right") - 1, last_step - 1)
+                near_lo[j] = search_from(arc, lo + s0[j], near_lo[j], False)
+                near_hi[j] = search_from(arc, hi + s0[j], near_hi[j], True)
+                first = max(near_lo[j] - 1, 0)
+                last = min(near_hi[j] - 1, last_step - 1)
                 if first <= last:
                     cols[k], firsts[k], lasts[k] = c, first, last
                     k += 1

@@ -196,6 +196,11 @@ class State:
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
     @cached_property
+    def inside_robots(self) -> frozenset:
+        """The robots that stand in the corridor (:attr:`inside`), as Python ints."""
+        return frozenset(k for k, here in enumerate(self.inside.tolist()) if here)
+
+    @cached_property
     def stands_and_goals(self) -> np.ndarray:
         """The positions, then the destinations, ``(2n, 2)`` (m): the discs a robot's path keeps
         clear of are rows of it when nobody has got out of the way (one indexing picks them)."""

@@ -164,16 +164,18 @@ class Motion:
         segments' start arc lengths and lengths, and the steps whose move cuts a corner of the
         polyline, with the chords they follow."""
         q0, unit, length, s0 = self.segments
-        basis, offset, step = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
-                                            np.ascontiguousarray(self.arc), self.last_step)
-        return basis, offset, s0, length, step, self.samples[step], self.samples[step + 1]
+        basis, offset, step, chord_a, chord_b = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
+                                                              np.ascontiguousarray(self.arc), self.last_step,
+                                                              np.ascontiguousarray(self.samples, dtype=float))
+        return basis, offset, s0, length, step, chord_a, chord_b
 
 
 @_compiled
-def _sweep_kernel(q0, unit, s0, arc, last_step):
+def _sweep_kernel(q0, unit, s0, arc, last_step, samples):
     """The loops of :attr:`Motion.sweep`: the frames of the segments (along ``unit``, across
-    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, and the steps
-    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly)."""
+    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, the steps
+    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly), and
+    the ``samples`` at those steps and the steps after them (the chords' ends)."""
     n_seg = unit.shape[0]
     basis = np.empty((2, 2 * n_seg))
     offset = np.empty(2 * n_seg)
@@ -190,7 +192,12 @@ def _sweep_kernel(q0, unit, s0, arc, last_step):
         if 0 <= t < last_step and arc[t + 1] > s0[j]:
             step[k] = t
             k += 1
-    return basis, offset, step[:k]
+    chord_a, chord_b = np.empty((k, 2)), np.empty((k, 2))
+    for i in range(k):
+        for d in range(2):
+            chord_a[i, d] = samples[step[i], d]
+            chord_b[i, d] = samples[step[i] + 1, d]
+    return basis, offset, step[:k], chord_a, chord_b
 
 
 def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -174,7 +174,9 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         known = self._orders.get(asked)
         if known is None:
             entered = tuple(int(k) for k in request.entered)
-            entered += tuple(k for k in order if state.inside[k] and k not in entered)
+            inside = state.inside_robots
+            if inside:
+                entered += tuple(k for k in order if k in inside and k not in entered)
             dirs = state.directions if self.params.inside == "back-out" else None
             # The repair depends on these three only: the same few come back round after round.
             repair = (order, entered, None if dirs is None else dirs.tobytes())

@@ -12,7 +12,8 @@ from nodnav.planning.disc_checks import corner_cuts_close, corner_cuts_of, corne
 def _polyline_cells(rng):
     """Cells along a random polyline, straight runs (no corner) and turns."""
     turns = np.cumsum(rng.normal(size=(int(rng.integers(2, 6)), 2)), axis=0)
-    pieces = [np.linspace(turns[i], turns[i + 1], int(rng.integers(2, 12)), endpoint=False) for i in range(len(turns) - 1)]
+    pieces = [np.linspace(turns[i], turns[i + 1], int(rng.integers(2, 12)), endpoint=False)
+              for i in range(len(turns) - 1)]
     return np.ascontiguousarray(np.vstack(pieces + [turns[-1:]]))
 
 

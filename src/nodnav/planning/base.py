@@ -215,6 +215,8 @@ def feasible_order(order: tuple[int, ...], entered: tuple[int, ...],
     (with the robots behind it) and waits for it. Each direction keeps the places the requested
     order gives its entered robots, filled in entry order.
     """
+    if not len(entered):  # nobody has entered: the requested order itself (what the rest gives)
+        return tuple(int(k) for k in order)
     done = tuple(int(k) for k in entered)
     rest = tuple(int(k) for k in order if int(k) not in done)
     if directions is None:

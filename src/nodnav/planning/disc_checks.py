@@ -137,3 +137,53 @@ def corner_cuts_close(path, a, b, centres, radii):
                 bad[c] = True
                 break
     return bad
+
+
+@_compiled
+def corner_cuts_of(cells, corners, path, centres, radii):
+    """:func:`corner_cuts_close` of the chords ``cells[corners] -> cells[corners + 2]`` (the
+    full-speed moves that cut a corner), gathered in the same call: ``(bad, how many)``."""
+    m = corners.shape[0]
+    a, b = np.empty((m, 2)), np.empty((m, 2))
+    for c in range(m):
+        for d in range(2):
+            a[c, d] = cells[corners[c], d]
+            b[c, d] = cells[corners[c] + 2, d]
+    bad = corner_cuts_close(path, a, b, centres, radii)
+    count = 0
+    for c in range(m):
+        count += bad[c]
+    return bad, count
+
+
+@_compiled
+def corner_heights(cells):
+    """The cells ``i`` whose move ``i -> i+2`` along the polyline ``cells`` turns (``|u x w| >
+    1e-12`` for ``u = cells[i+1] - cells[i]``, ``w = cells[i+2] - cells[i+1]``), and how far
+    ``cells[i+1]`` is from that chord (``|u x w| / |cells[i+2] - cells[i]|``, the norm as
+    ``sqrt(x * x + y * y)``): the NumPy steps of ``GeometricPaths._cut`` in one loop, the same
+    operations (:func:`corner_heights_plain` is them)."""
+    n = cells.shape[0]
+    corners = np.empty(max(n - 2, 0), dtype=np.int64)
+    height = np.empty(max(n - 2, 0))
+    k = 0
+    for i in range(n - 2):
+        ux, uy = cells[i + 1, 0] - cells[i, 0], cells[i + 1, 1] - cells[i, 1]
+        wx, wy = cells[i + 2, 0] - cells[i + 1, 0], cells[i + 2, 1] - cells[i + 1, 1]
+        cross = ux * wy - uy * wx
+        if abs(cross) > 1e-12:
+            cx, cy = cells[i + 2, 0] - cells[i, 0], cells[i + 2, 1] - cells[i, 1]
+            height[k] = abs(cross) / math.sqrt(cx * cx + cy * cy)
+            corners[k] = i
+            k += 1
+    return corners[:k], height[:k]
+
+
+def corner_heights_plain(cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`corner_heights` with NumPy, as ``_cut`` computed it (the reference it is tested against)."""
+    u, w = cells[1:-1] - cells[:-2], cells[2:] - cells[1:-1]
+    cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+    corners = np.nonzero(np.abs(cross) > 1e-12)[0]
+    chord = cells[corners + 2] - cells[corners]
+    chord *= chord
+    return corners, np.abs(cross[corners]) / np.sqrt(chord[:, 0] + chord[:, 1])

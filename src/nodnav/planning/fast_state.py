@@ -196,10 +196,70 @@ class State:
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
     @cached_property
+    def direction_list(self) -> list:
+        """:attr:`directions` as a list of Python numbers (the same comparisons, cheaper)."""
+        return self.directions.tolist()
+
+    @cached_property
+    def door_list(self) -> list:
+        """:attr:`door` as a list of Python ints."""
+        return self.door.tolist()
+
+    @cached_property
+    def inside_robots(self) -> frozenset:
+        """The robots that stand in the corridor (:attr:`inside`), as Python ints."""
+        return frozenset(k for k, here in enumerate(self.inside.tolist()) if here)
+
+    @cached_property
     def stands_and_goals(self) -> np.ndarray:
         """The positions, then the destinations, ``(2n, 2)`` (m): the discs a robot's path keeps
         clear of are rows of it when nobody has got out of the way (one indexing picks them)."""
         return np.concatenate((self.positions, self.destinations))
+
+
+def joint_arrays_plain(samples: list, t0: float, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The times, positions and velocities of a joint plan whose robots move through ``samples``
+    ``[(T_k, 2)]`` at steps ``0, 1, ...`` and then stand at their last sample: the times ``t0 + dt
+    * step`` and the rest by :meth:`JointTrajectory.from_positions` (the reference
+    :func:`joint_arrays` is tested against)."""
+    ends = [len(x) for x in samples]
+    steps, n = max(ends), len(samples)
+    positions = np.empty((steps, n, 2))
+    for k, x in enumerate(samples):
+        positions[:ends[k], k] = x
+        positions[ends[k]:, k] = x[-1]
+    trajectory = JointTrajectory.from_positions(t0 + dt * np.arange(steps), positions)
+    return trajectory.times, trajectory.positions, trajectory.velocities
+
+
+@_compiled
+def joint_arrays(flat, ends, t0, dt):
+    """:func:`joint_arrays_plain` in one compiled call, the robots' samples one after another in
+    ``flat`` (``ends[k]`` rows of robot ``k``): the same operations (``dt`` times the step, then
+    ``t0`` plus it; forward differences divided by the time step)."""
+    n = ends.shape[0]
+    steps = 0
+    for k in range(n):
+        steps = max(steps, ends[k])
+    times = np.empty(steps)
+    for i in range(steps):
+        times[i] = t0 + dt * i
+    positions = np.empty((steps, n, 2))
+    first = 0
+    for k in range(n):
+        last = first + ends[k] - 1
+        for t in range(steps):
+            src = min(first + t, last)
+            positions[t, k, 0] = flat[src, 0]
+            positions[t, k, 1] = flat[src, 1]
+        first += ends[k]
+    velocities = np.zeros((steps, n, 2))
+    for t in range(steps - 1):
+        h = times[t + 1] - times[t]
+        for k in range(n):
+            for d in range(2):
+                velocities[t, k, d] = (positions[t + 1, k, d] - positions[t, k, d]) / h
+    return times, positions, velocities
 
 
 def timed_motion(track: Track, timing: "Timing") -> Motion:

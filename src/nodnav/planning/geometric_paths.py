@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
-from nodnav.planning.disc_checks import corner_cuts_close
+from nodnav.planning.disc_checks import corner_cuts_of, corner_heights
 from nodnav.planning.fast_state import Cut, Route, Track, zones_of
 from nodnav.planning.memo import remember, remember_within
 from nodnav.planning.occupancy import entry_cell, polyline_segments
@@ -124,10 +124,10 @@ class GeometricPaths:
         cut = self._cut(world, radius, step, route.path.points)
         ok2 = cut.ok2
         if len(cut.corners) and len(route.centres):
-            a, b = cut.cells[cut.corners], cut.cells[cut.corners + 2]
-            bad = corner_cuts_close(route.path.points, a, b, np.ascontiguousarray(route.centres, dtype=float),
-                                    np.ascontiguousarray(route.radii, dtype=float))
-            if bad.any():
+            bad, count = corner_cuts_of(cut.cells, cut.corners, route.path.points,
+                                        np.ascontiguousarray(route.centres, dtype=float),
+                                        np.ascontiguousarray(route.radii, dtype=float))
+            if count:
                 ok2 = ok2.copy()
                 ok2[cut.corners[bad]] = False
         return Track(route, cut.cells, cut.arc, ok2, cut.inside, cut.entry, cut.doors, cut.segments)
@@ -154,19 +154,14 @@ class GeometricPaths:
         corners = np.zeros(0, dtype=int)
         if n >= 3:
             ok[:n - 2] = True
-            u, w = cells[1:-1] - cells[:-2], cells[2:] - cells[1:-1]
-            cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
-            corners = np.nonzero(np.abs(cross) > 1e-12)[0]
+            # The corners and each chord's distance from its middle cell, in one compiled loop.
+            corners, height = corner_heights(cells)
             if len(corners):
-                a, b = cells[corners], cells[corners + 2]
-                chord = b - a  # its norm as np.linalg.norm's (x * x + y * y, then the root)
-                chord *= chord
-                height = np.abs(cross[corners]) / np.sqrt(chord[:, 0] + chord[:, 1])
                 end_clearance = float(world.clearance(path[[0, -1]]).min())
                 good = min(radius + self.wall_margin, end_clearance) - height >= radius
                 unsure = np.nonzero(~good)[0]
                 if len(unsure):
-                    au, bu = a[unsure], b[unsure]
+                    au, bu = cells[corners[unsure]], cells[corners[unsure] + 2]
                     limit = np.minimum(radius, np.minimum(world.clearance(au), world.clearance(bu)))
                     good[unsure] = segment_is_clear(world, au, bu, limit - TOL)
                 ok[corners] = good

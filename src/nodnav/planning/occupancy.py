@@ -164,16 +164,18 @@ class Motion:
         segments' start arc lengths and lengths, and the steps whose move cuts a corner of the
         polyline, with the chords they follow."""
         q0, unit, length, s0 = self.segments
-        basis, offset, step = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
-                                            np.ascontiguousarray(self.arc), self.last_step)
-        return basis, offset, s0, length, step, self.samples[step], self.samples[step + 1]
+        basis, offset, step, chord_a, chord_b = _sweep_kernel(np.ascontiguousarray(q0), np.ascontiguousarray(unit), s0,
+                                                              np.ascontiguousarray(self.arc), self.last_step,
+                                                              np.ascontiguousarray(self.samples, dtype=float))
+        return basis, offset, s0, length, step, chord_a, chord_b
 
 
 @_compiled
-def _sweep_kernel(q0, unit, s0, arc, last_step):
+def _sweep_kernel(q0, unit, s0, arc, last_step, samples):
     """The loops of :attr:`Motion.sweep`: the frames of the segments (along ``unit``, across
-    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, and the steps
-    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly)."""
+    ``(-unit_y, unit_x)``) as columns of a ``(2, 2S)`` matrix with their offsets, the steps
+    ``t < last_step`` whose move from ``arc[t]`` to ``arc[t+1]`` passes a corner (strictly), and
+    the ``samples`` at those steps and the steps after them (the chords' ends)."""
     n_seg = unit.shape[0]
     basis = np.empty((2, 2 * n_seg))
     offset = np.empty(2 * n_seg)
@@ -190,7 +192,12 @@ def _sweep_kernel(q0, unit, s0, arc, last_step):
         if 0 <= t < last_step and arc[t + 1] > s0[j]:
             step[k] = t
             k += 1
-    return basis, offset, step[:k]
+    chord_a, chord_b = np.empty((k, 2)), np.empty((k, 2))
+    for i in range(k):
+        for d in range(2):
+            chord_a[i, d] = samples[step[i], d]
+            chord_b[i, d] = samples[step[i] + 1, d]
+    return basis, offset, step[:k], chord_a, chord_b
 
 
 def conflict_intervals(cells: np.ndarray, motions, required, windows=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -300,6 +307,35 @@ def _blocked_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, 
 
 
 @_compiled
+def search_from(a, x, h, right):
+    """``np.searchsorted(a, x, side="right" if right else "left")`` for a sorted ``a`` (no NaN),
+    galloping from the index ``h`` (an earlier answer): doubling steps away from it bracket the
+    answer, a binary search finds it in the bracket. The cells along a path ask for nearby arc
+    lengths one after another, so the answer is mostly a step or two away."""
+    n = a.shape[0]
+    h = min(max(h, 0), n)
+    if h < n and (a[h] <= x if right else a[h] < x):  # the answer is past h
+        lo, width = h + 1, 1
+        while lo + width - 1 < n and (a[lo + width - 1] <= x if right else a[lo + width - 1] < x):
+            lo += width
+            width *= 2
+        hi = min(lo + width - 1, n)
+    else:  # the answer is h or before it
+        hi, width = h, 1
+        while hi - width >= 0 and not (a[hi - width] <= x if right else a[hi - width] < x):
+            hi -= width
+            width *= 2
+        lo = max(hi - width + 1, 0)
+    while lo < hi:  # the first index in [lo, hi] whose value is past x (hi itself if none)
+        mid = (lo + hi) // 2
+        if a[mid] <= x if right else a[mid] < x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@_compiled
 def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
     """The loops of :func:`_conflicts_with`: ``frame`` holds each cell's coordinates along
     (first half of the columns) and across (second half) every segment, ``parked2`` is the
@@ -318,6 +354,9 @@ def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b
             k += 1
     if moving:
         r2, floor = required * required, TOL * required
+        # Per segment, where the searches of the cell before ended (see search_from).
+        near_lo = np.zeros(n_seg, dtype=np.int64)
+        near_hi = np.zeros(n_seg, dtype=np.int64)
         for c in range(n_cells):
             for j in range(n_seg):
                 along, perp = frame[c, j], frame[c, n_seg + j]
@@ -328,8 +367,10 @@ def _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b
                 lo, hi = max(along - half, 0.0), min(along + half, length[j])
                 if not lo <= hi:
                     continue
-                first = max(np.searchsorted(arc, lo + s0[j], side="left") - 1, 0)
-                last = min(np.searchsorted(arc, hi + s0[j], side="right") - 1, last_step - 1)
+                near_lo[j] = search_from(arc, lo + s0[j], near_lo[j], False)
+                near_hi[j] = search_from(arc, hi + s0[j], near_hi[j], True)
+                first = max(near_lo[j] - 1, 0)
+                last = min(near_hi[j] - 1, last_step - 1)
                 if first <= last:
                     cols[k], firsts[k], lasts[k] = c, first, last
                     k += 1

@@ -95,6 +95,7 @@ from nodnav.planning.fast_state import (
     RobotPlan,
     State,
     Track,
+    joint_arrays,
     reject_request,
     state_problem,
 )
@@ -141,6 +142,7 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         self._world_ids: dict[int, tuple[World, int]] = {}
         self._world_tokens: dict[World, int] = {}
         self._tracks: dict[tuple, Track] = {}
+        self._still_tracks: dict[tuple, Track] = {}
         self._cuts: dict[tuple, Cut] = {}
         self._rows: dict[tuple, tuple] = {}
         self._rows_by_id: dict[tuple, tuple] = {}
@@ -172,7 +174,9 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         known = self._orders.get(asked)
         if known is None:
             entered = tuple(int(k) for k in request.entered)
-            entered += tuple(k for k in order if state.inside[k] and k not in entered)
+            inside = state.inside_robots
+            if inside:
+                entered += tuple(k for k in order if k in inside and k not in entered)
             dirs = state.directions if self.params.inside == "back-out" else None
             # The repair depends on these three only: the same few come back round after round.
             repair = (order, entered, None if dirs is None else dirs.tobytes())
@@ -275,12 +279,8 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         motions = [plans[k].motion for k in range(n)]
         samples = [m.samples for m in motions]
         ends = [len(x) for x in samples]  # each robot's arrival step + 1
-        steps = max(ends)
-        positions = np.empty((steps, n, 2))
-        for k, x in enumerate(samples):
-            positions[:ends[k], k] = x
-            positions[ends[k]:, k] = x[-1]
-        trajectory = JointTrajectory.from_positions(t0 + dt * np.arange(steps), positions)
+        # Each robot standing at its last sample once it has arrived, in one compiled call.
+        trajectory = JointTrajectory(*joint_arrays(np.concatenate(samples), np.array(ends, dtype=np.int64), t0, dt))
         arrival = np.array([(e - 1) * dt for e in ends])
         lengths = np.array([float(m.segments[2].sum()) for m in motions])
         # Shared by every result of this order: nobody may change them in place.
@@ -404,19 +404,31 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         must), around the robots after it standing and the destinations of those before it."""
         dest = state.destinations
         later = layout.later
+        earlier = frozenset(layout.plans)
+        # Nobody has moved out of the way: the track depends on the state, on k and on who is
+        # before and after it only, the same in every order that shares those (remembered).
+        moved = not layout.heads.keys().isdisjoint(later)
+        still = not moved and k not in layout.heads
+        if still:
+            known = self._still_tracks.get((state.key, k, later, earlier))
+            if known is not None:
+                return known
         start = self._start(state, k, layout)
         # The rows of the discs, by the robots before and after it (the same few in every round).
-        rows = self._disc_rows.get((len(dest), later, frozenset(layout.plans)))
+        rows = self._disc_rows.get((len(dest), later, earlier))
         if rows is None:
             rows = self._rows_of_discs(len(dest), later, sorted(layout.plans))
-        if not layout.heads.keys().isdisjoint(later):
+        if moved:
             stand = np.array([self._start(state, j, layout) for j in later]).reshape(-1, 2)
             centres = np.concatenate((stand, dest[rows[2]]))
         else:  # nobody after it has moved: where they stand now, then the destinations (the same values)
             centres = state.stands_and_goals[rows[0]]
         rads = state.required[k][rows[1]]
-        return self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
-                           rads, len(later))
+        track = self._track(world, state.radii[k], state.max_speeds[k] * self.params.dt, start, dest[k], centres,
+                            rads, len(later))
+        if still:
+            remember(self._still_tracks, (state.key, k, later, earlier), track)
+        return track
 
     def _rows_of_discs(self, n: int, later: tuple, earlier: list) -> tuple:
         """For :meth:`_track_for`: the rows of ``State.stands_and_goals`` (the later robots'

@@ -74,9 +74,16 @@ def _largest_speed(s, t, up, goal, alpha, dt, hi):
         if g < -EPS:
             return -1.0
         g = max(g, 0.0)
-        # Largest m <= k with F_k(m alpha) = dt alpha m (m + 1) / 2 <= g.
-        m = int(math.floor((-1.0 + math.sqrt(1.0 + 8.0 * g / (dt * alpha))) / 2.0))
-        m = min(max(m, 0), k)
+        # Largest m <= k with F_k(m alpha) = dt alpha m (m + 1) / 2 <= g. Where the root's
+        # argument is at least (2k + 1)^2 the floor is at least k (a correctly rounded root and
+        # the steps after it are monotonic, and exact at that square), so m is k without it.
+        x = 1.0 + 8.0 * g / (dt * alpha)
+        edge = 2.0 * k + 1.0
+        if x >= edge * edge:
+            m = k
+        else:
+            m = int(math.floor((-1.0 + math.sqrt(x)) / 2.0))
+            m = min(max(m, 0), k)
         v = g / (dt * (m + 1)) + alpha * m / 2.0
         if v < best:
             best = v
@@ -119,14 +126,30 @@ def profile_clear(arc: np.ndarray, cell_arc: np.ndarray, free: np.ndarray) -> in
 
 
 @_compiled
+def _last_at_or_below(xp, x, i):
+    """``np.searchsorted(xp, x, side="right") - 1`` for sorted ``xp``: the last index whose value
+    is at most ``x`` (-1 if none), found by walking on from ``i``, the answer for an earlier ``x``
+    (-1 to start). Queries that never decrease (a profile's arc lengths) walk a cell or two
+    instead of searching the whole path; a smaller one falls back to the binary search."""
+    if i >= 0 and xp[i] > x:
+        return np.searchsorted(xp, x, side="right") - 1
+    n = xp.shape[0]
+    while i + 1 < n and xp[i + 1] <= x:
+        i += 1
+    return i
+
+
+@_compiled
 def _clear_kernel(arc, cell_arc, free):
     n_rows, n = free.shape[0], cell_arc.shape[0]
     last = arc.shape[0] - 1
+    at = -1  # the last cell at or below the arc length of the step before (see _last_at_or_below)
     # After its last step the robot stands at its last arc length: check until the rows end too.
     for t in range(1, max(last, n_rows - 1) + 1):
         s = arc[min(t, last)]
         row = free[min(t, n_rows - 1)]
-        c = min(max(np.searchsorted(cell_arc, s + EPS, side="right") - 1, 0), n - 1)
+        at = _last_at_or_below(cell_arc, s + EPS, at)
+        c = min(max(at, 0), n - 1)
         if (row[c // 64] >> np.uint64(c % 64)) & np.uint64(1) == 0:
             return t
         if c + 1 < n and s > cell_arc[c] + EPS:
@@ -217,11 +240,39 @@ def _interp_kernel(x, xp, fp, out):
 
 @_compiled
 def _points_kernel(cells, cell_arc, arc):
-    """:func:`points_at` in one call: both coordinates by :func:`_interp_kernel`."""
-    out = np.empty((arc.shape[0], 2))
-    xs, ys = np.empty(arc.shape[0]), np.empty(arc.shape[0])
-    _interp_kernel(arc, cell_arc, np.ascontiguousarray(cells[:, 0]), xs)
-    _interp_kernel(arc, cell_arc, np.ascontiguousarray(cells[:, 1]), ys)
-    out[:, 0] = xs
-    out[:, 1] = ys
+    """:func:`points_at` in one call: both coordinates as :func:`_interp_kernel` computes them
+    (:func:`_points_plain` is that twice), with the knot of each query found once for both and
+    by walking on from the query before (:func:`_last_at_or_below`: the same knot)."""
+    m, n = arc.shape[0], cell_arc.shape[0]
+    out = np.empty((m, 2))
+    j = -1
+    for i in range(m):
+        v = arc[i]
+        if n == 1:
+            out[i, 0], out[i, 1] = cells[0, 0], cells[0, 1]
+            continue
+        if v > cell_arc[n - 1]:
+            out[i, 0], out[i, 1] = cells[n - 1, 0], cells[n - 1, 1]
+            continue
+        if v < cell_arc[0]:
+            out[i, 0], out[i, 1] = cells[0, 0], cells[0, 1]
+            continue
+        j = _last_at_or_below(cell_arc, v, j)
+        if j == n - 1 or cell_arc[j] == v:
+            out[i, 0], out[i, 1] = cells[j, 0], cells[j, 1]
+            continue
+        for d in range(2):
+            slope = (cells[j + 1, d] - cells[j, d]) / (cell_arc[j + 1] - cell_arc[j])
+            r = slope * (v - cell_arc[j]) + cells[j, d]
+            if math.isnan(r):  # NumPy's fallback: from the other end, then the common value
+                r = slope * (v - cell_arc[j + 1]) + cells[j + 1, d]
+                if math.isnan(r) and cells[j, d] == cells[j + 1, d]:
+                    r = cells[j, d]
+            out[i, d] = r
     return out
+
+
+def _points_plain(cells: np.ndarray, cell_arc: np.ndarray, arc: np.ndarray) -> np.ndarray:
+    """:func:`_points_kernel` as it was, each coordinate by :func:`interp_twin` (the reference the
+    tests compare it with, and with :func:`points_at`)."""
+    return np.stack([interp_twin(arc, cell_arc, cells[:, 0]), interp_twin(arc, cell_arc, cells[:, 1])], axis=1)

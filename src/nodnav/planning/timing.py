@@ -96,6 +96,8 @@ def timing_of(status: int, step: int, cells: np.ndarray, arc: np.ndarray | None 
 
 #: Outcomes of :func:`_arrival_kernel`.
 _ARRIVED, _PARKED_ON_GOAL, _CORNERED, _BLOCKED = 0, 1, 2, 3
+#: The outcome of a search that arrived (:func:`timing_of` makes a successful :class:`Timing` of it).
+ARRIVED = _ARRIVED
 
 
 @_compiled

@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track, timed_motion
+from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track
 from nodnav.planning.fused_timing import NO_GEOMETRY, _timing_kernel, stay_geometry
 from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import Motion, blocked_rows, boxes_apart, join_motions, relaxed_bits
-from nodnav.planning.timing import Timing, timing_of
+from nodnav.planning.timing import ARRIVED, Timing, timing_of
 from nodnav.scenario.world import World
 
 
@@ -46,18 +46,20 @@ class VelocityTuning(FastPlannerHooks):
         """The corridor and door rules for robot ``k`` after the robots ``plans``: ``(cell,
         allowed)`` pairs (cells at and past ``cell`` are closed before step ``allowed``), or why
         the order cannot be kept."""
-        dirs, gates = state.directions, []
-        door = state.door[k]
+        gates: list = []
+        dirs = state.direction_list  # Python numbers: the same comparisons, without NumPy scalars
+        mine, entry = dirs[k], track.entry
+        door = state.door_list[k]
         for i, p in plans.items():
             e_i, x_i = p.passage
-            if dirs[i] == dirs[k] != 0:
-                if track.entry >= 0 and e_i >= 0:
-                    gates.append((track.entry, e_i + 1))
+            if dirs[i] == mine != 0:
+                if entry >= 0 and e_i >= 0:
+                    gates.append((entry, e_i + 1))
                 continue
-            if track.entry >= 0 and e_i >= 0:
+            if entry >= 0 and e_i >= 0:
                 if x_i > p.arrival:
                     return [], f"robot {i} before it in the order parks inside the corridor"
-                gates.append((track.entry, x_i + 1))
+                gates.append((entry, x_i + 1))
             if door >= 0 and track.doors[door] >= 0:
                 z_i, out_i = p.doors[door]
                 if z_i >= 0:
@@ -72,6 +74,14 @@ class VelocityTuning(FastPlannerHooks):
         the other robot's motion is required distance away from this one's start for good
         (:func:`relaxed_separation`). With ``world``, the timing also holds its samples' stays
         in that world's corridor and door zones (``RobotPlan._stays``)."""
+        status, step, steps, arc, samples, stays = self._timing_outcome(state, k, track, fixed, gates, t0, world)
+        return timing_of(status, step, steps, arc if len(arc) else None, samples,
+                         None if world is None else tuple(int(v) for v in stays))
+
+    def _timing_outcome(self, state: State, k: int, track: Track, fixed: list, gates, t0: int,
+                        world: World | None) -> tuple:
+        """:meth:`_timing` as the compiled call returns it: ``(outcome, step cornered at, cells,
+        arc, samples, stays)`` (:func:`~nodnav.planning.fused_timing._search_kernel`)."""
         cells, n = track.cells, len(track.cells)
         x0, y0 = float(cells[0, 0]), float(cells[0, 1])
         required = state.required
@@ -99,11 +109,9 @@ class VelocityTuning(FastPlannerHooks):
             vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
         ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
         geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
-        status, step, steps, arc, samples, stays = _timing_kernel(
+        return _timing_kernel(
             stack, np.array(rows, dtype=np.int64), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2,
             self.params.waiting == "early", retime, track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
-        return timing_of(status, step, steps, arc if len(arc) else None, samples,
-                         None if world is None else tuple(int(v) for v in stays))
 
     def _stay_geometry(self, world: World) -> np.ndarray:
         """:func:`stay_geometry` of ``world`` (remembered by identity; the world is held so that
@@ -150,10 +158,16 @@ class VelocityTuning(FastPlannerHooks):
         if problem:
             return Attempt(False, problem)
         t0 = head.last_step if head is not None else 0
-        timing = self._timing(state, k, track, layout.fixed(k), gates, t0, world if head is None else None)
-        if not timing.success:
+        status, step, steps, arc, samples, stays = self._timing_outcome(state, k, track, layout.fixed(k), gates, t0,
+                                                                        world if head is None else None)
+        if status != ARRIVED:
+            timing = timing_of(status, step, steps)
             return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
-        motion = timed_motion(track, timing)
+        # timed_motion of the timing :meth:`_timing` makes of this outcome, without making it.
+        motion = Motion(track.route.path.points, samples, arc if len(arc) else track.arc[steps], track.segments)
         if head is not None:  # the stays of the joined motion, when asked
             motion = join_motions(head, motion)
-        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, timing.stays))
+            stays = None
+        else:
+            stays = tuple(int(v) for v in stays)
+        return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, stays))

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, segment_is_clear, segment_point_distance
+from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear
 from nodnav.planning.disc_checks import _crosses_any, disc_violations
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
@@ -305,7 +305,7 @@ class VisibilityGraph:
         # A start or goal inside an octagon but not its disc first steps out of it radially.
         ring = np.vstack([ring, octagon_exits(start, centres, radii, turn), octagon_exits(goal, centres, radii, turn)])
         ring_ok = self.world.clearance(ring) >= self.clearance - TOL
-        ring_ok &= (np.linalg.norm(ring[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)
+        ring_ok &= _outside_mask(ring, centres, radii)
         nodes = np.vstack([start, goal, self.vertices[base], ring[ring_ok]])
         nb = len(base)
         i, j = _pairs(len(nodes))
@@ -317,19 +317,49 @@ class VisibilityGraph:
         thr = np.full(len(nodes), self.clearance - TOL)
         thr[0], thr[1] = thr_start, thr_goal
         ok[rest] = segment_is_clear(self.world, nodes[i[rest]], nodes[j[rest]], np.minimum(thr[i[rest]], thr[j[rest]]))
-        e = np.flatnonzero(ok)
-        limit = np.repeat(radii[None], len(e), axis=0)
-        first = i[e] == 0
-        limit[first] = np.minimum(limit[first], d_start)
-        last = (i[e] == 1) | (j[e] == 1)
-        limit[last] = np.minimum(limit[last], d_goal)
-        ok[e] = (segment_point_distance(nodes[i[e]], nodes[j[e]], centres) >= limit - TOL).all(axis=1)
+        _keep_clear_of_discs(nodes, i, j, ok, centres, radii, np.ascontiguousarray(d_start, dtype=float),
+                             np.ascontiguousarray(d_goal, dtype=float))
         i, j = i[ok], j[ok]
         chain = shortest_chain(len(nodes), i, j, np.linalg.norm(nodes[i] - nodes[j], axis=1), 0, 1)
         if not chain:
             return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
                                      f"around {len(centres)} standing robot(s)")
         return _path(_without_repeats(nodes[chain]))
+
+
+@_compiled
+def _outside_mask(points, centres, radii):
+    """Whether each of ``points`` is at least ``radii[j] - TOL`` from every centre ``j``:
+    ``(np.linalg.norm(points[:, None] - centres[None], axis=2) >= radii - TOL).all(axis=1)``, a
+    norm of two coordinates being ``sqrt(x * x + y * y)`` (see :func:`_outside_all`)."""
+    out = np.zeros(points.shape[0], dtype=np.bool_)
+    for v in _outside_all(points, centres, radii):
+        out[v] = True
+    return out
+
+
+@_compiled
+def _keep_clear_of_discs(nodes, i, j, ok, centres, radii, d_start, d_goal):
+    """Clear ``ok[e]`` of every edge ``nodes[i[e]] -> nodes[j[e]]`` still allowed that comes
+    closer than its limit (less :data:`TOL`) to a centre: the disc's radius, no more than the
+    start's distance from it on an edge from the start (``i == 0``), no more than the goal's on
+    an edge to the goal (either end 1), as ``_search_with_discs`` computed it with NumPy (the
+    distance by :func:`~nodnav.geometry.segment_point_distance`'s operations)."""
+    for e in range(i.shape[0]):
+        if not ok[e]:
+            continue
+        a, b = i[e], j[e]
+        ax, ay = nodes[a, 0], nodes[a, 1]
+        dx, dy = nodes[b, 0] - ax, nodes[b, 1] - ay
+        for c in range(centres.shape[0]):
+            limit = radii[c]
+            if a == 0:
+                limit = min(limit, d_start[c])
+            if a == 1 or b == 1:
+                limit = min(limit, d_goal[c])
+            if not math.sqrt(_segment_point_d2_one(ax, ay, dx, dy, centres[c, 0], centres[c, 1])) >= limit - TOL:
+                ok[e] = False
+                break
 
 
 @_compiled

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nodnav.bench.stages import STAGES, StageTimes, measure_stages
+from nodnav.heap import freeze_long_lived
 from nodnav.scenario.loading import load_scenario
 from nodnav.sim.simulator import Simulation, run_trial
 
@@ -110,6 +111,8 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     warm_up = Simulation(scenario, seed=0)
     for _ in range(warm_up.steps_per_decision + 1):
         warm_up.step()
+    del warm_up
+    freeze_long_lived()  # as a sweep worker does after its first trial (nodnav.heap)
     setup = time.perf_counter() - start
     results, measured = [], []
     for s in seeds:  # each measured run right after its unmeasured one, so that both see the same machine

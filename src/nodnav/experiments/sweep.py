@@ -34,6 +34,7 @@ from typing import Callable
 from nodnav.errors import NodnavError
 from nodnav.experiments.store import trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
+from nodnav.heap import freeze_long_lived
 from nodnav.provenance import code_version
 from nodnav.scenario.families import FamilyError
 from nodnav.scenario.fields import ScenarioError
@@ -252,6 +253,9 @@ def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int
     start = time.perf_counter()
     try:
         result = trial_fn(scenario, method, seed)
+        # After a process's first trial, its long-lived objects (libraries, compiled kernels) are
+        # set aside from the collector's full sweeps (nodnav.heap); results are unaffected.
+        freeze_long_lived()
         return TrialOutput(key=key, outcome=result.outcome, summary=json_ready(result.to_dict()),
                            metrics=json_ready(result.metrics), error=None, code_version=code_version())
     except Exception as exc:  # a failing trial is a result to store, not the end of the sweep

@@ -396,11 +396,13 @@ class NODAgent:
         # local goal it drives through), not parked, and planning it as parked at the front of
         # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
+        planning = [self.index, *players, *entered]
+        if len(planning) == s.n_robots:  # packed_crossed adds robots outside the plan only: there are none
+            return entered
         done = known if self.settled is None else known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
-                                                   [self.index, *players, *entered], s.sim.goal_tolerance,
-                                                   s.planner.margin)
+                                                   planning, s.sim.goal_tolerance, s.planner.margin)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``

@@ -137,7 +137,7 @@ def weighted_choice(rng: np.random.Generator, p: np.ndarray) -> int:
     its last element, draws one ``rng.random()`` and returns ``cdf.searchsorted(u, side="right")``
     (``bisect_right`` of the same sorted list). Without ``choice``'s argument checks, which
     cost more than the draw (the probabilities come from eq. (3), checked there)."""
-    cdf = np.cumsum(p, dtype=float)
+    cdf = np.add.accumulate(np.asarray(p, dtype=float))  # np.cumsum's operation, without its wrapper
     cdf /= cdf[-1]
     return bisect_right(cdf.tolist(), rng.random())
 
@@ -244,6 +244,7 @@ class NODAgent:
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
+        self._to_go_args: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
@@ -323,6 +324,10 @@ class NODAgent:
         """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
         not yet seen to enter the corridor first (those that have are ahead in every order)."""
         world, positions = self.scenario.world, view.positions
+        n = len(positions)
+        if self.n_players == n - 1 and self.eligible is None and (view.age is None or view.seen.all()):
+            # Eq. (7) picks every other robot whatever the likelihoods are (select_game_players).
+            return tuple(j for j in range(n) if j != self.index)
         undecided = self.params.conflict == "undecided" and view.entered
 
         def likelihoods() -> np.ndarray:
@@ -359,9 +364,20 @@ class NODAgent:
         # the window, the time, the entry records, the robots; its first order is no part of the
         # queries: plan_order asks each order of it).
         template_key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
-        template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]),
-                                          (self.scenario, view.window_states))
-        return self.plans.plan_orders(template, orders, state)
+        keep = (self.scenario, view.window_states)
+        computed = []
+
+        def every_order() -> list[PlanResult]:
+            computed.append(True)
+            template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]), keep)
+            return self.plans.plan_orders(template, orders, state)
+
+        # The game's players that plan the same robots ask the same queries (orders is a function
+        # of the game and planning): answered once per round, the list only read.
+        plans = self.plans.once(("plans", *template_key, game), every_order, keep)
+        if not computed:
+            self.plans.hits += len(orders)  # counted as plan_orders counts answers from the round
+        return plans
 
     def _template(self, view: RobotView, planning: tuple[int, ...],
                   order: tuple[int, ...]) -> tuple[PlanRequest, tuple]:
@@ -385,9 +401,11 @@ class NODAgent:
         if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
         world = self.scenario.world
-        inside = world.in_corridor(view.positions)
         known = view.known
-        entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
+        entered: tuple[int, ...] = ()
+        if view.entered:  # the corridor test only for the robots seen to enter
+            inside = world.in_corridor(view.positions)
+            entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
@@ -452,9 +470,16 @@ class NODAgent:
     def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
         """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``
         ``(n, M, 2)``."""
-        robots = list(range(self.scenario.n_robots)) if robots is None else list(robots)
-        dest = self.destinations[robots][:, None]
-        return distance_to_go(self.scenario.world, positions, dest, self.sides[robots][:, None])
+        shape = positions.shape[:-1]
+        args = self._to_go_args.get((robots, shape))
+        if args is None:
+            # The destinations and sides laid out as the positions (distance_to_go broadcasts them
+            # so otherwise, at every call): the same values, read-only.
+            rows = list(range(self.scenario.n_robots)) if robots is None else list(robots)
+            args = self._to_go_args[(robots, shape)] = (
+                np.ascontiguousarray(np.broadcast_to(self.destinations[rows][:, None], (*shape, 2))),
+                np.ascontiguousarray(np.broadcast_to(self.sides[rows][:, None], shape)))
+        return distance_to_go(self.scenario.world, positions, *args)
 
     def decide(self, view: RobotView) -> Decision:
         """Algorithm 1, procedure RobotNavigation(t)."""
@@ -484,4 +509,4 @@ class NODAgent:
             plan = clearing_plan(self.scenario, view, planning, self.index, plan, self._graphs)
         return Decision(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players, game=game,
-                        order=tuple(int(k) for k in orders[strategy]))
+                        order=tuple(orders[strategy].tolist()))

@@ -60,19 +60,32 @@ def log_mean_exp(values: np.ndarray, eta: float) -> float:
     return float(eta * (top + np.log(np.mean(np.exp(v - top)))))
 
 
-def carry_opinions(z: np.ndarray, old_game: tuple[int, ...], new_game: tuple[int, ...], eta: float) -> np.ndarray:
+def carry_groups(old_game: tuple[int, ...], new_game: tuple[int, ...]) -> tuple[list[np.ndarray], list[int]]:
+    """How :func:`carry_opinions` groups the orders of ``old_game``: the indices of the old orders
+    that put the robots of both games in the same order, one array per group (in the order the
+    groups first appear), and the group of each order of ``new_game``. A function of the games
+    alone, which a caller may keep."""
+    shared = [k for k in new_game if k in old_game]
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for j, key in enumerate(projection_keys(game_orders(old_game), shared)):
+        groups.setdefault(key, []).append(j)
+    place = {key: g for g, key in enumerate(groups)}
+    return ([np.array(members, dtype=int) for members in groups.values()],
+            [place[key] for key in projection_keys(game_orders(new_game), shared)])
+
+
+def carry_opinions(z: np.ndarray, old_game: tuple[int, ...], new_game: tuple[int, ...], eta: float,
+                   groups: tuple[list[np.ndarray], list[int]] | None = None) -> np.ndarray:
     """Opinions over the orders of ``new_game`` from ``z`` over those of ``old_game``
     (:func:`game_orders`): each new order gets the log-mean-exp of the old orders that put the
-    robots of both games in the same order; ``z`` itself when the game is the same."""
+    robots of both games in the same order; ``z`` itself when the game is the same. ``groups``:
+    :func:`carry_groups` of the two games, if the caller holds it."""
     if tuple(old_game) == tuple(new_game):
         return np.asarray(z, dtype=float)
-    shared = [k for k in new_game if k in old_game]
-    old_keys = projection_keys(game_orders(old_game), shared)
-    groups: dict[tuple[int, ...], list[float]] = {}
-    for key, value in zip(old_keys, np.asarray(z, dtype=float)):
-        groups.setdefault(key, []).append(value)
-    carried = {key: log_mean_exp(np.array(values), eta) for key, values in groups.items()}
-    return np.array([carried[key] for key in projection_keys(game_orders(new_game), shared)])
+    members, group_of = carry_groups(old_game, new_game) if groups is None else groups
+    z = np.asarray(z, dtype=float)
+    carried = [log_mean_exp(z[rows], eta) for rows in members]
+    return np.array([carried[g] for g in group_of])
 
 
 def game_bias(bias: dict[int, float], game: tuple[int, ...], n_robots: int, eta: float) -> np.ndarray:

@@ -21,7 +21,7 @@ from nodnav.decision.estimation import (
     mismatch_predictions,
     reachable_predictions,
 )
-from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
+from nodnav.decision.games import carry_groups, carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
@@ -245,6 +245,7 @@ class NODAgent:
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
         self._to_go_args: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+        self._carry: dict[tuple[tuple[int, ...], tuple[int, ...]], tuple[list[np.ndarray], list[int]]] = {}
         self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
@@ -276,7 +277,10 @@ class NODAgent:
         if not self.game:
             self.z = self.initial_opinions(game)
         elif game != self.game:
-            self.z = carry_opinions(self.z, self.game, game, self.params.eta)
+            groups = self._carry.get((self.game, game))
+            if groups is None:
+                groups = self._carry[(self.game, game)] = carry_groups(self.game, game)
+            self.z = carry_opinions(self.z, self.game, game, self.params.eta, groups)
         self.game = game
 
     def _update_opinion(self, view: RobotView) -> None:
@@ -354,7 +358,11 @@ class NODAgent:
         orders = self._local.get(key)
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
-            orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
+            # local_order of each order: every robot of (*extra, *order) is in planning, so the
+            # projection keeps the whole order and only the numbering changes.
+            local_of = {k: m for m, k in enumerate(planning)}
+            orders = self._local[key] = [tuple(local_of[k] for k in (*extra, *order))
+                                         for order in self.orders_of(game).tolist()]
         if not orders:
             return []
         # The queries of all orders share their state: one request, asked in each order. Every
@@ -437,20 +445,23 @@ class NODAgent:
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
             if progress[self.index] < STALL_DISTANCE:
-                # standoff_partner reads the plan and the players only for a robot that has stalled.
-                plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
-                plan_to_go = self._shared_to_go(plan, planning)
-                planned = -(plan_to_go[:, 1] - plan_to_go[:, 0])
-                columns = [planning.index(k) if k in planning else -1 for k in players]
-                players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
-                now = view.positions[list(players)]
-                arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
-                           <= self.scenario.sim.goal_tolerance)
-                found = standoff_partner(progress[self.index], progress[list(players)],
-                                         planned[planning.index(self.index)], players_planned,
-                                         players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
-                                         players_arrived=arrived)
-                partner = players[found] if found >= 0 else -1
+                rows = list(players)
+                now = view.positions[rows]
+                arrived = np.linalg.norm(now - self.destinations[rows], axis=1) <= self.scenario.sim.goal_tolerance
+                # standoff_partner reads the plan only for a robot that has stalled while a player
+                # that has not arrived stalled too: it finds no partner among the others.
+                if ((progress[rows] < STALL_DISTANCE) & ~arrived).any():
+                    selected = self.plans.states_at(plans[self.selected], view.window_times)
+                    plan = selected[:, [0, -1], :2]  # (n_plan, 2, 2)
+                    plan_to_go = self._shared_to_go(plan, planning)
+                    planned = -(plan_to_go[:, 1] - plan_to_go[:, 0])
+                    columns = [planning.index(k) if k in planning else -1 for k in players]
+                    players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+                    found = standoff_partner(progress[self.index], progress[rows],
+                                             planned[planning.index(self.index)], players_planned,
+                                             players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                             players_arrived=arrived)
+                    partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
             if to_go_now is None:

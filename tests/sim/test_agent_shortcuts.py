@@ -84,3 +84,20 @@ def test_reductions_without_wrappers_are_numpys_bit_for_bit():
         s = z / 0.7
         e = np.exp(s - s.max(axis=-1, keepdims=True))
         assert np.array_equal(strategy_probabilities(z, 0.7), e / e.sum(axis=-1, keepdims=True))
+
+
+def test_scalar_paths_of_the_opinion_update_are_the_array_paths_bit_for_bit():
+    from nodnav.decision.opinion import _per_robot, opinion_update, step_size
+    from nodnav.decision.standoff import progress_beyond_best
+
+    rng = np.random.default_rng(4)
+    for t in [0.0, 0.5, 3.0, 19.0, 1e6, float("nan")]:
+        for h in [0.05, 0.0, 0.5]:
+            assert np.array_equal(step_size(t, h), np.maximum(1.0 / (np.asarray(t) + 1.0), h), equal_nan=True)
+    z, social, b = rng.normal(0, 40, 24), rng.uniform(0, 30, 24), rng.normal(0, 1, 24)
+    for u, d, alpha in [(100.0, 1.0, 0.05), (3.7, 0.3, 0.41), (0.0, 1.9, 1.0)]:
+        expected = z - alpha * (_per_robot(d) * (z - _per_robot(u) * social - b))
+        assert np.array_equal(opinion_update(z, social, u, d, b, alpha), expected)
+    rows = [rng.uniform(0, 9, 6) for _ in range(4)]
+    now = rng.uniform(0, 9, 6)
+    assert np.array_equal(progress_beyond_best(now, rows), np.vstack(rows).min(axis=0) - now)

@@ -165,6 +165,11 @@ def step_size(t, alpha_min: float = 0.05):
     ``1 / (t + 1)`` alone satisfies ``sum alpha = inf`` and ``sum alpha^2 < inf``; the floor keeps
     opinions responsive over a finite run.
     """
+    if isinstance(t, float) and isinstance(alpha_min, float) and alpha_min == alpha_min:
+        # One time, as Algorithm 1 asks it: np.maximum of two doubles without the array calls
+        # (NaN in t propagates as np.maximum's does).
+        a = 1.0 / (t + 1.0)
+        return np.float64(a if not a < alpha_min else alpha_min)
     return np.maximum(1.0 / (np.asarray(t, dtype=float) + 1.0), alpha_min)
 
 
@@ -176,5 +181,8 @@ def opinion_update(z: np.ndarray, social: np.ndarray, u, d, b, alpha) -> np.ndar
     value per row of ``z``.
     """
     z = np.asarray(z, dtype=float)
-    rate = _per_robot(d) * (z - _per_robot(u) * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
+    if isinstance(u, float) and isinstance(d, float):  # one robot's scalars: the same products, unreshaped
+        rate = d * (z - u * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
+    else:
+        rate = _per_robot(d) * (z - _per_robot(u) * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
     return z - alpha * rate

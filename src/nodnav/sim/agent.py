@@ -443,7 +443,7 @@ class NODAgent:
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if self.params.standoff_progress == "best":  # beyond the best over the patience
-                progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
+                progress = progress_beyond_best(to_go[:, 1], [to_go[:, 0], *self._to_go_seen])
             if progress[self.index] < STALL_DISTANCE:
                 rows = list(players)
                 now = view.positions[rows]

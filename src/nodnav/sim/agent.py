@@ -409,10 +409,9 @@ class NODAgent:
         if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
         world = self.scenario.world
-        known = view.known
         entered: tuple[int, ...] = ()
         if view.entered:  # the corridor test only for the robots seen to enter
-            inside = world.in_corridor(view.positions)
+            inside, known = world.in_corridor(view.positions), view.known
             entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
@@ -425,6 +424,7 @@ class NODAgent:
         planning = [self.index, *players, *entered]
         if len(planning) == s.n_robots:  # packed_crossed adds robots outside the plan only: there are none
             return entered
+        known = view.known
         done = known if self.settled is None else known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,

@@ -106,3 +106,14 @@ def test_carry_groups_kept_by_the_caller_give_the_same_carried_opinions():
         groups = carry_groups(old, new)
         np.testing.assert_allclose(carry_opinions(z, old, new, eta, groups), expected, rtol=1e-12)
         assert np.array_equal(carry_opinions(z, old, new, eta, groups), carry_opinions(z, old, new, eta))
+
+
+def test_log_mean_exp_is_numpys_max_and_mean_bit_for_bit():
+    from nodnav.decision.games import log_mean_exp
+
+    rng = np.random.default_rng(7)
+    for n in [1, 2, 5, 8, 9, 24, 130]:
+        values, eta = rng.normal(0, 30, n), float(rng.uniform(0.2, 3.0))
+        v = values / eta
+        top = v.max()
+        assert log_mean_exp(values, eta) == float(eta * (top + np.log(np.mean(np.exp(v - top)))))

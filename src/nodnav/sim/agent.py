@@ -245,7 +245,6 @@ class NODAgent:
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
         self._to_go_args: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
-        self._carry: dict[tuple[tuple[int, ...], tuple[int, ...]], tuple[list[np.ndarray], list[int]]] = {}
         self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
@@ -277,10 +276,7 @@ class NODAgent:
         if not self.game:
             self.z = self.initial_opinions(game)
         elif game != self.game:
-            groups = self._carry.get((self.game, game))
-            if groups is None:
-                groups = self._carry[(self.game, game)] = carry_groups(self.game, game)
-            self.z = carry_opinions(self.z, self.game, game, self.params.eta, groups)
+            self.z = carry_opinions(self.z, self.game, game, self.params.eta, carry_groups(self.game, game))
         self.game = game
 
     def _update_opinion(self, view: RobotView) -> None:

@@ -85,3 +85,35 @@ def test_selections_agree_when_no_two_put_two_open_robots_in_opposite_orders():
     assert not selections_agree(ranks, [1, 2])  # robot 1 says 1 before 2, robot 2 says 2 before 1
     assert selections_agree(ranks, [2])
     assert not selections_agree(np.array([[0, 1, -1], [-1, -1, -1], [0, 1, 2]]), [0, 1])  # robot 1 chose none
+
+
+def test_carry_groups_kept_by_the_caller_give_the_same_carried_opinions():
+    """carry_opinions with :func:`carry_groups` passed in: each new order gets eta log mean exp
+    (z / eta) of the old orders that put the shared robots alike, worked out here by projecting
+    each pair of orders by hand."""
+    from nodnav.decision.games import carry_groups, carry_opinions
+
+    rng = np.random.default_rng(2)
+    eta = 0.8
+    for old, new in [((0, 1, 2), (1, 2, 5)), ((0, 3), (0, 3, 4)), ((1, 2, 3, 4), (2, 4)), ((0, 1), (2, 3))]:
+        z = rng.normal(0, 3, len(list(permutations(old))))
+        shared = [k for k in new if k in old]
+        expected = []
+        for order in permutations(new):
+            key = [k for k in order if k in shared]
+            values = np.array([z[j] for j, o in enumerate(permutations(old)) if [k for k in o if k in shared] == key])
+            expected.append(eta * np.log(np.mean(np.exp(values / eta))))
+        groups = carry_groups(old, new)
+        np.testing.assert_allclose(carry_opinions(z, old, new, eta, groups), expected, rtol=1e-12)
+        assert np.array_equal(carry_opinions(z, old, new, eta, groups), carry_opinions(z, old, new, eta))
+
+
+def test_log_mean_exp_is_numpys_max_and_mean_bit_for_bit():
+    from nodnav.decision.games import log_mean_exp
+
+    rng = np.random.default_rng(7)
+    for n in [1, 2, 5, 8, 9, 24, 130]:
+        values, eta = rng.normal(0, 30, n), float(rng.uniform(0.2, 3.0))
+        v = values / eta
+        top = v.max()
+        assert log_mean_exp(values, eta) == float(eta * (top + np.log(np.mean(np.exp(v - top)))))

@@ -230,9 +230,11 @@ def estimate_social_term(z_prime: np.ndarray, planned: np.ndarray | None = None)
     strategy there is no evidence at all and every score is ``R(0) = 1/2``.
     """
     z_prime = np.asarray(z_prime, dtype=float)
-    if planned is None or np.all(planned):
+    if planned is None:
         return saturation(relative_opinions(z_prime))
     planned = np.asarray(planned, dtype=bool)
+    if planned.all():
+        return saturation(relative_opinions(z_prime))
     if not planned.any():
         return np.full(z_prime.shape, 0.5)
     r = np.zeros(z_prime.shape)

@@ -28,6 +28,7 @@ that does not change the two are the same (``tests/decision/test_games.py``).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -56,23 +57,42 @@ def projection_keys(orders: np.ndarray, robots) -> list[tuple[int, ...]]:
 def log_mean_exp(values: np.ndarray, eta: float) -> float:
     """``eta log mean exp(values / eta)``: the value whose softmax weight is the mean of theirs."""
     v = np.asarray(values, dtype=float) / eta
+    if v.ndim == 1 and len(v):  # max and mean as their reductions without the wrappers (mean: sum / count)
+        top = np.maximum.reduce(v)
+        return float(eta * (top + np.log(np.add.reduce(np.exp(v - top)) / len(v))))
     top = v.max()
     return float(eta * (top + np.log(np.mean(np.exp(v - top)))))
 
 
-def carry_opinions(z: np.ndarray, old_game: tuple[int, ...], new_game: tuple[int, ...], eta: float) -> np.ndarray:
+@functools.lru_cache(maxsize=4096)
+def carry_groups(old_game: tuple[int, ...], new_game: tuple[int, ...]) -> tuple[list[np.ndarray], list[int]]:
+    """How :func:`carry_opinions` groups the orders of ``old_game``: the indices of the old orders
+    that put the robots of both games in the same order, one array per group (in the order the
+    groups first appear), and the group of each order of ``new_game``. A function of the games
+    alone, kept for the games asked again (read-only)."""
+    shared = [k for k in new_game if k in old_game]
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for j, key in enumerate(projection_keys(game_orders(old_game), shared)):
+        groups.setdefault(key, []).append(j)
+    place = {key: g for g, key in enumerate(groups)}
+    members = [np.array(rows, dtype=int) for rows in groups.values()]
+    for rows in members:
+        rows.flags.writeable = False
+    return members, [place[key] for key in projection_keys(game_orders(new_game), shared)]
+
+
+def carry_opinions(z: np.ndarray, old_game: tuple[int, ...], new_game: tuple[int, ...], eta: float,
+                   groups: tuple[list[np.ndarray], list[int]] | None = None) -> np.ndarray:
     """Opinions over the orders of ``new_game`` from ``z`` over those of ``old_game``
     (:func:`game_orders`): each new order gets the log-mean-exp of the old orders that put the
-    robots of both games in the same order; ``z`` itself when the game is the same."""
+    robots of both games in the same order; ``z`` itself when the game is the same. ``groups``:
+    :func:`carry_groups` of the two games, if the caller holds it."""
     if tuple(old_game) == tuple(new_game):
         return np.asarray(z, dtype=float)
-    shared = [k for k in new_game if k in old_game]
-    old_keys = projection_keys(game_orders(old_game), shared)
-    groups: dict[tuple[int, ...], list[float]] = {}
-    for key, value in zip(old_keys, np.asarray(z, dtype=float)):
-        groups.setdefault(key, []).append(value)
-    carried = {key: log_mean_exp(np.array(values), eta) for key, values in groups.items()}
-    return np.array([carried[key] for key in projection_keys(game_orders(new_game), shared)])
+    members, group_of = carry_groups(tuple(old_game), tuple(new_game)) if groups is None else groups
+    z = np.asarray(z, dtype=float)
+    carried = [log_mean_exp(z[rows], eta) for rows in members]
+    return np.array([carried[g] for g in group_of])
 
 
 def game_bias(bias: dict[int, float], game: tuple[int, ...], n_robots: int, eta: float) -> np.ndarray:

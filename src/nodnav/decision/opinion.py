@@ -37,7 +37,10 @@ import numpy as np
 def relative_opinions(z: np.ndarray) -> np.ndarray:
     """Relative opinions ``zbar_kj = z_kj - N_s^{-1} sum_l z_kl`` over the last axis, eq. (2)."""
     z = np.asarray(z, dtype=float)
-    return z - z.mean(axis=-1, keepdims=True)
+    if not z.shape or not z.shape[-1]:  # mean's own warnings and errors
+        return z - z.mean(axis=-1, keepdims=True)
+    # mean's own operations (its sum over the axis, then the division by the count) without its wrapper
+    return z - np.add.reduce(z, axis=-1, keepdims=True) / z.shape[-1]
 
 
 def saturation(x: np.ndarray) -> np.ndarray:
@@ -54,8 +57,9 @@ def strategy_probabilities(z: np.ndarray, eta: float = 1.0) -> np.ndarray:
     if eta <= 0:
         raise ValueError(f"eta must be positive, got {eta}")
     s = np.asarray(z, dtype=float) / eta
-    e = np.exp(s - s.max(axis=-1, keepdims=True))
-    return e / e.sum(axis=-1, keepdims=True)
+    # max and sum over the last axis are these reductions, without their wrappers
+    e = np.exp(s - np.maximum.reduce(s, axis=-1, keepdims=True))
+    return e / np.add.reduce(e, axis=-1, keepdims=True)
 
 
 def selection_probabilities(x: np.ndarray, available: np.ndarray) -> np.ndarray:
@@ -161,6 +165,11 @@ def step_size(t, alpha_min: float = 0.05):
     ``1 / (t + 1)`` alone satisfies ``sum alpha = inf`` and ``sum alpha^2 < inf``; the floor keeps
     opinions responsive over a finite run.
     """
+    if isinstance(t, float) and isinstance(alpha_min, float) and alpha_min == alpha_min:
+        # One time, as Algorithm 1 asks it: np.maximum of two doubles without the array calls
+        # (NaN in t propagates as np.maximum's does).
+        a = 1.0 / (t + 1.0)
+        return np.float64(a if not a < alpha_min else alpha_min)
     return np.maximum(1.0 / (np.asarray(t, dtype=float) + 1.0), alpha_min)
 
 
@@ -172,5 +181,8 @@ def opinion_update(z: np.ndarray, social: np.ndarray, u, d, b, alpha) -> np.ndar
     value per row of ``z``.
     """
     z = np.asarray(z, dtype=float)
-    rate = _per_robot(d) * (z - _per_robot(u) * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
+    if isinstance(u, float) and isinstance(d, float):  # one robot's scalars: the same products, unreshaped
+        rate = d * (z - u * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
+    else:
+        rate = _per_robot(d) * (z - _per_robot(u) * np.asarray(social, dtype=float) - np.asarray(b, dtype=float))
     return z - alpha * rate

@@ -30,13 +30,19 @@ import numpy as np
 STALL_DISTANCE = 0.1
 
 
-def progress_beyond_best(to_go_now: np.ndarray, to_go_before: np.ndarray) -> np.ndarray:
+def progress_beyond_best(to_go_now: np.ndarray, to_go_before: np.ndarray | list[np.ndarray]) -> np.ndarray:
     """How much closer to its destination each robot is now than the closest it was over the span
     before (m; negative: farther). ``to_go_now`` ``(n,)`` is each robot's distance to go now,
-    ``to_go_before`` ``(S, n)`` its distances to go at S earlier times (the start of the last period
-    among them). With the start of the last period alone this is the progress over the period; a
-    robot that backs off and comes back to where it was has made none.
+    ``to_go_before`` ``(S, n)`` (or a list of its S rows) its distances to go at S earlier times
+    (the start of the last period among them). With the start of the last period alone this is
+    the progress over the period; a robot that backs off and comes back to where it was has made
+    none.
     """
+    if isinstance(to_go_before, list):  # rows given apart: their minimum row by row (min is exact)
+        best = np.asarray(to_go_before[0], dtype=float)
+        for row in to_go_before[1:]:
+            best = np.minimum(best, row)
+        return best - np.asarray(to_go_now, dtype=float)
     before = np.atleast_2d(np.asarray(to_go_before, dtype=float))
     return before.min(axis=0) - np.asarray(to_go_now, dtype=float)
 

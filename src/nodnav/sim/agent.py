@@ -11,7 +11,6 @@ for every strategy.
 from __future__ import annotations
 
 from bisect import bisect_right
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,96 +20,18 @@ from nodnav.decision.estimation import (
     mismatch_predictions,
     reachable_predictions,
 )
-from nodnav.decision.games import carry_opinions, class_size, game_bias, game_orders
+from nodnav.decision.games import carry_groups, carry_opinions, class_size, game_bias, game_orders
 from nodnav.decision.initial import distance_initial_opinions
 from nodnav.decision.opinion import opinion_update, selection_probabilities, step_size, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players, undecided_first
 from nodnav.decision.standoff import STALL_DISTANCE, progress_beyond_best, standoff_partner
 from nodnav.decision.strategies import passing_orders, precedence_mask, project_order
-from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult, crossing_directions, relabel
+from nodnav.planning.base import PlanRequest, PlanResult, crossing_directions, relabel
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
 from nodnav.sim.plan_cache import PlanCache, state_key
-
-
-@dataclass(frozen=True)
-class RobotView:
-    """What one robot observes at a decision time: everyone's recent motion, as it sees it."""
-
-    t: float
-    """Current time (s)."""
-    window_times: np.ndarray
-    """Sample times of the last window [t - T, t] ``(M,)`` (s)."""
-    window_states: np.ndarray
-    """Observed states (px, py, vx, vy) of every robot over the window ``(N_r, M, 4)``; own row is exact."""
-    entered: tuple[int, ...]
-    """Robots the observer has seen enter the corridor, in the order they did."""
-    age: np.ndarray | None = None
-    """Time since the observer last saw each robot ``(N_r,)`` (s): 0 while seen, inf if unknown
-    (never seen, or forgotten); None with the paper's sensing, where everyone is always seen
-    (:mod:`nodnav.sim.sensing`). A robot not seen now is held still where it was last seen."""
-    sigma: np.ndarray | None = None
-    """Standard deviation of the estimate of each robot's position along either axis ``(N_r,)``
-    (m), from the observer's filters; None when observations are exact or not filtered."""
-    passage_entered: tuple[tuple[int, ...], ...] = ()
-    """With several passages, the robots the observer has seen enter each passage, in order
-    (``entered`` is the first passage's); empty with one passage."""
-
-    @property
-    def seen(self) -> np.ndarray:
-        """Which robots the observer sees now ``(N_r,)``."""
-        if self.age is None:
-            return np.ones(self.window_states.shape[0], dtype=bool)
-        return self.age == 0.0
-
-    @property
-    def known(self) -> np.ndarray:
-        """Which robots the observer sees or remembers ``(N_r,)``."""
-        if self.age is None:
-            return np.ones(self.window_states.shape[0], dtype=bool)
-        return np.isfinite(self.age)
-
-    @property
-    def positions(self) -> np.ndarray:
-        """Current observed positions ``(N_r, 2)`` (m)."""
-        return self.window_states[:, -1, :2]
-
-    @property
-    def velocities(self) -> np.ndarray:
-        """Current observed velocities ``(N_r, 2)`` (m/s)."""
-        return self.window_states[:, -1, 2:]
-
-
-@dataclass(frozen=True)
-class Decision:
-    """A robot's decision for the coming period: what it follows and what it expects of others."""
-
-    strategy: int
-    """Index of the selected order among the orders of ``game`` (0-based,
-    :func:`~nodnav.decision.games.game_orders`), or -1 for methods without strategies."""
-    robots: tuple[int, ...]
-    """Robots in the plan: the agent first, then its game players, then any robot already
-    committed to the corridor that it plans with (scenario indices)."""
-    plan: PlanResult
-    """The joint plan for the selected order over ``robots``."""
-    opinions: np.ndarray
-    """Opinion state z_i after the update, over the orders of ``game`` ``((k+1)!,)`` (empty
-    for methods without opinions)."""
-    probabilities: np.ndarray
-    """Selection probabilities x_i over the orders of ``game`` ``((k+1)!,)`` (empty without opinions)."""
-    players: tuple[int, ...]
-    """Game players N_i(t)."""
-    game: tuple[int, ...] = ()
-    """The robots the opinions and the selected order are about, in increasing index: the agent
-    and its game players (every robot for a method that follows one full order)."""
-    order: tuple[int, ...] = ()
-    """The selected passing order of ``game`` (scenario indices); empty without one."""
-
-    @property
-    def own_trajectory(self) -> JointTrajectory:
-        """The agent's own reference path."""
-        return self.plan.trajectory.subset([0])
+from nodnav.sim.views import Decision, RobotView  # defined there, imported from here by the methods
 
 
 def local_order(order, robots: tuple[int, ...]) -> tuple[int, ...]:
@@ -137,7 +58,7 @@ def weighted_choice(rng: np.random.Generator, p: np.ndarray) -> int:
     its last element, draws one ``rng.random()`` and returns ``cdf.searchsorted(u, side="right")``
     (``bisect_right`` of the same sorted list). Without ``choice``'s argument checks, which
     cost more than the draw (the probabilities come from eq. (3), checked there)."""
-    cdf = np.cumsum(p, dtype=float)
+    cdf = np.add.accumulate(np.asarray(p, dtype=float))  # np.cumsum's operation, without its wrapper
     cdf /= cdf[-1]
     return bisect_right(cdf.tolist(), rng.random())
 
@@ -244,6 +165,7 @@ class NODAgent:
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
+        self._to_go_args: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
@@ -275,7 +197,7 @@ class NODAgent:
         if not self.game:
             self.z = self.initial_opinions(game)
         elif game != self.game:
-            self.z = carry_opinions(self.z, self.game, game, self.params.eta)
+            self.z = carry_opinions(self.z, self.game, game, self.params.eta, carry_groups(self.game, game))
         self.game = game
 
     def _update_opinion(self, view: RobotView) -> None:
@@ -323,6 +245,10 @@ class NODAgent:
         """Eqs. (6)-(7) on the observed positions; with ``conflict: undecided``, among the robots
         not yet seen to enter the corridor first (those that have are ahead in every order)."""
         world, positions = self.scenario.world, view.positions
+        n = len(positions)
+        if self.n_players == n - 1 and self.eligible is None and (view.age is None or view.seen.all()):
+            # Eq. (7) picks every other robot whatever the likelihoods are (select_game_players).
+            return tuple(j for j in range(n) if j != self.index)
         undecided = self.params.conflict == "undecided" and view.entered
 
         def likelihoods() -> np.ndarray:
@@ -349,7 +275,11 @@ class NODAgent:
         orders = self._local.get(key)
         if orders is None:
             extra = tuple(k for k in planning if k not in game)
-            orders = self._local[key] = [local_order((*extra, *order), planning) for order in self.orders_of(game)]
+            # local_order of each order: every robot of (*extra, *order) is in planning, so the
+            # projection keeps the whole order and only the numbering changes.
+            local_of = {k: m for m, k in enumerate(planning)}
+            orders = self._local[key] = [tuple(local_of[k] for k in (*extra, *order))
+                                         for order in self.orders_of(game).tolist()]
         if not orders:
             return []
         # The queries of all orders share their state: one request, asked in each order. Every
@@ -359,9 +289,20 @@ class NODAgent:
         # the window, the time, the entry records, the robots; its first order is no part of the
         # queries: plan_order asks each order of it).
         template_key = ("template", id(self.scenario), id(view.window_states), view.t, view.entered, planning)
-        template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]),
-                                          (self.scenario, view.window_states))
-        return self.plans.plan_orders(template, orders, state)
+        keep = (self.scenario, view.window_states)
+        computed = []
+
+        def every_order() -> list[PlanResult]:
+            computed.append(True)
+            template, state = self.plans.once(template_key, lambda: self._template(view, planning, orders[0]), keep)
+            return self.plans.plan_orders(template, orders, state)
+
+        # The game's players that plan the same robots ask the same queries (orders is a function
+        # of the game and planning): answered once per round, the list only read.
+        plans = self.plans.once(("plans", *template_key, game), every_order, keep)
+        if not computed:
+            self.plans.hits += len(orders)  # counted as plan_orders counts answers from the round
+        return plans
 
     def _template(self, view: RobotView, planning: tuple[int, ...],
                   order: tuple[int, ...]) -> tuple[PlanRequest, tuple]:
@@ -385,9 +326,10 @@ class NODAgent:
         if self.params.nonplayers != "entered" or self.n_players == 0:
             return ()
         world = self.scenario.world
-        inside = world.in_corridor(view.positions)
-        known = view.known
-        entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
+        entered: tuple[int, ...] = ()
+        if view.entered:  # the corridor test only for the robots seen to enter
+            inside, known = world.in_corridor(view.positions), view.known
+            entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
         # Robots done with the corridor packed round the way of a robot of the plan (sim/parked.py).
@@ -396,11 +338,14 @@ class NODAgent:
         # local goal it drives through), not parked, and planning it as parked at the front of
         # every order blocks the robots that wait for it (docs/several-passages.md).
         s = self.scenario
+        planning = [self.index, *players, *entered]
+        if len(planning) == s.n_robots:  # packed_crossed adds robots outside the plan only: there are none
+            return entered
+        known = view.known
         done = known if self.settled is None else known & self.settled
         # Game players of one game ask the same, so the plan cache answers once per round.
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
-                                                   [self.index, *players, *entered], s.sim.goal_tolerance,
-                                                   s.planner.margin)
+                                                   planning, s.sim.goal_tolerance, s.planner.margin)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``
@@ -415,22 +360,25 @@ class NODAgent:
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if self.params.standoff_progress == "best":  # beyond the best over the patience
-                progress = progress_beyond_best(to_go[:, 1], np.vstack([to_go[:, 0], *self._to_go_seen]))
+                progress = progress_beyond_best(to_go[:, 1], [to_go[:, 0], *self._to_go_seen])
             if progress[self.index] < STALL_DISTANCE:
-                # standoff_partner reads the plan and the players only for a robot that has stalled.
-                plan = self.plans.states_at(plans[self.selected], view.window_times)[:, [0, -1], :2]  # (n_plan, 2, 2)
-                plan_to_go = self._shared_to_go(plan, planning)
-                planned = -(plan_to_go[:, 1] - plan_to_go[:, 0])
-                columns = [planning.index(k) if k in planning else -1 for k in players]
-                players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
-                now = view.positions[list(players)]
-                arrived = (np.linalg.norm(now - self.destinations[list(players)], axis=1)
-                           <= self.scenario.sim.goal_tolerance)
-                found = standoff_partner(progress[self.index], progress[list(players)],
-                                         planned[planning.index(self.index)], players_planned,
-                                         players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
-                                         players_arrived=arrived)
-                partner = players[found] if found >= 0 else -1
+                rows = list(players)
+                now = view.positions[rows]
+                arrived = np.linalg.norm(now - self.destinations[rows], axis=1) <= self.scenario.sim.goal_tolerance
+                # standoff_partner reads the plan only for a robot that has stalled while a player
+                # that has not arrived stalled too: it finds no partner among the others.
+                if ((progress[rows] < STALL_DISTANCE) & ~arrived).any():
+                    selected = self.plans.states_at(plans[self.selected], view.window_times)
+                    plan = selected[:, [0, -1], :2]  # (n_plan, 2, 2)
+                    plan_to_go = self._shared_to_go(plan, planning)
+                    planned = -(plan_to_go[:, 1] - plan_to_go[:, 0])
+                    columns = [planning.index(k) if k in planning else -1 for k in players]
+                    players_planned = np.array([planned[c] if c >= 0 else 0.0 for c in columns])
+                    found = standoff_partner(progress[self.index], progress[rows],
+                                             planned[planning.index(self.index)], players_planned,
+                                             players_distance=np.linalg.norm(now - view.positions[self.index], axis=1),
+                                             players_arrived=arrived)
+                    partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
             span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
             if to_go_now is None:
@@ -450,9 +398,16 @@ class NODAgent:
     def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
         """Distance to go (m) through the corridor of ``robots`` (default all) at ``positions``
         ``(n, M, 2)``."""
-        robots = list(range(self.scenario.n_robots)) if robots is None else list(robots)
-        dest = self.destinations[robots][:, None]
-        return distance_to_go(self.scenario.world, positions, dest, self.sides[robots][:, None])
+        shape = positions.shape[:-1]
+        args = self._to_go_args.get((robots, shape))
+        if args is None:
+            # The destinations and sides laid out as the positions (distance_to_go broadcasts them
+            # so otherwise, at every call): the same values, read-only.
+            rows = list(range(self.scenario.n_robots)) if robots is None else list(robots)
+            args = self._to_go_args[(robots, shape)] = (
+                np.ascontiguousarray(np.broadcast_to(self.destinations[rows][:, None], (*shape, 2))),
+                np.ascontiguousarray(np.broadcast_to(self.sides[rows][:, None], shape)))
+        return distance_to_go(self.scenario.world, positions, *args)
 
     def decide(self, view: RobotView) -> Decision:
         """Algorithm 1, procedure RobotNavigation(t)."""
@@ -482,4 +437,4 @@ class NODAgent:
             plan = clearing_plan(self.scenario, view, planning, self.index, plan, self._graphs)
         return Decision(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players, game=game,
-                        order=tuple(int(k) for k in orders[strategy]))
+                        order=tuple(orders[strategy].tolist()))

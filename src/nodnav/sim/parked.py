@@ -44,9 +44,14 @@ def packed_crossed(world: World, positions: np.ndarray, destinations: np.ndarray
     crossed, arriving = masks
     mine = np.zeros(len(positions), dtype=bool)
     mine[planning] = True
+    # Only crossed robots join (those packed round a way, and crossed robots whose way has one of
+    # the plan packed round it), and what is packed is crossed: with no crossed robot outside the
+    # plan nobody joins, and with no crossed robot in the plan no crossed robot's way matters.
+    if not (crossed & ~mine).any():
+        return []
     joining = np.zeros(len(positions), dtype=bool)
     packed_round = {} if packed_round is None else packed_round
-    for k in np.flatnonzero(arriving & (mine | crossed)):
+    for k in np.flatnonzero(arriving & (mine | crossed) if (crossed & mine).any() else arriving & mine):
         packed = packed_round.get(int(k))
         if packed is None:
             packed = packed_round[int(k)] = _packed_round(world, positions, destinations, radii, crossed, int(k),

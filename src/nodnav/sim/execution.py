@@ -318,6 +318,10 @@ class ReactionMargins:
         self._mode = _MODES.index(self._braking_margin)
         self._others_array = [np.array(o, dtype=np.int64) for o in self._others]
         self._safety, self._slack = scenario.controller.safety_margin, scenario.execution.reaction_slack
+        self.constants = [(self._accel, self._radii, self._safety, self._slack, self._surprise, self._mode,
+                           self._surprised[i], self._surprise_steps) for i in range(n)]
+        """Per robot, the arguments of :func:`careful_radii` after the last observation's, the same
+        every step (``surprised``: the robot's row, updated in place)."""
 
     def radii(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """The radii ``radii`` of robot ``i``'s three predictions of every other robot, the braking
@@ -335,6 +339,16 @@ class ReactionMargins:
             self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
                                   velocities if not velocities.flags.writeable else velocities.copy())
         return out
+
+    def seen(self, i: int, positions: np.ndarray, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """What robot ``i`` observed at its last step (``positions`` and ``velocities`` themselves,
+        and False, at its first), the arguments of :func:`careful_radii` that :meth:`radii` reads;
+        ``positions`` and ``velocities`` are remembered as :meth:`radii` remembers them."""
+        seen = self._last_seen.get(i)
+        if self._mode >= _SURPRISED:  # a read-only view (the simulator's windows) never changes: kept as it is
+            self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
+                                  velocities if not velocities.flags.writeable else velocities.copy())
+        return (positions, velocities, False) if seen is None else (seen[0], seen[1], True)
 
     def radii_plain(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """:meth:`radii` in NumPy, the reference its compiled loop is tested against."""
@@ -397,8 +411,10 @@ class WaitRelease:
         n = scenario.n_robots
         self.patience = scenario.execution.wait_patience
         self.reach = scenario.sim.progress_epsilon
-        self.anchors: list[np.ndarray | None] = [None] * n
-        """Where each robot saw every robot when its present wait began ``(N_r, 2)`` (m)."""
+        self.anchors = np.zeros((n, n, 2))
+        """Where each robot saw every robot when its present wait began ``(N_r, N_r, 2)`` (m)."""
+        self.anchored = np.zeros(n, dtype=bool)
+        """Whether each robot's anchor is set (from its first observation on)."""
         self.since = np.zeros(n)
         """When each robot's present wait began (s)."""
         self.released_until = np.full(n, -np.inf)
@@ -410,15 +426,14 @@ class WaitRelease:
         and release it from the robots that hold it once that lasts ``patience``."""
         if self.patience <= 0.0 or not execution.settings.gated:
             return
-        anchor = self.anchors[i]
-        if anchor is None:
-            anchor = self.anchors[i] = view.positions.copy()
+        if not self.anchored[i]:
+            self.anchors[i], self.anchored[i] = view.positions, True
             self.since[i] = t
         blockers = execution.blockers()
-        moved = moved_beyond(view.positions, anchor, rows, self.reach)
+        moved = moved_beyond(view.positions, self.anchors[i], rows, self.reach)
         if t >= self.released_until[i] - 1e-9:
             if moved.any() or not len(blockers):  # not held, or somebody of the plan got somewhere
-                self.anchors[i] = view.positions.copy()
+                self.anchors[i] = view.positions
                 self.since[i] = t
                 return
             if t - self.since[i] < self.patience - 1e-9:
@@ -432,16 +447,16 @@ class WaitRelease:
         """:meth:`PlanExecution.observe` and :meth:`check` at once (gated execution), from every
         robot's observed ``positions`` ``(N, 2)``: one compiled call per robot and step."""
         waiting = self.patience > 0.0
-        anchor = self.anchors[i] if waiting else positions
-        if anchor is None:
-            anchor = self.anchors[i] = positions.copy()
+        if waiting and not self.anchored[i]:
+            self.anchors[i], self.anchored[i] = positions, True
             self.since[i] = t
-        held, moved, stuck = execution.observe_held(positions, rows, anchor, self.reach)
+        held, moved, stuck = execution.observe_held(positions, rows, self.anchors[i] if waiting else positions,
+                                                    self.reach)
         if not waiting:
             return
         if t >= self.released_until[i] - 1e-9:
             if moved or not held:  # not held, or somebody of the plan got somewhere
-                self.anchors[i] = positions.copy()
+                self.anchors[i] = positions
                 self.since[i] = t
                 return
             if t - self.since[i] < self.patience - 1e-9:

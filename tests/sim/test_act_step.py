@@ -103,3 +103,4 @@ def test_without_patience_nothing_is_anchored_or_released():
                    np.array([1, 2, -1]), np.array([1, 2, 3]), np.ones(3), offsets[1:],
                    *margins.seen(0, positions, velocities), *margins.constants[0], False, np.full(9, 0.3))
     assert not w.anchored.any() and np.array_equal(ex.dependencies, deps) and not np.isfinite(w.released_until).any()
+

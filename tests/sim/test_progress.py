@@ -60,3 +60,23 @@ def test_teams_backing_out_are_not_a_deadlock():
     straight = load_scenario(here).with_overrides(**short, **{"sim.progress": "straight"})
     assert [run_trial(straight, seed=s).outcome for s in (0, 1)] == ["deadlock", "deadlock"]
     assert [run_trial(plan, seed=s).outcome for s in (0, 1)] == ["success", "success"]
+
+
+def test_sides_changed_equals_side_of_along_and_reports_changes():
+    from nodnav.scenario.world import Passage
+    from nodnav.sim.progress import sides_changed
+
+    rng = np.random.default_rng(2)
+    for passage in (Passage(start=(-1.0, 0.5), end=(1.5, 0.5), width=0.8),
+                    Passage(start=(-1.0, -0.7), end=(1.2, 0.9), width=0.6)):  # the paper's axis, and a tilted one
+        sides = np.full(6, 99, dtype=np.int64)
+        for _ in range(20):
+            positions = rng.uniform(-3.0, 3.0, (6, 2))
+            positions[0] = passage.start  # on a mouth
+            want = passage.side_of_along(passage.along(positions))
+            before = sides.copy()
+            changed = sides_changed(positions, passage.along_x, passage.axis[0], passage.axis[1], passage.s_start,
+                                    passage.s_end, sides)
+            assert np.array_equal(sides, want) and changed == (not np.array_equal(before, want))
+            assert not sides_changed(positions, passage.along_x, passage.axis[0], passage.axis[1], passage.s_start,
+                                     passage.s_end, sides)

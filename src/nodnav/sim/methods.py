@@ -85,6 +85,7 @@ class PlannedMethod:
         self._all_seen = np.ones(n, dtype=bool)
         # Robots standing still take the weak check in turn, one opinion period each (the speed convention).
         self._turn_period = scenario.opinion.T
+        self._turn = (math.nan, 0)  # (time, turn) of the last step
         self._radii = scenario.radii
         self._margins: dict[int, tuple[bytes, np.ndarray | None]] = {}  # per robot: (keeps_rule's bytes, margins)
         self._restart_gap = self._convention >= 0 and ex.restart_gap  # read at every step: once here
@@ -217,10 +218,8 @@ class PlannedMethod:
                 out[i] = self._stay(positions[i])
                 self.reactions.conflicted[i] = False
                 continue
-            request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
-                                     sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=firm, braking=self._partners(i, t, view),
-                                     margins=margins)
+            request = ControlRequest.built(positions[i], velocities[i], reference, self.sample_times, predictions,
+                                           radii, firm, self._partners(i, t, view), margins)
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
@@ -253,7 +252,9 @@ class PlannedMethod:
         if self._convention < 0:
             return None
         seen = self._all_seen if view.age is None else view.age == 0.0
-        turn = int(math.floor(t / self._turn_period + 1e-9)) % 2
+        if t != self._turn[0]:  # the same for every robot of a step: once a step
+            self._turn = (t, int(math.floor(t / self._turn_period + 1e-9)) % 2)
+        turn = self._turn[1]
         return BrakingPartners(i, view.positions, view.velocities, self._accel, self._radii, self.keeps_rule, seen,
                                turn, self._convention, self.dt)
 

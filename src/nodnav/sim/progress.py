@@ -162,3 +162,18 @@ def _advance_cursor(points, arc, position, reach, epsilon, k, cursor, credited):
         credited[k] = arc[cursor[k]]
         return True
     return False
+
+
+@compiled
+def sides_changed(positions, along_x, ax, ay, s_start, s_end, sides):
+    """Each robot's side of a passage (``LEFT`` -1, ``INSIDE`` 0, ``RIGHT`` 1:
+    :meth:`~nodnav.scenario.world.Passage.side_of_along` of :meth:`~nodnav.scenario.world.Passage.along`,
+    the same operations) at ``positions`` ``(n, 2)``, written into ``sides`` ``(n,)``; whether any
+    differs from what ``sides`` held."""
+    changed = False
+    for k in range(positions.shape[0]):
+        s = positions[k, 0] if along_x else positions[k, 0] * ax + positions[k, 1] * ay
+        side = -1 if s < s_start else (1 if s > s_end else 0)
+        changed = changed or side != sides[k]
+        sides[k] = side
+    return changed

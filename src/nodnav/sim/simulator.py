@@ -19,14 +19,14 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import strategy_index
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import INSIDE, RIGHT, distance_to_go
+from nodnav.scenario.world import INSIDE, RIGHT, _distance_to_go_kernel
 from nodnav.sim.agent import RobotView, approach_sides, robot_arrays
 from nodnav.sim.contact_checks import contact_counts, contact_tally, straight_substeps
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
-from nodnav.sim.progress import PlanProgress
+from nodnav.sim.progress import PlanProgress, sides_changed
 from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.several import passage_sides, several, team_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
@@ -179,13 +179,18 @@ class Simulation:
         if self._exact:
             self._windows = self._windows * n
         self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
-        self._last_truth: list[np.ndarray | None] = [None] * len(scenario.world.passages)
+        # The true sides of each passage at the last update (none yet: 99, no side).
+        self._last_truth = [np.full(n, UNSEEN, dtype=np.int64) for _ in scenario.world.passages]
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
         passages = scenario.world.passages
         self._passage_sides = ([self.sides] if self.routes is None else
                                [passage_sides(scenario, self.routes, k) for k in range(len(passages))])
+        g = scenario.world.passage
+        self._to_go_arguments = (np.ascontiguousarray(self._destinations),
+                                 np.ascontiguousarray(self.sides, dtype=np.int64), scenario.world.entrance_array,
+                                 g.along_x, g.axis[0], g.axis[1], g.s_start, g.s_end)
         self.entered_by: list[tuple[list[int], list[list[int]]]] = [([], [[] for _ in range(n)]) for _ in passages]
         """Per passage, the true entry log and each robot's own (the first passage's are
         :attr:`entered_true` and :attr:`entered_seen`)."""
@@ -244,11 +249,10 @@ class Simulation:
         for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
                 self.scenario.world.passages, self._passage_sides, self.entered_by)):
             if self._exact:  # everyone sees the truth: the records change only when its sides do
-                truth = passage.side_of_along(passage.along(self.positions))
-                last_truth = self._last_truth[number]
-                if last_truth is not None and np.array_equal(last_truth, truth):
+                truth = self._last_truth[number]
+                if not sides_changed(self.positions, passage.along_x, passage.axis[0], passage.axis[1],
+                                     passage.s_start, passage.s_end, truth):
                     continue
-                self._last_truth[number] = truth
             if seen is None:
                 seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
             s = passage.along(seen)
@@ -273,8 +277,8 @@ class Simulation:
     def _to_go(self) -> np.ndarray:
         """Distance each robot still has to go (m): through the passage's entrances with one
         passage, along its route with several."""
-        if self.routes is None:
-            return distance_to_go(self.scenario.world, self.positions, self._destinations, self.sides)
+        if self.routes is None:  # distance_to_go's kernel on arrays prepared once
+            return _distance_to_go_kernel(self.positions, *self._to_go_arguments)
         return np.array([route.to_go(p) for route, p in zip(self.routes, self.positions)])
 
     def views(self) -> dict[int, RobotView]:

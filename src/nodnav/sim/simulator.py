@@ -26,7 +26,7 @@ from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
-from nodnav.sim.progress import PlanProgress, sides_changed
+from nodnav.sim.progress import PlanProgress, judge_progress, sides_changed
 from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.several import passage_sides, several, team_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
@@ -200,6 +200,10 @@ class Simulation:
         self.best_to_go = self._to_go()
         self.last_progress = 0.0
         self.plan_progress = PlanProgress(n, scenario.sim.progress_epsilon) if scenario.sim.progress == "plan" else None
+        # How far a cursor may look ahead along its plan in one step (m), and empty routes without plans.
+        self._reach = 2.0 * self._max_speeds * self.dt + 0.1
+        self._no_routes = (np.zeros((0, 2)), np.zeros(0), np.full((n, 2), -1, dtype=np.int64))
+        self._no_cursors = (np.zeros(n, dtype=int), np.zeros(n))
         self.outcome = ""
         self.collisions = 0
         self.collision_kind = ""
@@ -414,18 +418,19 @@ class Simulation:
             self.collision_kind = kind
             self._finish("collision")
             return
-        to_go = self._to_go()
-        gap = self.positions - self._destinations  # np.linalg.norm's own arithmetic, without its checks
-        arrived = np.sqrt(np.add.reduce(gap * gap, axis=1)) <= s.sim.goal_tolerance
-        self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
-        if arrived.all():
+        # Arrivals, then progress towards the goals and along the plans, in one compiled call.
+        progress = self.plan_progress
+        flat = self._no_routes if progress is None else progress.end_to_end()
+        cursor, credited = (self._no_cursors if progress is None else (progress.cursor, progress.credited))
+        finished, improved = judge_progress(self.positions, self._destinations, s.sim.goal_tolerance, self.t,
+                                            self.arrival, self._to_go(), self.best_to_go, s.sim.progress_epsilon,
+                                            progress is not None, *flat, self._reach,
+                                            s.sim.progress_epsilon if progress is None else progress.epsilon,
+                                            cursor, credited)
+        if finished:
             self._finish("success")
             return
-        improved = to_go < self.best_to_go - s.sim.progress_epsilon
-        self.best_to_go = np.where(improved, to_go, self.best_to_go)
-        if self.plan_progress is not None:  # or along the plan it follows (backing out, ...)
-            improved |= self.plan_progress.advanced(self.positions, 2.0 * self._max_speeds * self.dt + 0.1)
-        if improved.any():
+        if improved:
             self.last_progress = self.t
         if self.t - self.last_progress >= s.sim.deadlock_time:
             self._finish("deadlock")

@@ -209,6 +209,7 @@ class Simulation:
         self.collision_kind = ""
         self.mpc_infeasible = 0
         self.plan_failures = 0
+        self._strategy_indices: dict[tuple[int, ...], int] = {}
         self.history = History(scenario=scenario, method=self.method.name, seed=self.seed)
         self._record_state()
 
@@ -354,28 +355,40 @@ class Simulation:
         decisions = self.method.decide(views)
         n, h = self.scenario.n_robots, self.history
         width = max([len(d.opinions) for d in decisions.values()] + [0])
-        opinions = np.full((n, width), np.nan)
-        probs = np.full((n, width), np.nan)
-        strategies = np.full(n, -1)
-        chosen = np.full(n, np.nan)
+        # np.full's values, without its Python; the masks and ranks set at once for every robot below.
+        opinions, probs, chosen = np.empty((n, width)), np.empty((n, width)), np.empty(n)
+        strategies, ranks = np.empty(n, dtype=np.int64), np.empty((n, n), dtype=np.int64)
+        for a in (opinions, probs, chosen):
+            a.fill(np.nan)
+        strategies.fill(-1)
+        ranks.fill(-1)
         games = np.zeros((n, n), dtype=bool)
-        ranks = np.full((n, n), -1)
         players = np.zeros((n, n), dtype=bool)
+        game_at: tuple[list[int], list[int]] = ([], [])
+        player_at: tuple[list[int], list[int]] = ([], [])
+        rank_at: tuple[list[int], list[int], list[int]] = ([], [], [])
         for i, d in decisions.items():
             opinions[i, :len(d.opinions)], probs[i, :len(d.probabilities)] = d.opinions, d.probabilities
-            games[i, list(d.game)] = True
-            ranks[i, list(d.order)] = np.arange(len(d.order))
+            game_at[0].extend([i] * len(d.game))
+            game_at[1].extend(d.game)
+            rank_at[0].extend([i] * len(d.order))
+            rank_at[1].extend(d.order)
+            rank_at[2].extend(range(len(d.order)))
             if len(d.order) == n:
-                strategies[i] = strategy_index(d.order)
+                strategies[i] = self._strategy_index(d.order)
             if d.strategy >= 0 and len(d.probabilities):
                 chosen[i] = d.probabilities[d.strategy]
-            players[i, list(d.players)] = True
+            player_at[0].extend([i] * len(d.players))
+            player_at[1].extend(d.players)
             if self.plan_progress is not None:
                 # The plan's first robot is the deciding one: its own path (Decision.own_trajectory's).
                 self.plan_progress.follow(i, d.plan.trajectory.positions[:, 0] if d.plan.success else None)
             if not d.plan.success:
                 self.plan_failures += 1
                 h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})
+        games[game_at] = True
+        players[player_at] = True
+        ranks[rank_at[:2]] = rank_at[2]
         h.decision_times.append(self.t)
         h.opinions.append(opinions)
         h.probabilities.append(probs)
@@ -384,7 +397,16 @@ class Simulation:
         h.games.append(games)
         h.ranks.append(ranks)
         h.players.append(players)
-        h.undecided.append(~np.isin(np.arange(n), self.entered_true))
+        undecided = np.ones(n, dtype=bool)  # ~np.isin(np.arange(n), entered_true)
+        undecided[self.entered_true] = False
+        h.undecided.append(undecided)
+
+    def _strategy_index(self, order: tuple[int, ...]) -> int:
+        """:func:`~nodnav.decision.strategies.strategy_index` of ``order``, remembered per trial."""
+        index = self._strategy_indices.get(order)
+        if index is None:
+            index = self._strategy_indices[order] = strategy_index(order)
+        return index
 
     def _record_state(self) -> None:
         self.history.times.append(self.t)

@@ -104,3 +104,28 @@ def test_without_patience_nothing_is_anchored_or_released():
                    *margins.seen(0, positions, velocities), *margins.constants[0], False, np.full(9, 0.3))
     assert not w.anchored.any() and np.array_equal(ex.dependencies, deps) and not np.isfinite(w.released_until).any()
 
+
+
+def test_a_gated_execution_holds_its_plan_resampled_and_its_precedences():
+    """PlanExecution's compiled build against ``positions_at`` and ``plan_dependencies`` of the
+    conflict distances, on crossing plans of 1 to 5 robots, strided and not."""
+    from nodnav.planning.dependencies import plan_dependencies
+
+    rng = np.random.default_rng(12)
+    settings = ExecutionSettings(gated=True, dt=0.1, horizon=1.8, lag=0.3, margin=0.1, tolerance=0.05)
+    for n in (1, 2, 3, 5):
+        times = np.linspace(2.0, 10.0, 81)
+        starts, ends = rng.uniform(-2, 2, (n, 2)), rng.uniform(-2, 2, (n, 2))
+        frac = np.clip((times[:, None] - 2.0 - rng.uniform(0.0, 1.0, n)) / 3.0, 0.0, 1.0)
+        full = starts[None] + frac[..., None] * (ends - starts)[None]
+        for traj in (JointTrajectory.from_positions(times, full),
+                     JointTrajectory.from_positions(times, full).subset(list(range(n))[::-1])):
+            radii = rng.uniform(0.2, 0.4, n)
+            ex = PlanExecution(traj, tuple(range(n)), radii, settings)
+            sample_times = 0.1 * np.arange(int(np.ceil(1.8 / 0.1)) + 1)
+            want = traj.positions_at(traj.times[0] + sample_times)
+            assert ex.sample_times.tobytes() == sample_times.tobytes()
+            assert ex.samples.tobytes() == want.tobytes()
+            conflict = radii[:, None] + radii[None, :] + 0.1
+            assert np.array_equal(ex.dependencies, plan_dependencies(want, conflict, 3))
+            assert np.array_equal(ex.gates, np.full(n, len(sample_times) - 1))

@@ -21,13 +21,14 @@ the reaction margin (:func:`reaction_margin`) from their braking predictions at 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from nodnav.compiled import compiled
-from nodnav.planning.base import JointTrajectory
-from nodnav.planning.dependencies import gate_kernel, plan_dependencies, progress_kernel
+from nodnav.planning.base import JointTrajectory, interpolate_positions
+from nodnav.planning.dependencies import APPROACH_EPSILON, _dependencies_kernel, gate_kernel, progress_kernel
 from nodnav.scenario.schema import Scenario
 from nodnav.sim.agent import RobotView
 
@@ -44,12 +45,29 @@ class ExecutionSettings:
     """How much plan time after the clocks a robot ever reads (s): the opinion period plus the
     MPC horizon, since a plan is replaced at the next decision."""
     lag: float
-    """Least time between the two samples of a precedence (s), see :func:`plan_dependencies`."""
+    """Least time between the two samples of a precedence (s), see
+    :func:`~nodnav.planning.dependencies.plan_dependencies`."""
     margin: float
     """Conflict distance beyond the sum of two robots' radii (m)."""
     tolerance: float
     """Distance (m) within which a robot still counts as at the earliest of its nearest samples
     (:func:`observed_progress`)."""
+
+    @functools.cached_property
+    def sample_times(self) -> np.ndarray:
+        """The times (s after a plan's start) at which a gated execution resamples its plan: the
+        control steps of the first opinion period and one horizon, which is all it ever reads
+        (read-only, shared by every execution of a trial)."""
+        steps = int(np.ceil(self.horizon / self.dt)) + 1
+        times = self.dt * np.arange(steps)
+        times.flags.writeable = False
+        return times
+
+    @functools.cached_property
+    def lag_steps(self) -> int:
+        """:attr:`lag` in control steps, at least one
+        (:func:`~nodnav.planning.dependencies.plan_dependencies`'s ``lag``)."""
+        return max(int(round(self.lag / self.dt)), 1)
 
 
 class PlanExecution:
@@ -66,16 +84,13 @@ class PlanExecution:
         self.clocks = np.zeros(n)
         if settings.gated:
             # Only the first opinion period and one horizon of the plan are ever read: resample
-            # that much at the control step.
-            steps = int(np.ceil(settings.horizon / settings.dt)) + 1
-            self.sample_times = settings.dt * np.arange(steps)
-            self.samples = trajectory.positions_at(self.t0 + self.sample_times)  # (S, n, 2)
-            r = np.asarray(radii, dtype=float)
-            conflict = r[:, None] + r[None, :] + settings.margin
-            lag = max(int(round(settings.lag / settings.dt)), 1)
-            self.dependencies = plan_dependencies(self.samples, conflict, lag)
+            # that much at the control step, and find its precedences, in one compiled call.
+            self.sample_times = settings.sample_times
+            self.samples, self.dependencies = execution_arrays(
+                trajectory.times, trajectory.positions, self.t0, self.sample_times, np.asarray(radii, dtype=float),
+                settings.margin, settings.lag_steps, APPROACH_EPSILON)
             self.progress = np.zeros(n, dtype=np.int64)
-            self.gates = np.full(n, steps - 1, dtype=np.int64)
+            self.gates = np.full(n, len(self.sample_times) - 1, dtype=np.int64)
 
     def observe(self, positions: np.ndarray) -> None:
         """Update every robot's progress and gate from the observed ``positions`` ``(n, 2)`` of the
@@ -137,6 +152,21 @@ class PlanExecution:
     def advance(self) -> None:
         """Run every clock on by one control step, up to its limit."""
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
+
+
+@compiled
+def execution_arrays(times, positions, t0, sample_times, radii, margin, lag, epsilon):
+    """A gated execution's plan at ``t0 + sample_times`` ``(S, n, 2)``
+    (:meth:`~nodnav.planning.base.JointTrajectory.positions_at`'s interpolation) and its
+    precedences (:func:`~nodnav.planning.dependencies.plan_dependencies` with the conflict
+    distances ``radii[m] + radii[j] + margin``), in one call: the same kernels on the same numbers."""
+    samples = interpolate_positions(times, positions, t0 + sample_times)
+    n = radii.shape[0]
+    conflict = np.empty((n, n))
+    for m in range(n):
+        for j in range(n):
+            conflict[m, j] = radii[m] + radii[j] + margin
+    return samples, _dependencies_kernel(samples, conflict, lag, epsilon)
 
 
 def moved_beyond_plain(positions: np.ndarray, anchor: np.ndarray, rows: np.ndarray, reach: float) -> np.ndarray:

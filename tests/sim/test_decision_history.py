@@ -40,3 +40,17 @@ def test_decision_record_equals_the_plain_construction():
             assert np.array_equal(h.undecided[j], ~np.isin(np.arange(n), entered))
             assert np.isnan(h.chosen[j]).sum() == sum(d.strategy < 0 or not len(d.probabilities)
                                                       for d in decisions.values())
+
+
+def test_stacked_records_are_padded_with_nan_only_where_narrower():
+    from nodnav.sim.history import _stack_padded
+
+    same = [np.arange(6.0).reshape(3, 2) + d for d in range(4)]
+    got = _stack_padded(same, 4, 3)
+    assert got.shape == (4, 3, 2) and got.dtype == float and all(np.array_equal(got[d], same[d]) for d in range(4))
+    mixed = [np.ones((3, 2)), np.full((3, 6), 2.0), np.zeros((3, 0))]
+    got = _stack_padded(mixed, 3, 3)
+    assert got.shape == (3, 3, 6)
+    assert np.array_equal(got[0, :, :2], mixed[0]) and np.isnan(got[0, :, 2:]).all()
+    assert np.array_equal(got[1], mixed[1]) and np.isnan(got[2]).all()
+    assert _stack_padded([], 0, 3).shape == (0, 3, 0)

@@ -43,6 +43,18 @@ class ControlRequest:
     """Clearance beyond contact to keep from each prediction ``(m,)`` (m); ``None``: the
     controller's own ``safety_margin`` from every one. A controller that keeps no margin may ignore it."""
 
+    @classmethod
+    def built(cls, position: np.ndarray, velocity: np.ndarray, reference: np.ndarray, sample_times: np.ndarray,
+              others: np.ndarray, other_radii: np.ndarray, firm: np.ndarray | None = None,
+              braking: BrakingPartners | None = None, margins: np.ndarray | None = None) -> "ControlRequest":
+        """The request the constructor builds, with the same fields, without the frozen
+        dataclass's assignment of one field at a time (the closed loop builds one per robot and
+        control step)."""
+        request = object.__new__(cls)
+        request.__dict__.update(position=position, velocity=velocity, reference=reference, sample_times=sample_times,
+                                others=others, other_radii=other_radii, firm=firm, braking=braking, margins=margins)
+        return request
+
 
 @dataclass(frozen=True)
 class ControlResult:

@@ -21,13 +21,14 @@ the reaction margin (:func:`reaction_margin`) from their braking predictions at 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from nodnav.compiled import compiled
-from nodnav.planning.base import JointTrajectory
-from nodnav.planning.dependencies import gate_kernel, plan_dependencies, progress_kernel
+from nodnav.planning.base import JointTrajectory, interpolate_positions
+from nodnav.planning.dependencies import APPROACH_EPSILON, _dependencies_kernel, gate_kernel, progress_kernel
 from nodnav.scenario.schema import Scenario
 from nodnav.sim.agent import RobotView
 
@@ -44,12 +45,29 @@ class ExecutionSettings:
     """How much plan time after the clocks a robot ever reads (s): the opinion period plus the
     MPC horizon, since a plan is replaced at the next decision."""
     lag: float
-    """Least time between the two samples of a precedence (s), see :func:`plan_dependencies`."""
+    """Least time between the two samples of a precedence (s), see
+    :func:`~nodnav.planning.dependencies.plan_dependencies`."""
     margin: float
     """Conflict distance beyond the sum of two robots' radii (m)."""
     tolerance: float
     """Distance (m) within which a robot still counts as at the earliest of its nearest samples
     (:func:`observed_progress`)."""
+
+    @functools.cached_property
+    def sample_times(self) -> np.ndarray:
+        """The times (s after a plan's start) at which a gated execution resamples its plan: the
+        control steps of the first opinion period and one horizon, which is all it ever reads
+        (read-only, shared by every execution of a trial)."""
+        steps = int(np.ceil(self.horizon / self.dt)) + 1
+        times = self.dt * np.arange(steps)
+        times.flags.writeable = False
+        return times
+
+    @functools.cached_property
+    def lag_steps(self) -> int:
+        """:attr:`lag` in control steps, at least one
+        (:func:`~nodnav.planning.dependencies.plan_dependencies`'s ``lag``)."""
+        return max(int(round(self.lag / self.dt)), 1)
 
 
 class PlanExecution:
@@ -66,16 +84,13 @@ class PlanExecution:
         self.clocks = np.zeros(n)
         if settings.gated:
             # Only the first opinion period and one horizon of the plan are ever read: resample
-            # that much at the control step.
-            steps = int(np.ceil(settings.horizon / settings.dt)) + 1
-            self.sample_times = settings.dt * np.arange(steps)
-            self.samples = trajectory.positions_at(self.t0 + self.sample_times)  # (S, n, 2)
-            r = np.asarray(radii, dtype=float)
-            conflict = r[:, None] + r[None, :] + settings.margin
-            lag = max(int(round(settings.lag / settings.dt)), 1)
-            self.dependencies = plan_dependencies(self.samples, conflict, lag)
+            # that much at the control step, and find its precedences, in one compiled call.
+            self.sample_times = settings.sample_times
+            self.samples, self.dependencies = execution_arrays(
+                trajectory.times, trajectory.positions, self.t0, self.sample_times, np.asarray(radii, dtype=float),
+                settings.margin, settings.lag_steps, APPROACH_EPSILON)
             self.progress = np.zeros(n, dtype=np.int64)
-            self.gates = np.full(n, steps - 1, dtype=np.int64)
+            self.gates = np.full(n, len(self.sample_times) - 1, dtype=np.int64)
 
     def observe(self, positions: np.ndarray) -> None:
         """Update every robot's progress and gate from the observed ``positions`` ``(n, 2)`` of the
@@ -137,6 +152,21 @@ class PlanExecution:
     def advance(self) -> None:
         """Run every clock on by one control step, up to its limit."""
         self.clocks = np.minimum(self.clocks + self.settings.dt, np.maximum(self.clocks, self.limits()))
+
+
+@compiled
+def execution_arrays(times, positions, t0, sample_times, radii, margin, lag, epsilon):
+    """A gated execution's plan at ``t0 + sample_times`` ``(S, n, 2)``
+    (:meth:`~nodnav.planning.base.JointTrajectory.positions_at`'s interpolation) and its
+    precedences (:func:`~nodnav.planning.dependencies.plan_dependencies` with the conflict
+    distances ``radii[m] + radii[j] + margin``), in one call: the same kernels on the same numbers."""
+    samples = interpolate_positions(times, positions, t0 + sample_times)
+    n = radii.shape[0]
+    conflict = np.empty((n, n))
+    for m in range(n):
+        for j in range(n):
+            conflict[m, j] = radii[m] + radii[j] + margin
+    return samples, _dependencies_kernel(samples, conflict, lag, epsilon)
 
 
 def moved_beyond_plain(positions: np.ndarray, anchor: np.ndarray, rows: np.ndarray, reach: float) -> np.ndarray:
@@ -318,6 +348,10 @@ class ReactionMargins:
         self._mode = _MODES.index(self._braking_margin)
         self._others_array = [np.array(o, dtype=np.int64) for o in self._others]
         self._safety, self._slack = scenario.controller.safety_margin, scenario.execution.reaction_slack
+        self.constants = [(self._accel, self._radii, self._safety, self._slack, self._surprise, self._mode,
+                           self._surprised[i], self._surprise_steps) for i in range(n)]
+        """Per robot, the arguments of :func:`careful_radii` after the last observation's, the same
+        every step (``surprised``: the robot's row, updated in place)."""
 
     def radii(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """The radii ``radii`` of robot ``i``'s three predictions of every other robot, the braking
@@ -335,6 +369,16 @@ class ReactionMargins:
             self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
                                   velocities if not velocities.flags.writeable else velocities.copy())
         return out
+
+    def seen(self, i: int, positions: np.ndarray, velocities: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """What robot ``i`` observed at its last step (``positions`` and ``velocities`` themselves,
+        and False, at its first), the arguments of :func:`careful_radii` that :meth:`radii` reads;
+        ``positions`` and ``velocities`` are remembered as :meth:`radii` remembers them."""
+        seen = self._last_seen.get(i)
+        if self._mode >= _SURPRISED:  # a read-only view (the simulator's windows) never changes: kept as it is
+            self._last_seen[i] = (positions if not positions.flags.writeable else positions.copy(),
+                                  velocities if not velocities.flags.writeable else velocities.copy())
+        return (positions, velocities, False) if seen is None else (seen[0], seen[1], True)
 
     def radii_plain(self, i: int, view: RobotView, radii: np.ndarray) -> np.ndarray:
         """:meth:`radii` in NumPy, the reference its compiled loop is tested against."""
@@ -397,8 +441,10 @@ class WaitRelease:
         n = scenario.n_robots
         self.patience = scenario.execution.wait_patience
         self.reach = scenario.sim.progress_epsilon
-        self.anchors: list[np.ndarray | None] = [None] * n
-        """Where each robot saw every robot when its present wait began ``(N_r, 2)`` (m)."""
+        self.anchors = np.zeros((n, n, 2))
+        """Where each robot saw every robot when its present wait began ``(N_r, N_r, 2)`` (m)."""
+        self.anchored = np.zeros(n, dtype=bool)
+        """Whether each robot's anchor is set (from its first observation on)."""
         self.since = np.zeros(n)
         """When each robot's present wait began (s)."""
         self.released_until = np.full(n, -np.inf)
@@ -410,15 +456,14 @@ class WaitRelease:
         and release it from the robots that hold it once that lasts ``patience``."""
         if self.patience <= 0.0 or not execution.settings.gated:
             return
-        anchor = self.anchors[i]
-        if anchor is None:
-            anchor = self.anchors[i] = view.positions.copy()
+        if not self.anchored[i]:
+            self.anchors[i], self.anchored[i] = view.positions, True
             self.since[i] = t
         blockers = execution.blockers()
-        moved = moved_beyond(view.positions, anchor, rows, self.reach)
+        moved = moved_beyond(view.positions, self.anchors[i], rows, self.reach)
         if t >= self.released_until[i] - 1e-9:
             if moved.any() or not len(blockers):  # not held, or somebody of the plan got somewhere
-                self.anchors[i] = view.positions.copy()
+                self.anchors[i] = view.positions
                 self.since[i] = t
                 return
             if t - self.since[i] < self.patience - 1e-9:
@@ -432,16 +477,16 @@ class WaitRelease:
         """:meth:`PlanExecution.observe` and :meth:`check` at once (gated execution), from every
         robot's observed ``positions`` ``(N, 2)``: one compiled call per robot and step."""
         waiting = self.patience > 0.0
-        anchor = self.anchors[i] if waiting else positions
-        if anchor is None:
-            anchor = self.anchors[i] = positions.copy()
+        if waiting and not self.anchored[i]:
+            self.anchors[i], self.anchored[i] = positions, True
             self.since[i] = t
-        held, moved, stuck = execution.observe_held(positions, rows, anchor, self.reach)
+        held, moved, stuck = execution.observe_held(positions, rows, self.anchors[i] if waiting else positions,
+                                                    self.reach)
         if not waiting:
             return
         if t >= self.released_until[i] - 1e-9:
             if moved or not held:  # not held, or somebody of the plan got somewhere
-                self.anchors[i] = positions.copy()
+                self.anchors[i] = positions
                 self.since[i] = t
                 return
             if t - self.since[i] < self.patience - 1e-9:

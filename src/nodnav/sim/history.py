@@ -23,6 +23,8 @@ FORMAT_VERSION = 2
 def _stack_padded(rows: list[np.ndarray], decisions: int, n: int) -> np.ndarray:
     """Per-decision ``(N_r, w_d)`` arrays as one ``(D, N_r, max w_d)`` array, NaN-padded."""
     width = max([r.shape[-1] for r in rows] + [0])
+    if rows and len(rows) == decisions and all(r.shape == (n, width) for r in rows):
+        return np.array(rows, dtype=float)  # nothing to pad: the rows stacked
     out = np.full((decisions, n, width), np.nan)
     for d, r in enumerate(rows):
         r = np.asarray(r, dtype=float).reshape(n, -1)

@@ -13,7 +13,6 @@ from typing import Any, Callable, Protocol
 
 import numpy as np
 
-from nodnav.compiled import compiled
 from nodnav.control import ControlRequest, ControlResult, SharedSetups, make_controller
 from nodnav.control.mutual_braking import CONVENTIONS, RESTART_HEADROOM, BrakingPartners, restart_gap
 from nodnav.errors import NodnavError
@@ -22,97 +21,13 @@ from nodnav.registry import METHODS, register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, RobotView
-from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease, read_kernel
+from nodnav.sim.execution import ExecutionSettings, PlanExecution, ReactionMargins, WaitRelease
+from nodnav.sim.horizon import at_rest_and_clear, gated_step, horizon_predictions
+from nodnav.sim.horizon import braking_extrapolation as braking_extrapolation  # re-exported: moved to horizon
+from nodnav.sim.horizon import gated_horizon as gated_horizon  # re-exported: moved to horizon
 from nodnav.sim.plan_cache import PlanCache
 from nodnav.sim.sensing import OcclusionLimit, slowed_reference
 from nodnav.sim.several import PassageAgent, PassageViews, several
-
-
-@compiled
-def braking_extrapolation(positions: np.ndarray, velocities: np.ndarray, decel: np.ndarray,
-                          times: np.ndarray) -> np.ndarray:
-    """Where robots moving at ``velocities`` are at ``times`` if they brake at once along their
-    velocity with deceleration ``decel`` until they stop, ``(n, K, 2)``."""
-    out = np.empty((positions.shape[0], times.shape[0], 2))
-    for j in range(positions.shape[0]):
-        vx, vy = velocities[j, 0], velocities[j, 1]
-        speed = math.sqrt(vx * vx + vy * vy)
-        hx, hy = (vx / speed, vy / speed) if speed > 0 else (0.0, 0.0)
-        stop = speed / decel[j]
-        for s in range(times.shape[0]):
-            tau = min(times[s], stop)  # braking time so far
-            travelled = speed * tau - 0.5 * decel[j] * tau * tau
-            out[j, s, 0] = positions[j, 0] + hx * travelled
-            out[j, s, 1] = positions[j, 1] + hy * travelled
-    return out
-
-
-@compiled
-def horizon_predictions(planned: np.ndarray, columns: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
-                        decel: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """The three predictions of every other robot over the MPC horizon, ``(3 n, K, 2)``.
-
-    ``planned`` ``(1 + K, n_plan, 2)`` is the robot's joint plan now and at ``times``; other
-    robot ``j``, observed at ``positions[j]`` moving at ``velocities[j]``, is column
-    ``columns[j]`` of it (-1: not in the plan). Rows ``0..n-1``: the plan's motion displaced to
-    start where the robot is now (held still if not in the plan); ``n..2n-1``: constant
-    velocity; ``2n..3n-1``: :func:`braking_extrapolation`.
-    """
-    n, k = positions.shape[0], times.shape[0]
-    out = np.empty((3 * n, k, 2))
-    out[2 * n:] = braking_extrapolation(positions, velocities, decel, times)
-    for j in range(n):
-        m = columns[j]
-        for s in range(k):
-            for d in range(2):
-                shift = planned[1 + s, m, d] - planned[0, m, d] if m >= 0 else 0.0
-                out[j, s, d] = positions[j, d] + shift
-                out[n + j, s, d] = positions[j, d] + velocities[j, d] * times[s]
-    return out
-
-
-@compiled
-def gated_horizon(times, plan_positions, t0, clocks, offsets, sample_times, gates, dt, columns, positions, velocities,
-                  others, decel, horizon_times):
-    """One control step of a gated execution in one call: the plan read at ``offsets`` after each
-    robot's clock, held at its gate (:meth:`~nodnav.sim.execution.PlanExecution.read`,
-    ``(M, n, 2)``), the :func:`horizon_predictions` of the robots ``others`` (rows of every
-    robot's observed ``positions`` and ``velocities`` ``(N, 2)``) from it, and then the clocks
-    run on by ``dt`` up to their gates, in place (:meth:`~nodnav.sim.execution.PlanExecution.advance`)."""
-    n = clocks.shape[0]
-    limits = np.empty(n)
-    for r in range(n):
-        limits[r] = sample_times[gates[r]]
-    planned = read_kernel(times, plan_positions, t0, clocks, offsets, limits)
-    for r in range(n):
-        clocks[r] = min(clocks[r] + dt, max(clocks[r], limits[r]))
-    m = others.shape[0]
-    seen_positions, seen_velocities = np.empty((m, 2)), np.empty((m, 2))
-    for j in range(m):
-        for d in range(2):
-            seen_positions[j, d] = positions[others[j], d]
-            seen_velocities[j, d] = velocities[others[j], d]
-    return planned, horizon_predictions(planned, columns, seen_positions, seen_velocities, decel, horizon_times)
-
-
-@compiled
-def at_rest_and_clear(position, velocity, reference, predictions, radii, reach, clearance, tolerance):
-    """Whether a robot at ``position`` moving at ``velocity`` is at rest (speed at most ``tolerance``),
-    told to stay (every point of its ``reference`` ``(K, 2)`` within ``tolerance`` of where it is)
-    and clear of everyone: every point of every prediction ``(m, K, 2)`` of radius ``radii[j]``
-    more than ``reach + radii[j] + clearance`` away (``reach``: its radius plus the safety margin)."""
-    if np.sqrt(velocity[0] * velocity[0] + velocity[1] * velocity[1]) > tolerance:
-        return False
-    for k in range(reference.shape[0]):
-        if abs(reference[k, 0] - position[0]) > tolerance or abs(reference[k, 1] - position[1]) > tolerance:
-            return False
-    for j in range(predictions.shape[0]):
-        keep = reach + radii[j] + clearance
-        for k in range(predictions.shape[1]):
-            dx, dy = predictions[j, k, 0] - position[0], predictions[j, k, 1] - position[1]
-            if dx * dx + dy * dy <= keep * keep:
-                return False
-    return True
 
 
 class Method(Protocol):
@@ -160,7 +75,7 @@ class PlannedMethod:
         self._execution_settings = ExecutionSettings(
             gated=ex.mode == "gated", dt=scenario.controller.dt, horizon=scenario.opinion.T + horizon, lag=ex.lag,
             margin=scenario.planner.margin, tolerance=ex.tolerance)
-        self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray]] = {}
+        self._executions: dict[int, tuple[Decision, PlanExecution, np.ndarray, np.ndarray, tuple]] = {}
         self.reactions = ReactionMargins(scenario)
         self.keeps_rule = np.ones(n, dtype=bool)
         """Which robots keep the mutual braking rule (:mod:`nodnav.control.mutual_braking`): every
@@ -170,6 +85,7 @@ class PlannedMethod:
         self._all_seen = np.ones(n, dtype=bool)
         # Robots standing still take the weak check in turn, one opinion period each (the speed convention).
         self._turn_period = scenario.opinion.T
+        self._turn = (math.nan, 0)  # (time, turn) of the last step
         self._radii = scenario.radii
         self._margins: dict[int, tuple[bytes, np.ndarray | None]] = {}  # per robot: (keeps_rule's bytes, margins)
         self._restart_gap = self._convention >= 0 and ex.restart_gap  # read at every step: once here
@@ -178,6 +94,10 @@ class PlannedMethod:
             (float(r.radius + scenario.controller.safety_margin), float(ex.rest_clearance), float(ex.rest_tolerance))
             for r in scenario.robots]
         self.waits = WaitRelease(scenario)
+        w = self.waits
+        # gated_step's arguments that stay the same for a trial (the arrays are updated in place).
+        self._wait_state = (w.patience, w.reach, w.anchors, w.anchored, w.since, w.released_until)
+        self._step_constants = [(self._others_array[i], self._decel[i], self.sample_times) for i in range(n)]
         # Limited sight: no faster than a robot can stop short of the places it cannot see.
         sensing = scenario.sensing
         self.occlusion = OcclusionLimit(scenario) if sensing.limited and sensing.occlusion_speed else None
@@ -234,26 +154,28 @@ class PlannedMethod:
         """Robot ``i``'s execution of its current decision's plan (a new one after each decision)."""
         return self._held(i)[1]
 
-    def _held(self, i: int) -> tuple[Decision, PlanExecution, np.ndarray, np.ndarray]:
+    def _held(self, i: int) -> tuple[Decision, PlanExecution, np.ndarray, np.ndarray, tuple]:
         """Robot ``i``'s current decision, its execution, the rows of the decision's robots in a
-        view and each other robot's column in the decision's plan (-1: not in it), built once
-        per decision."""
+        view, each other robot's column in the decision's plan (-1: not in it) and the
+        execution's arguments of :func:`gated_step`, built once per decision."""
         decision = self.decisions[i]
         held = self._executions.get(i)
         if held is None or held[0] is not decision:
             rows = np.array(decision.robots, dtype=np.int64)
             columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in self._others[i]],
                                dtype=np.int64)
-            held = self._executions[i] = (decision, PlanExecution(decision.plan.trajectory, decision.robots,
-                                                                  self.scenario.radii[rows], self._execution_settings),
-                                          rows, columns)
+            ex = PlanExecution(decision.plan.trajectory, decision.robots, self._radii[rows], self._execution_settings)
+            step = () if not self._execution_settings.gated else (
+                ex.trajectory.times, ex.trajectory.positions, ex.t0, ex.clocks, ex.samples, ex.dependencies,
+                ex.progress, ex.gates, ex.sample_times, rows, self._execution_settings.tolerance)
+            held = self._executions[i] = (decision, ex, rows, columns, step)
         return held
 
     def _horizon(self, i: int, t: float, view: RobotView) -> tuple[np.ndarray, np.ndarray]:
         """Robot ``i``'s reference (its path in its selected plan at the MPC sample times after
         ``t``, ``(K, 2)``) and :meth:`predictions`; read by precedence or by the clock
         (:mod:`nodnav.sim.execution`)."""
-        decision, execution, _, columns = self._held(i)
+        decision, execution, _, columns, _ = self._held(i)
         if self._execution_settings.gated:
             planned = execution.read(self._offsets)
         else:
@@ -267,28 +189,27 @@ class PlannedMethod:
         """Every robot's MPC tracks its own path in its selected plan."""
         out = {}
         gated = self._execution_settings.gated
+        reactions = self.reactions
         for i, view in views.items():
-            _, execution, rows, columns = self._held(i)
+            _, execution, rows, columns, step = self._held(i)
             positions, velocities = view.positions, view.velocities
-            if gated:  # observe, wait, read, predict and advance: two compiled calls
-                self.waits.observe(i, t, execution, rows, positions)
-                traj = execution.trajectory
-                planned, predictions = gated_horizon(traj.times, traj.positions, execution.t0, execution.clocks,
-                                                     self._offsets, execution.sample_times, execution.gates, self.dt,
-                                                     columns, positions, velocities, self._others_array[i],
-                                                     self._decel[i], self.sample_times)
-                reference = planned[1:, 0]
+            if gated:  # observe, wait, read, predict, advance and widen: one compiled call
+                seen = reactions.seen(i, positions, velocities)
+                reference, predictions, radii = gated_step(
+                    positions, velocities, i, t, *step, *self._wait_state, self._offsets, self.dt, columns,
+                    *self._step_constants[i], *seen, *reactions.constants[i], bool(reactions.conflicted[i]),
+                    self._other_radii[i])
             else:
                 execution.observe(positions[rows])
                 self.waits.check(i, t, execution, rows, view)
                 reference, predictions = self._horizon(i, t, view)
                 execution.advance()
+                radii = reactions.radii(i, view, self._other_radii[i])
             if self.occlusion is not None:
                 limit = self.scenario.robots[i].max_speed
                 cap = self.occlusion.speed(i, positions[i], limit)
                 if cap < limit:
                     reference = slowed_reference(positions[i], reference, self.sample_times, cap)
-            radii = self.reactions.radii(i, view, self._other_radii[i])
             firm, margins = self._firm, self._margins_of(i)
             if view.age is not None or view.sigma is not None:
                 predictions, radii, firm, margins = self._sensed(i, view, predictions, radii, margins)
@@ -297,10 +218,8 @@ class PlannedMethod:
                 out[i] = self._stay(positions[i])
                 self.reactions.conflicted[i] = False
                 continue
-            request = ControlRequest(position=positions[i], velocity=velocities[i], reference=reference,
-                                     sample_times=self.sample_times, others=predictions,
-                                     other_radii=radii, firm=firm, braking=self._partners(i, t, view),
-                                     margins=margins)
+            request = ControlRequest.built(positions[i], velocities[i], reference, self.sample_times, predictions,
+                                           radii, firm, self._partners(i, t, view), margins)
             out[i] = self.controllers[i].control(request)
             self.reactions.conflicted[i] = not out[i].success
         return out
@@ -333,7 +252,9 @@ class PlannedMethod:
         if self._convention < 0:
             return None
         seen = self._all_seen if view.age is None else view.age == 0.0
-        turn = int(math.floor(t / self._turn_period + 1e-9)) % 2
+        if t != self._turn[0]:  # the same for every robot of a step: once a step
+            self._turn = (t, int(math.floor(t / self._turn_period + 1e-9)) % 2)
+        turn = self._turn[1]
         return BrakingPartners(i, view.positions, view.velocities, self._accel, self._radii, self.keeps_rule, seen,
                                turn, self._convention, self.dt)
 

@@ -64,6 +64,13 @@ class PlanProgress:
                      np.ascontiguousarray(reach, dtype=float), self.epsilon, self.cursor, self.credited, out)
         return out
 
+    def end_to_end(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every robot's route and arc lengths one after the other and where each robot's begin
+        and end (:func:`_advance_all`'s arguments), laid out once per new plan."""
+        if self._flat is None:
+            self._flat = self._routes_end_to_end()
+        return self._flat
+
     def advanced_plain(self, positions: np.ndarray, reach: np.ndarray) -> np.ndarray:
         """:meth:`advanced` one robot at a time, the reference its single call is tested against."""
         out = np.zeros(len(positions), dtype=bool)
@@ -162,3 +169,52 @@ def _advance_cursor(points, arc, position, reach, epsilon, k, cursor, credited):
         credited[k] = arc[cursor[k]]
         return True
     return False
+
+
+@compiled
+def sides_changed(positions, along_x, ax, ay, s_start, s_end, sides):
+    """Each robot's side of a passage (``LEFT`` -1, ``INSIDE`` 0, ``RIGHT`` 1:
+    :meth:`~nodnav.scenario.world.Passage.side_of_along` of :meth:`~nodnav.scenario.world.Passage.along`,
+    the same operations) at ``positions`` ``(n, 2)``, written into ``sides`` ``(n,)``; whether any
+    differs from what ``sides`` held."""
+    changed = False
+    for k in range(positions.shape[0]):
+        s = positions[k, 0] if along_x else positions[k, 0] * ax + positions[k, 1] * ay
+        side = -1 if s < s_start else (1 if s > s_end else 0)
+        changed = changed or side != sides[k]
+        sides[k] = side
+    return changed
+
+
+@compiled
+def judge_progress(positions, destinations, goal_tolerance, t, arrival, to_go, best_to_go, epsilon, follows, points,
+                   arcs, bounds, reach, plan_epsilon, cursor, credited):
+    """The simulator's arrival and progress judgement after a step without contact, in one call,
+    with NumPy's operations element by element: which robots are within ``goal_tolerance`` of
+    their ``destinations`` (``sqrt(dx * dx + dy * dy)``, :func:`numpy.linalg.norm`'s), their
+    first ``arrival`` set to ``t``; unless all arrived, whose distance ``to_go`` fell ``epsilon``
+    below its best (``best_to_go`` updated) and, with ``follows``, whose cursor advanced along
+    its plan (:func:`_advance_all` on :class:`PlanProgress`'s routes end to end; ``reach``: how
+    far it may look ahead). Updates the arrays in place; returns whether every robot arrived
+    and whether any made progress."""
+    n = positions.shape[0]
+    everyone = True
+    for k in range(n):
+        dx, dy = positions[k, 0] - destinations[k, 0], positions[k, 1] - destinations[k, 1]
+        arrived = np.sqrt(dx * dx + dy * dy) <= goal_tolerance
+        if np.isnan(arrival[k]) and arrived:
+            arrival[k] = t
+        everyone = everyone and arrived
+    if everyone:
+        return True, False
+    improved = np.zeros(n, dtype=np.bool_)
+    for k in range(n):
+        improved[k] = to_go[k] < best_to_go[k] - epsilon
+        if improved[k]:
+            best_to_go[k] = to_go[k]
+    if follows:
+        advanced = np.zeros(n, dtype=np.bool_)
+        _advance_all(points, arcs, bounds, positions, reach, plan_epsilon, cursor, credited, advanced)
+        for k in range(n):
+            improved[k] = improved[k] or advanced[k]
+    return False, improved.any()

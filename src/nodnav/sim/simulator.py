@@ -19,14 +19,14 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import strategy_index
 from nodnav.scenario.schema import Scenario
-from nodnav.scenario.world import INSIDE, RIGHT, distance_to_go
+from nodnav.scenario.world import INSIDE, RIGHT, _distance_to_go_kernel
 from nodnav.sim.agent import RobotView, approach_sides, robot_arrays
 from nodnav.sim.contact_checks import contact_counts, contact_tally, straight_substeps
 from nodnav.sim.failure import collision_kind, failure_class
 from nodnav.sim.history import History
 from nodnav.sim.methods import is_pedestrian, make_team, robot_methods
 from nodnav.sim.metrics import compute_metrics, json_ready
-from nodnav.sim.progress import PlanProgress
+from nodnav.sim.progress import PlanProgress, judge_progress, sides_changed
 from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.several import passage_sides, several, team_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
@@ -179,13 +179,18 @@ class Simulation:
         if self._exact:
             self._windows = self._windows * n
         self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
-        self._last_truth: list[np.ndarray | None] = [None] * len(scenario.world.passages)
+        # The true sides of each passage at the last update (none yet: 99, no side).
+        self._last_truth = [np.full(n, UNSEEN, dtype=np.int64) for _ in scenario.world.passages]
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
         passages = scenario.world.passages
         self._passage_sides = ([self.sides] if self.routes is None else
                                [passage_sides(scenario, self.routes, k) for k in range(len(passages))])
+        g = scenario.world.passage
+        self._to_go_arguments = (np.ascontiguousarray(self._destinations),
+                                 np.ascontiguousarray(self.sides, dtype=np.int64), scenario.world.entrance_array,
+                                 g.along_x, g.axis[0], g.axis[1], g.s_start, g.s_end)
         self.entered_by: list[tuple[list[int], list[list[int]]]] = [([], [[] for _ in range(n)]) for _ in passages]
         """Per passage, the true entry log and each robot's own (the first passage's are
         :attr:`entered_true` and :attr:`entered_seen`)."""
@@ -195,11 +200,16 @@ class Simulation:
         self.best_to_go = self._to_go()
         self.last_progress = 0.0
         self.plan_progress = PlanProgress(n, scenario.sim.progress_epsilon) if scenario.sim.progress == "plan" else None
+        # How far a cursor may look ahead along its plan in one step (m), and empty routes without plans.
+        self._reach = 2.0 * self._max_speeds * self.dt + 0.1
+        self._no_routes = (np.zeros((0, 2)), np.zeros(0), np.full((n, 2), -1, dtype=np.int64))
+        self._no_cursors = (np.zeros(n, dtype=int), np.zeros(n))
         self.outcome = ""
         self.collisions = 0
         self.collision_kind = ""
         self.mpc_infeasible = 0
         self.plan_failures = 0
+        self._strategy_indices: dict[tuple[int, ...], int] = {}
         self.history = History(scenario=scenario, method=self.method.name, seed=self.seed)
         self._record_state()
 
@@ -244,11 +254,10 @@ class Simulation:
         for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
                 self.scenario.world.passages, self._passage_sides, self.entered_by)):
             if self._exact:  # everyone sees the truth: the records change only when its sides do
-                truth = passage.side_of_along(passage.along(self.positions))
-                last_truth = self._last_truth[number]
-                if last_truth is not None and np.array_equal(last_truth, truth):
+                truth = self._last_truth[number]
+                if not sides_changed(self.positions, passage.along_x, passage.axis[0], passage.axis[1],
+                                     passage.s_start, passage.s_end, truth):
                     continue
-                self._last_truth[number] = truth
             if seen is None:
                 seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
             s = passage.along(seen)
@@ -273,8 +282,8 @@ class Simulation:
     def _to_go(self) -> np.ndarray:
         """Distance each robot still has to go (m): through the passage's entrances with one
         passage, along its route with several."""
-        if self.routes is None:
-            return distance_to_go(self.scenario.world, self.positions, self._destinations, self.sides)
+        if self.routes is None:  # distance_to_go's kernel on arrays prepared once
+            return _distance_to_go_kernel(self.positions, *self._to_go_arguments)
         return np.array([route.to_go(p) for route, p in zip(self.routes, self.positions)])
 
     def views(self) -> dict[int, RobotView]:
@@ -346,28 +355,40 @@ class Simulation:
         decisions = self.method.decide(views)
         n, h = self.scenario.n_robots, self.history
         width = max([len(d.opinions) for d in decisions.values()] + [0])
-        opinions = np.full((n, width), np.nan)
-        probs = np.full((n, width), np.nan)
-        strategies = np.full(n, -1)
-        chosen = np.full(n, np.nan)
+        # np.full's values, without its Python; the masks and ranks set at once for every robot below.
+        opinions, probs, chosen = np.empty((n, width)), np.empty((n, width)), np.empty(n)
+        strategies, ranks = np.empty(n, dtype=np.int64), np.empty((n, n), dtype=np.int64)
+        for a in (opinions, probs, chosen):
+            a.fill(np.nan)
+        strategies.fill(-1)
+        ranks.fill(-1)
         games = np.zeros((n, n), dtype=bool)
-        ranks = np.full((n, n), -1)
         players = np.zeros((n, n), dtype=bool)
+        game_at: tuple[list[int], list[int]] = ([], [])
+        player_at: tuple[list[int], list[int]] = ([], [])
+        rank_at: tuple[list[int], list[int], list[int]] = ([], [], [])
         for i, d in decisions.items():
             opinions[i, :len(d.opinions)], probs[i, :len(d.probabilities)] = d.opinions, d.probabilities
-            games[i, list(d.game)] = True
-            ranks[i, list(d.order)] = np.arange(len(d.order))
+            game_at[0].extend([i] * len(d.game))
+            game_at[1].extend(d.game)
+            rank_at[0].extend([i] * len(d.order))
+            rank_at[1].extend(d.order)
+            rank_at[2].extend(range(len(d.order)))
             if len(d.order) == n:
-                strategies[i] = strategy_index(d.order)
+                strategies[i] = self._strategy_index(d.order)
             if d.strategy >= 0 and len(d.probabilities):
                 chosen[i] = d.probabilities[d.strategy]
-            players[i, list(d.players)] = True
+            player_at[0].extend([i] * len(d.players))
+            player_at[1].extend(d.players)
             if self.plan_progress is not None:
                 # The plan's first robot is the deciding one: its own path (Decision.own_trajectory's).
                 self.plan_progress.follow(i, d.plan.trajectory.positions[:, 0] if d.plan.success else None)
             if not d.plan.success:
                 self.plan_failures += 1
                 h.events.append({"t": round(self.t, 6), "robot": i, "kind": "plan", "reason": d.plan.reason})
+        games[game_at] = True
+        players[player_at] = True
+        ranks[rank_at[:2]] = rank_at[2]
         h.decision_times.append(self.t)
         h.opinions.append(opinions)
         h.probabilities.append(probs)
@@ -376,7 +397,16 @@ class Simulation:
         h.games.append(games)
         h.ranks.append(ranks)
         h.players.append(players)
-        h.undecided.append(~np.isin(np.arange(n), self.entered_true))
+        undecided = np.ones(n, dtype=bool)  # ~np.isin(np.arange(n), entered_true)
+        undecided[self.entered_true] = False
+        h.undecided.append(undecided)
+
+    def _strategy_index(self, order: tuple[int, ...]) -> int:
+        """:func:`~nodnav.decision.strategies.strategy_index` of ``order``, remembered per trial."""
+        index = self._strategy_indices.get(order)
+        if index is None:
+            index = self._strategy_indices[order] = strategy_index(order)
+        return index
 
     def _record_state(self) -> None:
         self.history.times.append(self.t)
@@ -410,18 +440,19 @@ class Simulation:
             self.collision_kind = kind
             self._finish("collision")
             return
-        to_go = self._to_go()
-        gap = self.positions - self._destinations  # np.linalg.norm's own arithmetic, without its checks
-        arrived = np.sqrt(np.add.reduce(gap * gap, axis=1)) <= s.sim.goal_tolerance
-        self.arrival = np.where(np.isnan(self.arrival) & arrived, self.t, self.arrival)
-        if arrived.all():
+        # Arrivals, then progress towards the goals and along the plans, in one compiled call.
+        progress = self.plan_progress
+        flat = self._no_routes if progress is None else progress.end_to_end()
+        cursor, credited = (self._no_cursors if progress is None else (progress.cursor, progress.credited))
+        finished, improved = judge_progress(self.positions, self._destinations, s.sim.goal_tolerance, self.t,
+                                            self.arrival, self._to_go(), self.best_to_go, s.sim.progress_epsilon,
+                                            progress is not None, *flat, self._reach,
+                                            s.sim.progress_epsilon if progress is None else progress.epsilon,
+                                            cursor, credited)
+        if finished:
             self._finish("success")
             return
-        improved = to_go < self.best_to_go - s.sim.progress_epsilon
-        self.best_to_go = np.where(improved, to_go, self.best_to_go)
-        if self.plan_progress is not None:  # or along the plan it follows (backing out, ...)
-            improved |= self.plan_progress.advanced(self.positions, 2.0 * self._max_speeds * self.dt + 0.1)
-        if improved.any():
+        if improved:
             self.last_progress = self.t
         if self.t - self.last_progress >= s.sim.deadlock_time:
             self._finish("deadlock")

@@ -115,7 +115,9 @@ def run_sweep(study: SweepSpec | Mapping[str, Any], db: str | Path, jobs: int = 
     db : str or Path
         The results database; trials it holds already are not run again.
     jobs : int
-        Local worker processes.
+        Local worker processes (with 1, the trials run in this process). After its first trial
+        a process that runs the sweep's trials freezes the objects then alive out of the
+        garbage collector's full collections, once (:func:`nodnav.heap.freeze_long_lived`).
     quiet : bool
         No progress bar.
     **options

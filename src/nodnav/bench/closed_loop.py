@@ -99,18 +99,23 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     """Run trials of ``scenario_name`` with ``players`` game players per robot (all by default) and time them.
 
     Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
-    reuses what another planned. A study also pays a set-up once per worker process, loading
-    the compiled (numba) kernels, which one decision period of a throw-away trial does; that is
-    timed apart as the set-up. With ``breakdown``, every trial is run once more, right after, with its
-    time split by stage (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors
-    come from the unmeasured runs.
+    reuses what another planned. A study also pays a set-up once per worker process: loading
+    the compiled (numba) kernels, each at its first call. A throw-away trial (seed 0) run to its
+    end does that, and is timed apart as the set-up; one decision period of it (before the
+    ninth round) left the kernels first called later in a trial (arrival, waiting, the evasive
+    fallback) to the first measured trial, which ran at 88x on 4r-case1 against 104-111x for the
+    same trial run again (docs/performance-11.md). After it the long-lived heap is frozen, as a
+    sweep worker does after its first trial (:mod:`nodnav.heap`). With ``breakdown``, every
+    trial is run once more, right after, with its time split by stage
+    (:func:`~nodnav.bench.stages.measure_stages`); the real-time factors come from the
+    unmeasured runs.
     """
     game_players = players if players == "all" else int(players)
     scenario = load_scenario(scenario_name).with_overrides(game_players=game_players, **{"planner.name": planner})
     start = time.perf_counter()
     warm_up = Simulation(scenario, seed=0)
-    for _ in range(warm_up.steps_per_decision + 1):
-        warm_up.step()
+    while not warm_up.step():
+        pass
     del warm_up
     freeze_long_lived()  # as a sweep worker does after its first trial (nodnav.heap)
     setup = time.perf_counter() - start

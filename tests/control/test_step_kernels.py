@@ -42,12 +42,14 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     pred = prob.interp_all @ others
     n_end, r, margin, eps0, reach, tol = len(prob.ends), ROBOT.radius, PARAMS.safety_margin, prob.eps[0], 3.0, 1e-3
     bounds = np.asarray(WORLD.bounds, dtype=float)
-    static = prob.static_lower_base(v0)
+    static = np.full(prob.n_static, np.nan)
     # Into buffers full of garbage (NaN), as a problem's scratch state is between steps: every entry is written.
     state = [np.full_like(a, np.nan) if a.dtype == float else np.ones_like(a) for a in prob.state]
+    ref_in, ref_local = rng.normal(0.0, 3.0, (len(TIMES), 2)), np.full((len(TIMES), 2), np.nan)
     scalars = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends,
                          prob.intervals, WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii,
-                         np.full(3, margin), eps0, reach, tol, static, prob.eps_end, *state)
+                         np.full(3, margin), eps0, reach, tol, static, prob.eps_end, *state, ref_in, ref_local,
+                         prob.static_base, prob.static_alpha @ v0, prob.static_line)
     out = (*state, *scalars)
     m_w = prob.n_walls
     full = np.concatenate([np.full(m_w, r), r + radii + margin])
@@ -66,6 +68,7 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     assert out[13] == min(ref[2][:m_w].min(), gap.min())
     assert out[14] == bool((ref[2][m_w:] < contact[m_w:] - tol).any())
     assert np.array_equal(static, prob.static_lower(p0, v0, out[10], out[11]))
+    assert np.array_equal(ref_local, ref_in - p0)
 
 
 @pytest.mark.parametrize("cold", [False, True])

@@ -440,14 +440,16 @@ class BSplineMPC:
         if margins is None:
             margins = self._safety_margins(len(other_radii))
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
-        static = prob.static_lower_base(v0)
+        static = np.empty(prob.n_static)  # step_state writes prob.static_lower_base(v0) plus the box
         # The robot's own displacement over an interval: at most its reachable speed times it.
         state = prob.state
         x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = state
+        ref_local = np.empty(ref.shape)
         need_clear, clear_now, overlap = step_state(
             pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends, prob.intervals,
             self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii, margins,
-            prob.eps[0], self._reach, self.settings.contact_tolerance, static, prob.eps_end, *state)
+            prob.eps[0], self._reach, self.settings.contact_tolerance, static, prob.eps_end, *state, ref, ref_local,
+            prob.static_base, prob.static_alpha @ v0, prob.static_line)
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
@@ -457,7 +459,7 @@ class BSplineMPC:
             reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
                      + weight * top + 0.1)
         return StepData(
-            p0=p0, v0=v0, ref_local=ref - p0, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
+            p0=p0, v0=v0, ref_local=ref_local, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
             dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
             far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
             static_lower=static, tail_weight=weight, tail_reach=reach,

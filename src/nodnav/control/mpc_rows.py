@@ -287,7 +287,8 @@ def all_finite(p0, v0, ref, others, radii):
 @compiled
 def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
                other_radii, margins, eps0, reach, contact_tolerance, static, eps_end, x_now, away, dist_now, need,
-               delta_sq, far, full, contact, gap, need_box, box_low, box_high):
+               delta_sq, far, full, contact, gap, need_box, box_low, box_high, ref, ref_local, static_base, alpha_v0,
+               static_line):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
     (``radius`` from a wall, ``radius + r_j + margins[j]`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
@@ -298,9 +299,12 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     would box each returned array through a Python call). Returns the smallest clearance to keep
     from any wall or bound, the present clearance from the walls and bounds (the smallest
     ``dist_now`` of a wall and ``gap``) and whether any other robot is closer than its
-    ``contact`` less ``contact_tolerance``. Adds the box's bounds to the first ``4 len(eps_end)`` entries of
-    ``static`` (the static rows' bounds without them, see
-    :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`)."""
+    ``contact`` less ``contact_tolerance``. Writes the static rows' bounds into ``static``:
+    ``static_base - alpha_v0 * static_line`` (:meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower_base`,
+    the NumPy expression's operations, with ``alpha_v0`` its product ``static_alpha @ v0``), the
+    box's bounds added to the first ``4 len(eps_end)`` entries (see
+    :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`), and writes the reference relative
+    to ``p0`` (``ref - p0``, the same subtractions as NumPy's) into ``ref_local``."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
     for g in range(n_walls):
@@ -330,6 +334,8 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     for d in range(2):
         box[d] = box_low[d] - p0[d]
         box[2 + d] = p0[d] - box_high[d]
+    for k in range(static.shape[0]):
+        static[k] = static_base[k] - alpha_v0[k] * static_line[k]
     for e in range(eps_end.shape[0]):
         for d in range(4):
             static[4 * e + d] += box[d] + eps_end[e]
@@ -341,6 +347,9 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     overlap = False
     for g in range(n_walls, n_groups):
         overlap = overlap or dist_now[g] < contact[g] - contact_tolerance
+    for k in range(ref.shape[0]):
+        for d in range(2):
+            ref_local[k, d] = ref[k, d] - p0[d]
     return need_clear, clear_now, overlap
 
 

@@ -14,7 +14,7 @@ cloudpickle.register_pickle_by_value(sys.modules[__name__])
 
 @dataclass
 class FakeTrialResult:
-    """Quacks like :class:`~nodnav.sim.simulator.TrialResult` for whatever stores or reports it:
+    """Quacks like :class:`~nodnav.sim.trial_result.TrialResult` for whatever stores or reports it:
     ``outcome``, ``metrics`` and ``to_dict()``, the summary with the outcome and the metrics, as
     the real one gives."""
 

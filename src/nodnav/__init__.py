@@ -103,5 +103,5 @@ if TYPE_CHECKING:
     from nodnav.scenario.world import Corridor, Passage, World, paper_world
     from nodnav.sim.history import History
     from nodnav.sim.methods import Method
-    from nodnav.sim.simulator import TrialResult
+    from nodnav.sim.trial_result import TrialResult
     from nodnav.viz.trial import save_animation, save_snapshots

@@ -15,8 +15,8 @@ from nodnav.experiments.sweep import SweepSummary
 from nodnav.planning.base import Planner
 from nodnav.scenario.loading import load_scenario as _load_scenario
 from nodnav.scenario.schema import Scenario, scenario_from_dict
-from nodnav.sim.simulator import TrialResult
 from nodnav.sim.simulator import run_trial as _run_trial
+from nodnav.sim.trial_result import TrialResult
 
 if TYPE_CHECKING:  # the report's modules import matplotlib: loaded when a report is built
     from nodnav.reporting.report import ReportResult

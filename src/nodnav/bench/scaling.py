@@ -69,7 +69,7 @@ class TrialCost:
     outcome: str
     """The trial's outcome."""
     result: object = field(default=None, repr=False)
-    """The :class:`~nodnav.sim.simulator.TrialResult` (with its history), when kept."""
+    """The :class:`~nodnav.sim.trial_result.TrialResult` (with its history), when kept."""
 
 
 class _TimedDecisions:

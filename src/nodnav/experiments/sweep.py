@@ -248,7 +248,7 @@ def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int
     """Run one trial in a worker; an exception becomes an ``error`` output instead of propagating.
 
     ``trial_fn(scenario, method, seed)`` returns an object with ``outcome``, ``metrics`` and
-    ``to_dict()`` (a :class:`~nodnav.sim.simulator.TrialResult`).
+    ``to_dict()`` (a :class:`~nodnav.sim.trial_result.TrialResult`).
     """
     start = time.perf_counter()
     try:

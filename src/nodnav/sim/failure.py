@@ -74,7 +74,7 @@ def plans_failing_at_end(events: list[dict], decision_times: list[float]) -> boo
 
 
 def failure_class(result) -> str:
-    """The class of a :class:`~nodnav.sim.simulator.TrialResult`."""
+    """The class of a :class:`~nodnav.sim.trial_result.TrialResult`."""
     h = result.history
     return classify(result.outcome, result.collision_kind, result.consensus,
                     plans_failing_at_end(h.events, h.decision_times))

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
+from nodnav.planning.occupancy import search_from
 
 if TYPE_CHECKING:
     from nodnav.planning.timing import Timing
@@ -128,15 +129,10 @@ def profile_clear(arc: np.ndarray, cell_arc: np.ndarray, free: np.ndarray) -> in
 @_compiled
 def _last_at_or_below(xp, x, i):
     """``np.searchsorted(xp, x, side="right") - 1`` for sorted ``xp``: the last index whose value
-    is at most ``x`` (-1 if none), found by walking on from ``i``, the answer for an earlier ``x``
-    (-1 to start). Queries that never decrease (a profile's arc lengths) walk a cell or two
-    instead of searching the whole path; a smaller one falls back to the binary search."""
-    if i >= 0 and xp[i] > x:
-        return np.searchsorted(xp, x, side="right") - 1
-    n = xp.shape[0]
-    while i + 1 < n and xp[i + 1] <= x:
-        i += 1
-    return i
+    is at most ``x`` (-1 if none), searched from ``i``, the answer for an earlier ``x`` (-1 to
+    start; :func:`~nodnav.planning.occupancy.search_from`). A profile's arc lengths never
+    decrease, so the answer is mostly a cell or two on."""
+    return search_from(xp, x, i + 1, True) - 1
 
 
 @_compiled

@@ -262,12 +262,17 @@ def joint_arrays(flat, ends, t0, dt):
     return times, positions, velocities
 
 
+def sampled_motion(track: Track, samples: np.ndarray, arc: np.ndarray | None, cells: np.ndarray) -> Motion:
+    """The motion along ``track`` at ``samples`` computed with its timing: at the retimed ``arc``
+    lengths, or (``arc`` None) at the arc lengths of its ``cells``."""
+    return Motion(track.route.path.points, samples, track.arc[cells] if arc is None else arc, track.segments)
+
+
 def timed_motion(track: Track, timing: "Timing") -> Motion:
     """The motion along ``track`` that ``timing`` gives: at its cells, or at its retimed arc lengths."""
     path = track.route.path.points
     if timing.samples is not None:  # computed with the timing (the same values)
-        return Motion(path, timing.samples, track.arc[timing.cells] if timing.arc is None else timing.arc,
-                      track.segments)
+        return sampled_motion(track, timing.samples, timing.arc, timing.cells)
     if timing.arc is None:
         steps = timing.cells
         return Motion(path, track.cells[steps], track.arc[steps], track.segments)

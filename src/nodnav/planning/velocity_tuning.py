@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track
+from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, RobotPlan, State, Track, sampled_motion
 from nodnav.planning.fused_timing import NO_GEOMETRY, _timing_kernel, stay_geometry
 from nodnav.planning.memo import remember, remember_briefly
 from nodnav.planning.occupancy import Motion, blocked_rows, boxes_apart, join_motions, relaxed_bits
@@ -164,7 +164,7 @@ class VelocityTuning(FastPlannerHooks):
             timing = timing_of(status, step, steps)
             return Attempt(False, timing.reason, trapped=timing.trapped_at >= 0)
         # timed_motion of the timing :meth:`_timing` makes of this outcome, without making it.
-        motion = Motion(track.route.path.points, samples, arc if len(arc) else track.arc[steps], track.segments)
+        motion = sampled_motion(track, samples, arc if len(arc) else None, steps)
         if head is not None:  # the stays of the joined motion, when asked
             motion = join_motions(head, motion)
             stays = None

@@ -158,6 +158,20 @@ def _no_upper(n: int) -> np.ndarray:
     return up
 
 
+_LP_OBJECTIVES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _lp_objective(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`least_relaxation`'s zero Hessian ``(n, n)`` and cost ``(1, 0, ..., 0)`` over its ``n``
+    variables ``(t, x)`` (one pair per size, never written: DAQP only reads its problem data)."""
+    pair = _LP_OBJECTIVES.get(n)
+    if pair is None:
+        cost = np.zeros(n)
+        cost[0] = 1.0
+        pair = _LP_OBJECTIVES[n] = (np.zeros((n, n)), cost)
+    return pair
+
+
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
     """Rows that together admit no ``x`` with ``rows @ x >= lower``: the support of a Farkas certificate.
 
@@ -182,20 +196,28 @@ def least_relaxation(rows: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, f
     rows whose primal tolerance is far below ``t`` cannot succeed."""
     rows, lower = np.asarray(rows, dtype=float), np.asarray(lower, dtype=float)
     finite = np.flatnonzero(np.isfinite(lower))
-    a, b = rows[finite], lower[finite]
-    n = a.shape[1]
+    m, n = len(finite), rows.shape[1]
     # Variables (t, x); t >= 0 is DAQP's simple bound, the first entry of the bound vectors.
-    cost = np.zeros(n + 1)
-    cost[0] = 1.0
-    relaxed = np.hstack([np.ones((len(b), 1)), a])
-    low = np.concatenate([[0.0], b])
-    tx, _, flag, info = daqp.solve(np.zeros((n + 1, n + 1)), cost, relaxed, np.full(len(low), np.inf), low, None,
-                                   eps_prox=1.0)
+    # The rows [1, a] and bounds [0, b] written in place (no hstack or gathering copy when every
+    # row takes part); the zero Hessian, unit cost and +inf upper bounds are shared per size.
+    relaxed = np.empty((m, n + 1))
+    relaxed[:, 0] = 1.0
+    low = np.empty(m + 1)
+    low[0] = 0.0
+    if m == len(lower):
+        relaxed[:, 1:] = rows
+        low[1:] = lower
+    else:
+        relaxed[:, 1:] = rows[finite]
+        low[1:] = lower[finite]
+    hessian, cost = _lp_objective(n + 1)
+    tx, _, flag, info = daqp.solve(hessian, cost, relaxed, _no_upper(m + 1), low, None, eps_prox=1.0)
     if flag == 1:
         if tx[0] <= 0.0:
             return np.zeros(0, dtype=int), 0.0
         # DAQP's multipliers of active lower bounds are negative.
         return finite[-np.asarray(info["lam"])[1:] > 1e-12], float(tx[0])
+    a, b = rows[finite], lower[finite]
     res = linprog(-b, A_eq=np.vstack([a.T, np.ones(len(finite))]), b_eq=np.append(np.zeros(n), 1.0),
                   bounds=(0.0, None), method="highs")
     if res.status != 0 or -res.fun <= 0.0:

@@ -52,8 +52,7 @@ class QPSolution:
 
 def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
              bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
-             start: np.ndarray | None = None, start_multipliers: np.ndarray | None = None,
-             radius: float | None = None) -> QPSolution:
+             start: np.ndarray | None = None, start_multipliers: np.ndarray | None = None) -> QPSolution:
     """Minimise ``x^T H x / 2 + g^T x`` subject to ``rows @ x >= lower`` and ``x >= bounds`` (DAQP).
 
     ``H`` must be positive definite. ``bounds`` (one per variable, optional) are handled by DAQP
@@ -71,9 +70,6 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     dual ray, whatever the start) is solved again cold. ``start_multipliers`` (an earlier
     solution's :attr:`QPSolution.multipliers`, instead of ``start``) is the same start as
     ``start_from`` of that solution, its flags found in one pass (:func:`warm_flags`).
-    ``radius`` (a guess of the norm of ``x + H^-1 g`` at the minimiser, with ``H`` the identity
-    and no ``bounds``) first tries :func:`pruned_solve`: the same solution, bit for bit, on the
-    rows that can matter, else (the guess too small, or a failure) the solve on every row.
     """
     if bounds is None:
         low = lower if _plain(lower) else np.ascontiguousarray(lower, dtype=float)
@@ -92,10 +88,6 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     h = hessian if _plain(hessian) else np.ascontiguousarray(hessian, dtype=float)
     g = gradient if _plain(gradient) else np.ascontiguousarray(gradient, dtype=float)
     a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
-    if radius is not None and bounds is None:
-        pruned = pruned_solve(h, g, a, low, sense, tol, radius)
-        if pruned is not None:
-            return pruned
     x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, sense, primal_tol=tol)
     iterations = int(info["iterations"])
     if sense is not cold and flag not in (1, -1):
@@ -104,71 +96,6 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     if flag == 1:  # positional: the frozen dataclass's keyword call costs more on every tracking QP
         return QPSolution(True, "", x, iterations, info["lam"])
     return QPSolution(False, _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"), x, iterations, info["lam"])
-
-
-#: Margin (m) by which a row left out by :func:`pruned_solve` is met anywhere in its ball, beyond
-#: DAQP's primal tolerance (1e-9) and rounding.
-PRUNE_MARGIN = 1e-6
-
-
-def pruned_solve(h: np.ndarray, g: np.ndarray, a: np.ndarray, low: np.ndarray, sense: np.ndarray | None, tol: float,
-                 radius: float) -> QPSolution | None:
-    """DAQP's solve of ``min |x|^2 / 2 + g^T x`` s.t. ``a @ x >= low`` (``h`` the identity, checked)
-    on the rows that no point of its path can violate left out: the same solution, iterations and
-    multipliers, bit for bit, or None where that is not certain (solve on every row then).
-
-    DAQP is a dual active-set method on ``u = x + g`` (the identity's factor is exact): every
-    iterate at which it looks for a violated row minimises ``|u|`` over a subset of the rows, a
-    relaxation of the feasible set, so ``|u|`` never exceeds that at the minimiser. A row met by
-    :data:`PRUNE_MARGIN` on the whole ball ``|u| <= radius`` (``a_i g + low_i <= -|a_i| radius -
-    margin``) is never violated at such an iterate, so it is never chosen: left out (the start's
-    rows kept, the others in order), DAQP takes the same path, and every row-wise step of it
-    (normalisation, products, the choice of the most violated row) gives the same bits. That
-    holds if the minimiser found lies well inside the ball (``|u| <= radius / 2``, a margin
-    for rounding in the iterates), checked after the solve; a failed solve is not trusted.
-    """
-    m, n = a.shape
-    flags = np.zeros(m, dtype=np.intc) if sense is None else sense
-    rows, bound, start, kept = np.empty((m, n)), np.empty(m), np.empty(m, dtype=np.intc), np.empty(m, dtype=np.intp)
-    k = relevant_rows(h, g, a, low, flags, radius, PRUNE_MARGIN, rows, bound, start, kept)
-    if k < 0 or k == m:
-        return None  # not the identity, or nothing to leave out
-    x, _, flag, info = daqp.solve(h, g, rows[:k], _no_upper(k), bound[:k], start[:k], primal_tol=tol)
-    u = x + g
-    if flag != 1 or not float(u @ u) <= 0.25 * radius * radius:
-        return None
-    multipliers = np.zeros(m)
-    multipliers[kept[:k]] = info["lam"]
-    return QPSolution(True, "", x, int(info["iterations"]), multipliers)
-
-
-@compiled
-def relevant_rows(h, g, a, low, flags, radius, margin, rows, bound, start, kept):
-    """:func:`pruned_solve`'s rows: those of ``a @ x >= low`` (with DAQP's start ``flags``) that
-    some ``u = x + g`` with ``|u| <= radius`` could violate by less than ``margin``, or in the
-    start, or not decidable (NaN), copied in order into ``rows``, ``bound`` and ``start``, their
-    indices into ``kept``; returns how many, or -1 if ``h`` is not the identity."""
-    n = h.shape[0]
-    for i in range(n):
-        for j in range(n):
-            if h[i, j] != (1.0 if i == j else 0.0):
-                return -1
-    k = 0
-    for i in range(a.shape[0]):
-        shifted = low[i]
-        norm2 = 0.0
-        for j in range(n):
-            shifted += a[i, j] * g[j]
-            norm2 += a[i, j] * a[i, j]
-        if flags[i] == 0 and shifted <= -np.sqrt(norm2) * radius - margin:
-            continue
-        for j in range(n):
-            rows[k, j] = a[i, j]
-        bound[k] = low[i]
-        start[k] = flags[i]
-        kept[k] = i
-        k += 1
-    return k
 
 
 def start_from(solution: QPSolution) -> np.ndarray | None:
@@ -265,23 +192,6 @@ def _lp_objective(n: int) -> tuple[np.ndarray, np.ndarray]:
     return pair
 
 
-#: :func:`next_radius`: the guess of the next minimiser's ``|x + g|`` is this many times the last's,
-#: plus :data:`RADIUS_FLOOR`. The rows left out hardly depend on it (three times the true
-#: norm leaves out 51 % of the tracking QPs' rows, the norm itself 60 %), while a guess below
-#: twice the true norm costs a second solve.
-RADIUS_GROWTH = 4.0
-
-#: Least radius :func:`pruned_solve` tries (the median ``|x + g|`` of tracking QPs is about 0.02).
-RADIUS_FLOOR = 0.05
-
-
-def next_radius(x: np.ndarray, gradient: np.ndarray) -> float:
-    """The radius the next solve of this kind tries: :data:`RADIUS_GROWTH` times ``|x + g|``
-    at this minimiser, plus :data:`RADIUS_FLOOR`."""
-    u = x + gradient
-    return RADIUS_GROWTH * float(np.sqrt(u @ u)) + RADIUS_FLOOR
-
-
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
     """Rows that together admit no ``x`` with ``rows @ x >= lower``: the support of a Farkas certificate.
 
@@ -343,9 +253,8 @@ class SolverEffort:
     """Most constraints (rows and finite bounds) of one QP."""
     starts: dict | None = None
     """Warm starts by kind of QP (the controller's, kept between steps): the multipliers of the
-    last solution of each kind (its start is :func:`start_from`'s, :func:`warm_flags`) and the
-    radius its next solve tries (:func:`pruned_solve`, None for QPs with bounds); None: every
-    solve starts cold."""
+    last solution of each kind (its start is :func:`start_from`'s, :func:`warm_flags`); None:
+    every solve starts cold."""
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
               bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
@@ -354,15 +263,13 @@ class SolverEffort:
         ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
         object), else from that of the kind ``like`` (the same rows and variables, other data)."""
         starts = self.starts if kind is not None else None  # where this kind's start is kept, if anywhere
-        warm = radius = None
+        warm = None
         if starts is not None:
-            last = starts.get(kind)
-            if last is None and like is not None:
-                last = starts.get(like)
-            if last is not None:
-                warm, radius = last
+            warm = starts.get(kind)
+            if warm is None and like is not None:
+                warm = starts.get(like)
         t = time.perf_counter()
-        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm, radius)
+        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm)
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations
@@ -372,9 +279,8 @@ class SolverEffort:
         if starts is not None and sol.success:
             if len(starts) >= MAX_STARTS and kind not in starts:
                 starts.pop(next(iter(starts)))
-            # The multipliers, not their nonzero indices: the next solve's flags take one pass over
-            # them; and, without bounds, the guess of the next minimiser's |x + g| (pruned_solve).
-            starts[kind] = (sol.multipliers, None if bounds is not None else next_radius(sol.x, gradient))
+            # The multipliers, not their nonzero indices: the next solve's flags take one pass over them.
+            starts[kind] = sol.multipliers
         return sol
 
     def certificate(self, rows: np.ndarray, lower: np.ndarray) -> np.ndarray:

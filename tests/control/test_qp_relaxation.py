@@ -6,7 +6,7 @@ import pytest
 from scipy.optimize import linprog
 
 from nodnav.control.evasive import CERTAINLY_INFEASIBLE
-from nodnav.control.qp import infeasibility_certificate, least_relaxation, solve_qp
+from nodnav.control.qp import infeasibility_certificate, least_relaxation, relaxed_rows, solve_qp
 
 
 def _least_relaxation_highs(rows, lower):
@@ -81,3 +81,52 @@ def test_an_elastic_qp_fails_exactly_when_its_hard_rows_are_relaxed_beyond_the_t
             assert (rows @ sol.x >= lower - 1e-8).all() and (sol.x[n:] >= -1e-9).all()
             solved += 1
     assert skipped >= 30 and solved >= 15
+
+
+def test_relaxed_rows_writes_numpys_gathered_and_stacked_lp_data():
+    """The compiled pass writes what ``flatnonzero(isfinite)``, gathering and ``hstack`` give, bit
+    for bit (rows at -inf, +inf or NaN left out; none, some or all of them finite)."""
+    rng = np.random.default_rng(5)
+    for share in (0.0, 0.3, 1.0):
+        rows, lower = rng.normal(size=(40, 7)), rng.normal(size=40)
+        lower[rng.random(40) < share] = -np.inf
+        lower[3] = np.inf if share else lower[3]
+        lower[5] = np.nan if share else lower[5]
+        finite = np.flatnonzero(np.isfinite(lower))
+        relaxed, low, found = np.empty((40, 8)), np.empty(41), np.empty(40, dtype=np.intp)
+        m = relaxed_rows(rows, lower, relaxed, low, found)
+        assert m == len(finite)
+        np.testing.assert_array_equal(found[:m], finite)
+        assert relaxed[:m].tobytes() == np.hstack([np.ones((m, 1)), rows[finite]]).tobytes()
+        assert low[:m + 1].tobytes() == np.concatenate([[0.0], lower[finite]]).tobytes()
+
+
+def test_least_relaxation_hands_daqp_the_plain_constructions_lp(monkeypatch):
+    """DAQP gets the same LP, bit for bit, as the plain NumPy construction (zero Hessian, unit
+    cost, ``hstack`` of ones and the finite rows, +inf upper bounds, 0 then the finite bounds):
+    so the same solution, whatever DAQP does with it."""
+    import nodnav.control.qp as qp
+
+    seen = []
+    solve = qp.daqp.solve
+
+    class Recording:
+        @staticmethod
+        def solve(*args, **kw):
+            seen.append((args, kw))
+            return solve(*args, **kw)
+
+    monkeypatch.setattr(qp, "daqp", Recording)
+    rng = np.random.default_rng(3)
+    for trial in range(12):
+        rows, lower = _random_system(rng, [0.0, 0.3][trial % 2])
+        least_relaxation(rows, lower)
+        (h, f, a, up, low, sense), kw = seen[-1]
+        finite = np.isfinite(lower)
+        m, n = int(finite.sum()), rows.shape[1]
+        plain = (np.zeros((n + 1, n + 1)), np.append(1.0, np.zeros(n)), np.hstack([np.ones((m, 1)), rows[finite]]),
+                 np.full(m + 1, np.inf), np.concatenate([[0.0], lower[finite]]))
+        for got, want in zip((h, f, a, up, low), plain):
+            assert got.shape == want.shape and got.dtype == want.dtype and got.tobytes() == want.tobytes()
+            assert got.flags.c_contiguous
+        assert sense is None and kw == {"eps_prox": 1.0}

@@ -93,8 +93,9 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     if sense is not cold and flag not in (1, -1):
         x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, cold, primal_tol=tol)
         iterations += int(info["iterations"])
-    return QPSolution(success=flag == 1, reason="" if flag == 1 else _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"),
-                      x=x, iterations=iterations, multipliers=info["lam"])
+    if flag == 1:  # positional: the frozen dataclass's keyword call costs more on every tracking QP
+        return QPSolution(True, "", x, iterations, info["lam"])
+    return QPSolution(False, _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"), x, iterations, info["lam"])
 
 
 def start_from(solution: QPSolution) -> np.ndarray | None:
@@ -158,6 +159,39 @@ def _no_upper(n: int) -> np.ndarray:
     return up
 
 
+@compiled
+def relaxed_rows(rows, lower, relaxed, low, finite):
+    """:func:`least_relaxation`'s LP data, written in place: for the ``m`` rows with a finite
+    ``lower`` (in order), their indices into ``finite[:m]``, the rows ``[1, rows[i]]`` into
+    ``relaxed[:m]`` and the bounds ``[0, lower[i]...]`` into ``low[:m + 1]``; returns ``m``. The
+    same values as NumPy's ``flatnonzero(isfinite(lower))``, gathering and ``hstack`` (copies)."""
+    low[0] = 0.0
+    m = 0
+    for i in range(lower.shape[0]):
+        if np.isfinite(lower[i]):
+            finite[m] = i
+            low[m + 1] = lower[i]
+            relaxed[m, 0] = 1.0
+            for j in range(rows.shape[1]):
+                relaxed[m, j + 1] = rows[i, j]
+            m += 1
+    return m
+
+
+_LP_OBJECTIVES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _lp_objective(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`least_relaxation`'s zero Hessian ``(n, n)`` and cost ``(1, 0, ..., 0)`` over its ``n``
+    variables ``(t, x)`` (one pair per size, never written: DAQP only reads its problem data)."""
+    pair = _LP_OBJECTIVES.get(n)
+    if pair is None:
+        cost = np.zeros(n)
+        cost[0] = 1.0
+        pair = _LP_OBJECTIVES[n] = (np.zeros((n, n)), cost)
+    return pair
+
+
 def infeasibility_certificate(rows: np.ndarray, lower: np.ndarray) -> np.ndarray:
     """Rows that together admit no ``x`` with ``rows @ x >= lower``: the support of a Farkas certificate.
 
@@ -181,21 +215,22 @@ def least_relaxation(rows: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, f
     No ``x`` violates every row by at most ``t``, less the LP's own tolerance: a QP on these
     rows whose primal tolerance is far below ``t`` cannot succeed."""
     rows, lower = np.asarray(rows, dtype=float), np.asarray(lower, dtype=float)
-    finite = np.flatnonzero(np.isfinite(lower))
-    a, b = rows[finite], lower[finite]
-    n = a.shape[1]
+    k, n = rows.shape
     # Variables (t, x); t >= 0 is DAQP's simple bound, the first entry of the bound vectors.
-    cost = np.zeros(n + 1)
-    cost[0] = 1.0
-    relaxed = np.hstack([np.ones((len(b), 1)), a])
-    low = np.concatenate([[0.0], b])
-    tx, _, flag, info = daqp.solve(np.zeros((n + 1, n + 1)), cost, relaxed, np.full(len(low), np.inf), low, None,
-                                   eps_prox=1.0)
+    # The rows [1, a] and bounds [0, b] of the finite rows written in one compiled pass (no
+    # isfinite, gathering copy or hstack); the zero Hessian, unit cost and +inf upper bounds are
+    # shared per size.
+    relaxed, low, finite = np.empty((k, n + 1)), np.empty(k + 1), np.empty(k, dtype=np.intp)
+    m = relaxed_rows(rows, lower, relaxed, low, finite)
+    relaxed, low, finite = relaxed[:m], low[:m + 1], finite[:m]
+    hessian, cost = _lp_objective(n + 1)
+    tx, _, flag, info = daqp.solve(hessian, cost, relaxed, _no_upper(m + 1), low, None, eps_prox=1.0)
     if flag == 1:
         if tx[0] <= 0.0:
             return np.zeros(0, dtype=int), 0.0
         # DAQP's multipliers of active lower bounds are negative.
         return finite[-np.asarray(info["lam"])[1:] > 1e-12], float(tx[0])
+    a, b = rows[finite], lower[finite]
     res = linprog(-b, A_eq=np.vstack([a.T, np.ones(len(finite))]), b_eq=np.append(np.zeros(n), 1.0),
                   bounds=(0.0, None), method="highs")
     if res.status != 0 or -res.fun <= 0.0:

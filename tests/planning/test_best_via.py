@@ -3,7 +3,7 @@
 
 import numpy as np
 
-from nodnav.planning.visibility import _best_via, _best_via_plain
+from nodnav.planning.wall_paths import best_via as _best_via, best_via_plain as _best_via_plain
 
 INF = np.inf
 

@@ -6,7 +6,10 @@ import numpy as np
 
 from nodnav.planning.polylines import polyline_length
 from nodnav.planning.visibility import VisibilityGraph
-from nodnav.planning.wall_paths import DIRECT, NONE, VIA, segments_to_check, walls_paths
+from nodnav.geometry import TOL
+from nodnav.planning.wall_paths import (
+    DIRECT, NONE, VIA, best_via_plain, segments_to_check, walls_answers, walls_paths,
+)
 from nodnav.scenario.world import paper_world
 
 
@@ -15,16 +18,49 @@ def test_segments_are_the_stacked_ones():
     for _ in range(100):
         m, nv = int(rng.integers(1, 6)), int(rng.integers(0, 9))
         starts, goals, v = rng.normal(size=(m, 2)), rng.normal(size=(m, 2)), rng.normal(size=(nv, 2))
-        ts, tg = rng.uniform(0, 1, m), rng.uniform(0, 1, m)
-        a, b, need = segments_to_check(starts, goals, v, ts, tg, False)
+        cs, cg = rng.uniform(-0.2, 1, m), rng.uniform(-0.2, 1, m)
+        ts, tg = np.minimum(0.5, cs) - TOL, np.minimum(0.5, cg) - TOL
+        a, b, need, one = segments_to_check(starts, goals, v, cs, cg, 0.5, TOL)
+        assert not one or bool((starts == starts[0]).all() and (ts == ts[0]).all())
         assert np.array_equal(a, np.vstack([starts, np.repeat(starts, nv, axis=0), np.repeat(goals, nv, axis=0)]))
         assert np.array_equal(b, np.vstack([goals, np.tile(v, (2 * m, 1))]))
         assert np.array_equal(need, np.concatenate([np.minimum(ts, tg), np.repeat(ts, nv), np.repeat(tg, nv)]))
-        starts[:], ts[:] = starts[0], ts[0]
-        a1, b1, need1 = segments_to_check(starts, goals, v, ts, tg, True)
-        a, b, need = segments_to_check(starts, goals, v, ts, tg, False)
-        keep = np.r_[0:m + nv, m + m * nv:m + 2 * m * nv]  # the first start's segments only
-        assert np.array_equal(a1, a[keep]) and np.array_equal(b1, b[keep]) and np.array_equal(need1, need[keep])
+        starts[:], cs[:] = starts[0], cs[0]
+        ts = np.minimum(0.5, cs) - TOL
+        a1, b1, need1, one = segments_to_check(starts, goals, v, cs, cg, 0.5, TOL)
+        assert one == (m > 1)
+        if one:  # the first start's segments only
+            assert np.array_equal(a1, np.vstack([starts, np.repeat(starts[:1], nv, axis=0), np.repeat(goals, nv, axis=0)]))
+            assert np.array_equal(b1, np.vstack([goals, np.tile(v, (1 + m, 1))]))
+            assert np.array_equal(need1, np.concatenate([np.minimum(ts, tg), np.repeat(ts[:1], nv), np.repeat(tg, nv)]))
+
+
+def test_answers_are_the_numpy_ones():
+    rng = np.random.default_rng(4)
+    nv = 7
+    v = rng.normal(size=(nv, 2))
+    dist = rng.uniform(0, 3, (nv, nv))
+    dist[rng.random((nv, nv)) < 0.2] = np.inf
+    pred = np.tile(np.arange(nv, dtype=np.int32)[:, None], (1, nv))  # every chain one step: first, last
+    for _ in range(300):
+        m = int(rng.integers(1, 5))
+        starts, goals = rng.normal(size=(m, 2)), rng.normal(size=(m, 2))
+        one = bool(m > 1 and rng.random() < 0.5)
+        if one:
+            starts[:] = starts[0]
+        ns = 1 if one else m
+        seen = rng.random(m + ns * nv + m * nv) < 0.6
+        cs, cg = rng.uniform(-0.1, 1, m), rng.uniform(-0.1, 1, m)
+        kind, points, offsets, lengths = walls_answers(starts, goals, v, seen, one, dist, pred, cs, cg, 0.2)
+        from_start = np.repeat(seen[m:m + ns * nv].reshape(ns, nv), m // ns, axis=0)
+        to_goal = seen[m + ns * nv:].reshape(m, nv)
+        d_start = np.where(from_start, np.hypot(v[:, 0] - starts[:, 0:1], v[:, 1] - starts[:, 1:2]), np.inf)
+        d_goal = np.where(to_goal, np.hypot(v[:, 0] - goals[:, 0:1], v[:, 1] - goals[:, 1:2]), np.inf)
+        best, cost = best_via_plain(d_start, dist, d_goal, from_start, to_goal)
+        ok = (cs >= 0.0) & (cg >= 0.2)
+        want = np.where(ok & seen[:m], DIRECT, np.where(ok & np.isfinite(cost), VIA, NONE))
+        assert kind.tolist() == want.tolist()
+        assert np.array_equal(points, walls_paths(starts, goals, v, pred, kind, best)[0])
 
 
 def test_paths_follow_the_predecessors():

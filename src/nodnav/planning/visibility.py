@@ -36,7 +36,7 @@ from nodnav.planning.disc_checks import _crosses_any, disc_violations
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.planning.polylines import polyline_length
-from nodnav.planning.wall_paths import DIRECT, NONE, VIA, best_via, segments_to_check, walls_paths
+from nodnav.planning.wall_paths import NONE, segments_to_check, walls_answers
 from nodnav.scenario.world import World
 
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
@@ -241,7 +241,9 @@ class VisibilityGraph:
         """
         starts = np.asarray(starts, dtype=float).reshape(-1, 2)
         goals = np.asarray(goals, dtype=float).reshape(-1, 2)
-        keys = [(s.tobytes(), g.tobytes()) for s, g in zip(starts, goals)]
+        # Each row's bytes (what ``row.tobytes()`` gives), cut from the whole array's in one go.
+        sb, gb = starts.tobytes(), goals.tobytes()
+        keys = [(sb[o:o + 16], gb[o:o + 16]) for o in range(0, 16 * len(starts), 16)]
         missing = [i for i, key in enumerate(keys) if key not in self._plain]
         found = dict(zip(missing, self._walls_only(starts[missing], goals[missing]))) if missing else {}
         paths = [found[i] if i in found else self._plain[key] for i, key in enumerate(keys)]
@@ -255,35 +257,19 @@ class VisibilityGraph:
         return GeometricPath(False, reason, start[None].copy())
 
     def _walls_only(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
-        m, v = len(starts), self.vertices
-        nv = len(v)
+        m = len(starts)
         clear = self.world.clearance(np.vstack([starts, goals]))
         c_start, c_goal = clear[:m], clear[m:]
-        thr_start = np.minimum(self.clearance, c_start) - TOL
-        thr_goal = np.minimum(self.clearance, c_goal) - TOL
-        # Many ways from one spot (the waiting spots' rings): its segments to the vertices checked once.
-        one_start = bool(m > 1 and (starts == starts[0]).all() and (thr_start == thr_start[0]).all())
-        a, b, need = segments_to_check(starts, goals, v, thr_start, thr_goal, one_start)
+        # The segments to check (a start's to the vertices once, for many ways from one spot),
+        # then each query's answer and path, in two compiled calls around the walls' check.
+        a, b, need, one_start = segments_to_check(starts, goals, self.vertices, c_start, c_goal, self.clearance, TOL)
         seen = segment_is_clear(self.world, a, b, need)
-        direct = seen[:m]
-        cost = np.full(m, np.inf)
-        best = np.zeros(m, dtype=np.int64)
-        if nv:
-            ns = 1 if one_start else m
-            from_start = seen[m:m + ns * nv].reshape(ns, nv)
-            if one_start:
-                from_start = np.repeat(from_start, m, axis=0)
-            to_goal = seen[m + ns * nv:].reshape(m, nv)
-            d_start = np.where(from_start, np.hypot(v[:, 0] - starts[:, 0:1], v[:, 1] - starts[:, 1:2]), np.inf)
-            d_goal = np.where(to_goal, np.hypot(v[:, 0] - goals[:, 0:1], v[:, 1] - goals[:, 1:2]), np.inf)
-            best, cost = best_via(d_start, self._dist, d_goal, from_start, to_goal)
-        # The same tests, in the same order, as one answer per query: no path, straight, or through the graph.
-        ok = (c_start >= 0.0) & (c_goal >= self.radius - TOL)
-        kind = np.where(ok & direct, DIRECT, np.where(ok & np.isfinite(cost), VIA, NONE))
-        points, offsets, lengths = walls_paths(starts, goals, v, self._pred, kind, best)
+        kind, points, offsets, lengths = walls_answers(starts, goals, self.vertices, seen, one_start, self._dist,
+                                                       self._pred, c_start, c_goal, self.radius - TOL)
         paths = []
-        for i in range(m):
-            if kind[i] == NONE:
+        ends, lengths = offsets.tolist(), lengths.tolist()
+        for i, answer in enumerate(kind.tolist()):
+            if answer == NONE:
                 start, goal = starts[i], goals[i]
                 if c_start[i] < 0.0:
                     paths.append(self._fail(start, f"start {_fmt(start)} is inside a wall or outside the world"))
@@ -293,9 +279,9 @@ class VisibilityGraph:
                 else:
                     paths.append(self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)}"))
                 continue
-            path = _path(points[offsets[i]:offsets[i + 1]])
+            path = _path(points[ends[i]:ends[i + 1]])
             if lengths[i] >= 0.0:  # what its length would compute when first read (a short path)
-                path.__dict__["length"] = float(lengths[i])
+                path.__dict__["length"] = lengths[i]
             paths.append(path)
         return paths
 

@@ -17,13 +17,24 @@ NONE, DIRECT, VIA = 0, 1, 2
 
 
 @_compiled
-def segments_to_check(starts, goals, vertices, thr_start, thr_goal, one_start):
-    """The segments whose clearance decides ``m`` queries, and the clearance each needs: each
-    start to its goal (needing the lesser threshold), each start to every vertex, each goal to
-    every vertex, as ``(a, b, need)``. With ``one_start`` (every start the same point, with the
-    same threshold) the start's segments are listed once, for the first start: a segment's answer
-    depends on it alone, so the others would repeat it."""
+def segments_to_check(starts, goals, vertices, c_start, c_goal, clearance, tol):
+    """The segments whose clearance decides ``m`` queries, and the clearance each needs, as
+    ``(a, b, need, one_start)``: each start to its goal (needing the lesser of their thresholds
+    ``min(clearance, c) - tol``, ``c`` the end's own clearance), each start to every vertex, each
+    goal to every vertex. When every start is the same point with the same threshold
+    (``one_start``: the ways from one spot to the waiting spots around it), the start's segments
+    are listed once, for the first start: a segment's answer depends on it alone."""
     m, nv = starts.shape[0], vertices.shape[0]
+    thr_start = np.empty(m)
+    thr_goal = np.empty(m)
+    for i in range(m):
+        thr_start[i] = min(clearance, c_start[i]) - tol
+        thr_goal[i] = min(clearance, c_goal[i]) - tol
+    one_start = m > 1
+    for i in range(1, m):
+        if not (starts[i, 0] == starts[0, 0] and starts[i, 1] == starts[0, 1] and thr_start[i] == thr_start[0]):
+            one_start = False
+            break
     ns = 1 if one_start else m
     size = m + ns * nv + m * nv
     a = np.empty((size, 2))
@@ -46,7 +57,43 @@ def segments_to_check(starts, goals, vertices, thr_start, thr_goal, one_start):
             b[k, 0], b[k, 1] = vertices[j, 0], vertices[j, 1]
             need[k] = thr_goal[i]
             k += 1
-    return a, b, need
+    return a, b, need, one_start
+
+
+@_compiled
+def walls_answers(starts, goals, vertices, seen, one_start, dist, pred, c_start, c_goal, least):
+    """Every query's answer from the segments' clearances ``seen`` (in
+    :func:`segments_to_check`'s order): its kind, ``NONE`` unless the start's clearance is at
+    least 0 and the goal's at least ``least``, then ``DIRECT`` if the straight segment is clear,
+    else ``VIA`` if the graph joins a vertex seen from the start to one seen from the goal
+    (:func:`best_via`, each leg ``hypot`` of the differences as NumPy's), else ``NONE``; and the
+    paths as :func:`walls_paths` gives them, ``(kind, points, offsets, lengths)``."""
+    m, nv = starts.shape[0], vertices.shape[0]
+    ns = 1 if one_start else m
+    d_start = np.full((m, nv), np.inf)
+    d_goal = np.full((m, nv), np.inf)
+    from_start = np.zeros((m, nv), dtype=np.bool_)
+    to_goal = np.zeros((m, nv), dtype=np.bool_)
+    for i in range(m):
+        row_s = m + (0 if one_start else i * nv)
+        row_g = m + ns * nv + i * nv
+        for j in range(nv):
+            if seen[row_s + j]:
+                from_start[i, j] = True
+                d_start[i, j] = math.hypot(vertices[j, 0] - starts[i, 0], vertices[j, 1] - starts[i, 1])
+            if seen[row_g + j]:
+                to_goal[i, j] = True
+                d_goal[i, j] = math.hypot(vertices[j, 0] - goals[i, 0], vertices[j, 1] - goals[i, 1])
+    best, cost = _best_via_kernel(d_start, dist, d_goal, from_start, to_goal)
+    kind = np.zeros(m, dtype=np.int64)
+    for i in range(m):
+        if c_start[i] >= 0.0 and c_goal[i] >= least:
+            if seen[i]:
+                kind[i] = DIRECT
+            elif nv > 0 and math.isfinite(cost[i]):
+                kind[i] = VIA
+    points, offsets, lengths = walls_paths(starts, goals, vertices, pred, kind, best)
+    return kind, points, offsets, lengths
 
 
 @_compiled

@@ -1,5 +1,5 @@
-"""The visibility graph's choice of the first and last vertex of a path (planning/visibility.py,
-``_best_via``): the compiled loop against the NumPy table it replaces, and against a hand count."""
+"""The visibility graph's choice of the first and last vertex of a path (planning/wall_paths.py,
+``best_via``): the compiled loop against the NumPy table it replaces, and against a hand count."""
 
 import numpy as np
 

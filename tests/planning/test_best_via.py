@@ -1,9 +1,9 @@
-"""The visibility graph's choice of the first and last vertex of a path (planning/visibility.py,
-``_best_via``): the compiled loop against the NumPy table it replaces, and against a hand count."""
+"""The visibility graph's choice of the first and last vertex of a path (planning/wall_paths.py,
+``best_via``): the compiled loop against the NumPy table it replaces, and against a hand count."""
 
 import numpy as np
 
-from nodnav.planning.visibility import _best_via, _best_via_plain
+from nodnav.planning.wall_paths import best_via as _best_via, best_via_plain as _best_via_plain
 
 INF = np.inf
 

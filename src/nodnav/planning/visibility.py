@@ -36,6 +36,7 @@ from nodnav.planning.disc_checks import _crosses_any, disc_violations
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember
 from nodnav.planning.polylines import polyline_length
+from nodnav.planning.wall_paths import NONE, segments_to_check, walls_answers
 from nodnav.scenario.world import World
 
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
@@ -240,7 +241,9 @@ class VisibilityGraph:
         """
         starts = np.asarray(starts, dtype=float).reshape(-1, 2)
         goals = np.asarray(goals, dtype=float).reshape(-1, 2)
-        keys = [(s.tobytes(), g.tobytes()) for s, g in zip(starts, goals)]
+        # Each row's bytes (what ``row.tobytes()`` gives), cut from the whole array's in one go.
+        sb, gb = starts.tobytes(), goals.tobytes()
+        keys = [(sb[o:o + 16], gb[o:o + 16]) for o in range(0, 16 * len(starts), 16)]
         missing = [i for i, key in enumerate(keys) if key not in self._plain]
         found = dict(zip(missing, self._walls_only(starts[missing], goals[missing]))) if missing else {}
         paths = [found[i] if i in found else self._plain[key] for i, key in enumerate(keys)]
@@ -254,41 +257,32 @@ class VisibilityGraph:
         return GeometricPath(False, reason, start[None].copy())
 
     def _walls_only(self, starts: np.ndarray, goals: np.ndarray) -> list[GeometricPath]:
-        m, v = len(starts), self.vertices
-        nv = len(v)
+        m = len(starts)
         clear = self.world.clearance(np.vstack([starts, goals]))
         c_start, c_goal = clear[:m], clear[m:]
-        thr_start = np.minimum(self.clearance, c_start) - TOL
-        thr_goal = np.minimum(self.clearance, c_goal) - TOL
-        a = np.vstack([starts, np.repeat(starts, nv, axis=0), np.repeat(goals, nv, axis=0)])
-        b = np.vstack([goals, np.tile(v, (2 * m, 1))])
-        need = np.concatenate([np.minimum(thr_start, thr_goal), np.repeat(thr_start, nv), np.repeat(thr_goal, nv)])
+        # The segments to check (a start's to the vertices once, for many ways from one spot),
+        # then each query's answer and path, in two compiled calls around the walls' check.
+        a, b, need, one_start = segments_to_check(starts, goals, self.vertices, c_start, c_goal, self.clearance, TOL)
         seen = segment_is_clear(self.world, a, b, need)
-        direct = seen[:m]
-        if nv:
-            from_start = seen[m:m + m * nv].reshape(m, nv)
-            to_goal = seen[m + m * nv:].reshape(m, nv)
-            d_start = np.where(from_start, np.hypot(v[:, 0] - starts[:, 0:1], v[:, 1] - starts[:, 1:2]), np.inf)
-            d_goal = np.where(to_goal, np.hypot(v[:, 0] - goals[:, 0:1], v[:, 1] - goals[:, 1:2]), np.inf)
-            best, cost = _best_via(d_start, self._dist, d_goal, from_start, to_goal)
+        kind, points, offsets, lengths = walls_answers(starts, goals, self.vertices, seen, one_start, self._dist,
+                                                       self._pred, c_start, c_goal, self.radius - TOL)
         paths = []
-        for i in range(m):
-            start, goal = starts[i], goals[i]
-            if c_start[i] < 0.0:
-                paths.append(self._fail(start, f"start {_fmt(start)} is inside a wall or outside the world"))
-            elif c_goal[i] < self.radius - TOL:
-                paths.append(self._fail(start, f"goal {_fmt(goal)} is not in free space: clearance "
-                                               f"{c_goal[i]:.3f} m < radius {self.radius:.3f} m"))
-            elif direct[i]:
-                paths.append(_path(np.array([start, goal])))
-            elif not nv or not np.isfinite(cost[i]):
-                paths.append(self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)}"))
-            else:
-                first, last = divmod(int(best[i]), nv)
-                chain = [last]
-                while chain[-1] != first:
-                    chain.append(self._pred[first, chain[-1]])
-                paths.append(_path(np.vstack([start, v[chain[::-1]], goal])))
+        ends, lengths = offsets.tolist(), lengths.tolist()
+        for i, answer in enumerate(kind.tolist()):
+            if answer == NONE:
+                start, goal = starts[i], goals[i]
+                if c_start[i] < 0.0:
+                    paths.append(self._fail(start, f"start {_fmt(start)} is inside a wall or outside the world"))
+                elif c_goal[i] < self.radius - TOL:
+                    paths.append(self._fail(start, f"goal {_fmt(goal)} is not in free space: clearance "
+                                                   f"{c_goal[i]:.3f} m < radius {self.radius:.3f} m"))
+                else:
+                    paths.append(self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)}"))
+                continue
+            path = _path(points[ends[i]:ends[i + 1]])
+            if lengths[i] >= 0.0:  # what its length would compute when first read (a short path)
+                path.__dict__["length"] = lengths[i]
+            paths.append(path)
         return paths
 
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
@@ -422,57 +416,6 @@ def _without_repeats(points: np.ndarray) -> np.ndarray:
         before = np.flatnonzero(keep[:-1])[-1]
         keep[-1], keep[before] = True, before == 0
     return points[keep]
-
-
-def _best_via(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,
-              to_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For each query ``q``, the first pair ``(first, last)`` (as ``first * V + last``) in row-major
-    order minimising ``d_start[q, first] + dist[first, last] + d_goal[q, last]``, and that least
-    sum. Only the vertices seen from the start and from the goal are summed (the rest are
-    ``inf``): the same pair and value as the whole ``(V, V)`` table, at a fraction of its cost
-    on a map's graph of a thousand vertices. One compiled loop (:func:`_best_via_kernel`);
-    :func:`_best_via_plain` is the NumPy version it is tested against."""
-    return _best_via_kernel(d_start, dist, d_goal, from_start, to_goal)
-
-
-def _best_via_plain(d_start: np.ndarray, dist: np.ndarray, d_goal: np.ndarray, from_start: np.ndarray,
-                    to_goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_best_via` with NumPy: the sums of the seen pairs as a table, its first least entry."""
-    m, nv = d_start.shape
-    best = np.zeros(m, dtype=np.int64)
-    cost = np.full(m, np.inf)
-    for q in range(m):
-        fs, tg = np.flatnonzero(from_start[q]), np.flatnonzero(to_goal[q])
-        if not (len(fs) and len(tg)):
-            continue
-        total = d_start[q, fs][:, None] + dist[np.ix_(fs, tg)] + d_goal[q, tg][None, :]
-        k = int(total.argmin())
-        best[q], cost[q] = fs[k // len(tg)] * nv + tg[k % len(tg)], total.flat[k]
-    return best, cost
-
-
-@_compiled
-def _best_via_kernel(d_start, dist, d_goal, from_start, to_goal):
-    """:func:`_best_via_plain` as loops: the same sums (start leg plus the graph's distance, then
-    the goal leg), the first least in the same row-major order (a strictly smaller sum replaces
-    it, as ``argmin`` keeps the first of equal ones)."""
-    m, nv = d_start.shape
-    best = np.zeros(m, dtype=np.int64)
-    cost = np.full(m, np.inf)
-    for q in range(m):
-        found = False
-        for a in range(nv):
-            if not from_start[q, a]:
-                continue
-            for b in range(nv):
-                if not to_goal[q, b]:
-                    continue
-                total = d_start[q, a] + dist[a, b] + d_goal[q, b]
-                if not found or total < cost[q]:
-                    best[q] = a * nv + b
-                    cost[q] = total
-                    found = True
-    return best, cost
 
 
 def _path(points: np.ndarray) -> GeometricPath:

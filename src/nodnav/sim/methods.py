@@ -157,7 +157,7 @@ class PlannedMethod:
     def _held(self, i: int) -> tuple[Decision, PlanExecution, np.ndarray, np.ndarray, tuple]:
         """Robot ``i``'s current decision, its execution, the rows of the decision's robots in a
         view, each other robot's column in the decision's plan (-1: not in it) and the
-        execution's arguments of :func:`gated_step`, built once per decision."""
+        execution's arguments of :func:`gated_step` up to the step constants, built once per decision."""
         decision = self.decisions[i]
         held = self._executions.get(i)
         if held is None or held[0] is not decision:
@@ -165,9 +165,12 @@ class PlannedMethod:
             columns = np.array([decision.robots.index(k) if k in decision.robots else -1 for k in self._others[i]],
                                dtype=np.int64)
             ex = PlanExecution(decision.plan.trajectory, decision.robots, self._radii[rows], self._execution_settings)
+            # gated_step's arguments from the execution's to the step constants, in one tuple (the
+            # arrays are updated in place): unpacked once at each step rather than piece by piece.
             step = () if not self._execution_settings.gated else (
                 ex.trajectory.times, ex.trajectory.positions, ex.t0, ex.clocks, ex.samples, ex.dependencies,
-                ex.progress, ex.gates, ex.sample_times, rows, self._execution_settings.tolerance)
+                ex.progress, ex.gates, ex.sample_times, rows, self._execution_settings.tolerance, *self._wait_state,
+                self._offsets, self.dt, columns, *self._step_constants[i])
             held = self._executions[i] = (decision, ex, rows, columns, step)
         return held
 
@@ -196,8 +199,7 @@ class PlannedMethod:
             if gated:  # observe, wait, read, predict, advance and widen: one compiled call
                 seen = reactions.seen(i, positions, velocities)
                 reference, predictions, radii = gated_step(
-                    positions, velocities, i, t, *step, *self._wait_state, self._offsets, self.dt, columns,
-                    *self._step_constants[i], *seen, *reactions.constants[i], bool(reactions.conflicted[i]),
+                    positions, velocities, i, t, *step, *seen, *reactions.constants[i], bool(reactions.conflicted[i]),
                     self._other_radii[i])
             else:
                 execution.observe(positions[rows])

@@ -73,6 +73,7 @@ from nodnav.planning.base import PlanResult
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.registry import register_method
 from nodnav.scenario.schema import Scenario
+from nodnav.scenario.world import INSIDE
 from nodnav.sim.agent import Decision, RobotView, approach_sides
 from nodnav.sim.baselines import NO_OPINION, next_waypoint, route_trajectory
 from nodnav.sim.person_steering import arrival_speed, away_from, bend_rooms, turn_speed
@@ -123,6 +124,9 @@ class PersonMethod:
                             for r in set(scenario.radii.tolist())
                             if self.comfortable_margin(r) > self.params.route_margin}
         self.sides = approach_sides(scenario)
+        # The scenario's per-robot arrays, built once (its properties build them anew at each read).
+        self._radii, self._destinations, self._max_speeds = scenario.radii, scenario.destinations, scenario.max_speeds
+        self._marks = np.round(STEP_FRACTIONS * self.params.substeps).astype(int)
         self.speeds: dict[int, float] = {}
         """Each person's preferred speed (m/s), drawn at its first decision."""
         self.decisions: dict[int, Decision] = {}
@@ -164,8 +168,8 @@ class PersonMethod:
     def route(self, i: int, position: np.ndarray) -> np.ndarray:
         """Person ``i``'s shortest route ``(V, 2)`` among the walls keeping :meth:`comfortable_margin`
         from them, else keeping ``route_margin``; the straight line if neither exists."""
-        goal = self.scenario.destinations[i]
-        r = float(self.scenario.radii[i])
+        goal = self._destinations[i]
+        r = float(self._radii[i])
         for graph in (self.wide_graphs.get(r), self.graphs[r]):
             if graph is not None:
                 path = graph.shortest_path(position, goal)
@@ -206,12 +210,17 @@ class PersonMethod:
         if gap_limit <= 0.0:
             return []
         p = view.positions
-        gaps = np.linalg.norm(p - p[i], axis=1) - s.radii - s.radii[i]
-        under_way = np.linalg.norm(p - s.destinations, axis=1) > s.sim.goal_tolerance
-        inside = s.world.in_corridor(p)
         side = int(self.sides[i])
-        before = side != 0 and i not in self.arrived and int(s.world.side_of(p[i][None])[0]) == side
         held = self.making_way.setdefault(i, set())
+        arrived = i in self.arrived
+        sides = s.world.side_of(p) if side != 0 and not arrived else None
+        before = sides is not None and int(sides[i]) == side
+        if not (held or arrived or before):  # no one to let by, and no one it could start to
+            return []
+        radii = self._radii
+        gaps = np.linalg.norm(p - p[i], axis=1) - radii - radii[i]
+        under_way = np.linalg.norm(p - self._destinations, axis=1) > s.sim.goal_tolerance
+        inside = s.world.in_corridor(p) if sides is None else sides == INSIDE
         for k in range(s.n_robots):
             if k == i:
                 continue
@@ -272,25 +281,26 @@ class PersonMethod:
         the walls (:func:`clip_against_walls`). Returns the final position and velocity, and the
         positions after the sub-steps in ``marks``. The compiled kernels of
         :mod:`nodnav.sim.social_force`, bitwise :meth:`walk_plain` (np.exp between them: see there)."""
-        s, prm, r = self.scenario, self.params, float(self.scenario.radii[i])
+        s, prm, r = self.scenario, self.params, float(self._radii[i])
         world = s.world
+        obstacles, bounds, pieces = world.obstacle_array, world.bounds_array, world.piece_array
         h = self.dt / prm.substeps
-        m, n_walls = len(pj), len(world.obstacle_array) + 4
+        m, n_walls = len(pj), len(obstacles) + 4
         pj, vj, rj = (np.ascontiguousarray(a, dtype=float) for a in (pj, vj, rj))
         others_now, wall_points = np.empty((m, 2)), np.empty((n_walls, 2))
         exponents, exps = np.zeros(m + n_walls), np.empty(m + n_walls)
         state, step = np.array([p0[0], p0[1], v0[0], v0[1]], dtype=float), np.empty(2)
         ex, ey = float(e[0]), float(e[1])
-        max_accel, max_speed = float(s.robots[i].max_accel), float(s.max_speeds[i])
+        max_accel, max_speed = float(s.robots[i].max_accel), float(self._max_speeds[i])
         clip = world.wall_grid is None  # a map's world: the plain clip_against_walls, through its wall index
         passed, marked = [], set(marks.tolist())
+        reach, B, model = prm.range + r, prm.B, self.model
         for k in range(1, prm.substeps + 1):
-            near = force_exponents(state[0], state[1], r, pj, vj, rj, float(k - 1), h, world.obstacle_array,
-                                   world.bounds_array, prm.range + r, prm.B, others_now, wall_points, exponents)
+            near = force_exponents(state[0], state[1], r, pj, vj, rj, float(k - 1), h, obstacles, bounds, reach, B,
+                                   others_now, wall_points, exponents)
             np.exp(exponents, out=exps)  # NumPy's exp, as the plain functions take it
-            if not substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, near, exps, self.model, h,
-                           max_accel, max_speed, world.obstacle_array, world.bounds_array, world.piece_array,
-                           clip, step):
+            if not substep(state, r, ex, ey, speed, others_now, vj, rj, wall_points, near, exps, model, h,
+                           max_accel, max_speed, obstacles, bounds, pieces, clip, step):
                 c = clip_against_walls(world, state[:2].copy(), step.copy(), r)
                 state[:2], state[2:] = state[:2] + c, c / h
             if k in marked:
@@ -341,12 +351,11 @@ class PersonMethod:
         """Every person's social-force motion over one control step from its own view, integrated
         in ``substeps`` semi-implicit Euler steps (the others move on at their observed velocity)."""
         s, prm, out = self.scenario, self.params, {}
-        radii = s.radii
-        marks = np.round(STEP_FRACTIONS * prm.substeps).astype(int)
+        radii, marks = self._radii, self._marks
         for i, view in views.items():
             start = time.perf_counter()
             p0, v0 = view.positions[i], view.velocities[i]
-            if float(np.hypot(*(p0 - s.destinations[i]))) <= s.sim.goal_tolerance:
+            if float(np.hypot(*(p0 - self._destinations[i]))) <= s.sim.goal_tolerance:
                 self.arrived.add(i)
             blockers = self.in_the_way_of(i, view)
             if blockers:

@@ -61,6 +61,12 @@ class PeopleContacts:
         keep = self.pedestrians[a] | self.pedestrians[b]
         self.pairs = np.stack([a[keep], b[keep]], axis=1)
         """Pairs of robots (``a < b``) of which at least one is a person."""
+        radii = scenario.radii
+        self._pair_columns = (self.pairs[:, 0], self.pairs[:, 1])
+        self._pair_list = [tuple(pair) for pair in self.pairs.tolist()]
+        self._pair_reach = radii[self.pairs[:, 0]] + radii[self.pairs[:, 1]]  # each pair's sum of radii
+        self._people = np.flatnonzero(self.pedestrians)
+        self._people_reach = radii[self._people] - scenario.sim.collision_tolerance
         self.touching: set[tuple[int, ...]] = set()
         """Pairs (and single people at a wall) in contact at the last step."""
 
@@ -69,19 +75,21 @@ class PeopleContacts:
         through ``path`` ``(S, N, 2)`` (its sub-steps, ending where the robots are at ``t + dt``);
         return how many of them a robot (not a person) caused."""
         s = self.scenario
-        tol, radii = s.sim.collision_tolerance, s.radii
-        velocities = (path[-1] - start) / dt
+        tol = s.sim.collision_tolerance
+        a_of, b_of = self._pair_columns
+        # Every pair's gaps at every sub-step at once: the same products, sums and roots as pair by pair.
+        hits = np.linalg.norm(path[:, a_of] - path[:, b_of], axis=2) - self._pair_reach < -tol
         now: set[tuple[int, ...]] = set()
         robot_caused = 0
-        for a, b in self.pairs.tolist():
-            gaps = np.linalg.norm(path[:, a] - path[:, b], axis=1) - (radii[a] + radii[b])
-            hit = np.flatnonzero(gaps < -tol)
-            if not len(hit):
-                continue
+        velocities = None
+        for column in np.flatnonzero(hits.any(axis=0)).tolist():
+            a, b = self._pair_list[column]
             now.add((a, b))
             if (a, b) in self.touching:
                 continue
-            first = int(hit[0])
+            if velocities is None:
+                velocities = (path[-1] - start) / dt
+            first = int(np.argmax(hits[:, column]))
             u_a, u_b = approach_speeds(path[first, a], path[first, b], velocities[a], velocities[b])
             cause_a, cause_b = contact_causes(u_a, u_b)
             caused_by = [k for k, c in ((a, cause_a), (b, cause_b)) if c]
@@ -89,9 +97,9 @@ class PeopleContacts:
                            "people": [bool(self.pedestrians[a]), bool(self.pedestrians[b])],
                            "approach": [round(u_a, 6), round(u_b, 6)], "caused_by": caused_by})
             robot_caused += any(not self.pedestrians[k] for k in caused_by)
-        for a in np.flatnonzero(self.pedestrians).tolist():
-            clear = s.world.clearance(path[:, a])
-            if (clear < radii[a] - tol).any():
+        if len(self._people):  # every person's clearance at every sub-step in one call
+            at_wall = (s.world.clearance(path[:, self._people]) < self._people_reach).any(axis=0)
+            for a in self._people[at_wall].tolist():
                 now.add((a,))
                 if (a,) not in self.touching:
                     events.append({"t": round(t + dt, 6), "kind": "contact", "robots": [a], "wall": True,

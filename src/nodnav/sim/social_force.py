@@ -135,7 +135,10 @@ def view_weights(heading: np.ndarray, p_i: np.ndarray, p_j: np.ndarray, p: Socia
     if norm == 0.0:
         return np.ones(len(to_j))
     dist = np.maximum(np.linalg.norm(to_j, axis=1), 1e-9)
-    cos = (to_j @ (h / norm)) / dist
+    unit = h / norm
+    # x0 y0 + x1 y1 written out: a matrix product's last bit follows the processor's BLAS kernel
+    # (a fused multiply-add on some), and this reference must be the same on every machine.
+    cos = (to_j[:, 0] * unit[0] + to_j[:, 1] * unit[1]) / dist
     return np.where(cos >= math.cos(math.radians(p.fov / 2.0)), 1.0, p.behind)
 
 
@@ -155,7 +158,7 @@ def lateral(force: np.ndarray, heading: np.ndarray) -> np.ndarray:
     """``force`` without its component against the unit ``heading`` (unchanged if it has none)."""
     f = np.asarray(force, dtype=float)
     e = np.asarray(heading, dtype=float)
-    along = float(f @ e)
+    along = float(f[0] * e[0] + f[1] * e[1])  # written out, as in view_weights
     return f - along * e if along < 0.0 else f
 
 
@@ -176,7 +179,8 @@ def wall_forces(p_i: np.ndarray, v_i: np.ndarray, r_i: float, wall_points: np.nd
     t = np.stack([-n[:, 1], n[:, 0]], axis=1)
     overlap = r_i - d
     normal = p.A * np.exp(overlap / p.B) + p.k * g(overlap)
-    slide = p.kappa * g(overlap) * (t @ np.asarray(v_i, dtype=float))
+    v = np.asarray(v_i, dtype=float)
+    slide = p.kappa * g(overlap) * (t[:, 0] * v[0] + t[:, 1] * v[1])  # written out, as in view_weights
     return normal[:, None] * n - slide[:, None] * t
 
 
@@ -301,8 +305,8 @@ def agent_force_sum(px, py, vx, vy, r, ex, ey, others_now, vj, rj, exps, c):
     of their exponent (:func:`force_exponents`): :func:`agent_forces` less ``(1 - w_ij)`` times
     :func:`social_part`, with the field-of-view weight of :func:`view_weights` (``c`` a
     :class:`ForceModel`); summed in order. Where NumPy's matrix product takes a fused
-    multiply-add for the weight's cosine (two others or more), this takes ``x0 y0 + x1 y1``:
-    the weight can differ only for someone within about 1e-16 of the edge of the field of view."""
+    multiply-add for the weight's cosine on some processors, this takes ``x0 y0 + x1 y1``, as
+    :func:`view_weights` now writes it."""
     hn = math.hypot(ex, ey)
     sx, sy = 0.0, 0.0
     for j in range(others_now.shape[0]):

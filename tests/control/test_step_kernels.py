@@ -147,3 +147,28 @@ def test_evaluate_is_the_separate_products_bit_for_bit(n_others):
                                                bspline.basis_derivative([setup.horizon], setup.knots, 3, 1)]) @ c)
         assert np.array_equal(out, np.vstack([setup.b_step, setup.bv_step, prob.b_samples]) @ c)
         assert np.array_equal(sub, setup.b_substeps @ c)
+
+
+def test_step_data_fields_hold_what_they_name():
+    """``_step_data`` builds its :class:`StepData` positionally: each field is the value it names."""
+    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
+    prob = ctl._problem(2, TIMES)
+    p0, v0 = np.array([-1.0, 0.2]), np.array([0.5, 0.1])
+    ref = p0 + np.outer(TIMES, [0.8, 0.0])
+    others = np.array([[1.5, 0.0], [-2.5, -0.3]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
+    data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2, 0.25]))
+    x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
+    n_end, pred = len(prob.ends), prob.interp_all @ others
+    assert data.p0 is p0 and data.v0 is v0 and np.array_equal(data.ref_local, ref - p0)
+    assert np.array_equal(data.pred_check, pred[:, n_end + 1:-1]) and np.array_equal(data.velocities, pred[:, -1])
+    named = dict(x_now=x_now, away=away, dist_now=dist_now, need=need, delta_sq=delta_sq, far=far, full=full,
+                 contact=contact, gap_box=gap, need_box=need_box, box_low=box_low, box_high=box_high)
+    assert all(getattr(data, name) is value for name, value in named.items())
+    assert data.n_walls == prob.n_walls
+    assert np.array_equal(data.static_lower, prob.static_lower(p0, v0, box_low, box_high))
+    speed = np.hypot(*v0)
+    top = min(ROBOT.max_speed, speed + ROBOT.max_accel * ctl.horizon)
+    assert data.tail_weight == top / (2.0 * prob.tail_decel) and data.tail_reach > data.tail_weight * top
+    assert data.need_clear == min(need[:prob.n_walls].min(), need_box.min())
+    assert data.clearance_now == min(dist_now[:prob.n_walls].min(), gap.min())
+    assert not data.overlap  # the others are metres away

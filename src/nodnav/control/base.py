@@ -80,6 +80,19 @@ class ControlResult:
     info: dict = field(default_factory=dict)
     """Controller-specific diagnostics (iterations, solver status)."""
 
+    @classmethod
+    def built(cls, success: bool, reason: str, velocity: np.ndarray, next_position: np.ndarray,
+              next_velocity: np.ndarray, planned_positions: np.ndarray, solve_time: float,
+              step_positions: np.ndarray | None, info: dict) -> "ControlResult":
+        """The result the constructor builds, every field given, without the frozen dataclass's
+        assignment of one field at a time (a controller returns one per robot and control step,
+        as :meth:`ControlRequest.built`)."""
+        result = object.__new__(cls)
+        result.__dict__.update(success=success, reason=reason, velocity=velocity, next_position=next_position,
+                               next_velocity=next_velocity, planned_positions=planned_positions,
+                               solve_time=solve_time, step_positions=step_positions, info=info)
+        return result
+
 
 @runtime_checkable
 class Controller(Protocol):

@@ -278,7 +278,7 @@ class BSplineMPC:
         p0 = committed.motion(np.zeros(1))[0]
         stage = "its plan" if committed.elapsed + self.dt <= self.horizon else "its braking tail"
         self._expected = (pos[3], vel)
-        return ControlResult(
+        return ControlResult.built(
             success=False, reason=f"infeasible: braking: following {stage} (clear of walls): {why}",
             velocity=(pos[3] - p0) / self.dt, next_position=pos[3], next_velocity=vel,
             planned_positions=pos[4:], solve_time=time.perf_counter() - start,
@@ -295,16 +295,10 @@ class BSplineMPC:
     def _result(self, success: bool, reason: str, post: tuple, data: StepData, start: float,
                 info: dict) -> ControlResult:
         out = post[2]
-        self._expected = (out[0], out[1])
-        return ControlResult(
-            success=success, reason=reason,
-            velocity=(out[0] - data.p0) / self.dt,
-            next_position=out[0], next_velocity=out[1],
-            planned_positions=out[2:],
-            solve_time=time.perf_counter() - start,
-            info=info,
-            step_positions=post[3],
-        )
+        position, velocity = out[0], out[1]  # views of the plan's values, as the result's
+        self._expected = (position, velocity)
+        return ControlResult.built(success, reason, (position - data.p0) / self.dt, position, velocity, out[2:],
+                                   time.perf_counter() - start, post[3], info)
 
     def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort,
                partners: BrakingPartners | None = None):
@@ -315,7 +309,7 @@ class BSplineMPC:
         (:func:`infeasibility_certificate`), else all; the mutual braking check's straight part
         towards ``partners``, made with the plan's check, or None without partners).
         """
-        best, best_post, why, conflict, best_checked = None, None, "", np.arange(prob.n_others), None
+        best, best_post, why, conflict, best_checked = None, None, "", prob.every_other, None
         gradient = prob.gradient(data.v0, data.ref_local)
         for _ in range(self.settings.sqp_iterations):
             lower = prob.write_separation(data, lin, cold, data.need)
@@ -435,8 +429,8 @@ class BSplineMPC:
         At ``tau = 0`` the distance is what it is: ``need`` is lowered to what the current state
         allows when it is already inside the margin, for each prediction separately.
         """
-        robot, m_w, n_end = self.robot, prob.n_walls, len(prob.ends)
-        r = robot.radius
+        robot, n_end = self.robot, len(prob.ends)
+        r, max_speed, max_accel, horizon = robot.radius, robot.max_speed, robot.max_accel, self.horizon
         if margins is None:
             margins = self._safety_margins(len(other_radii))
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
@@ -445,27 +439,23 @@ class BSplineMPC:
         state = prob.state
         x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = state
         ref_local = np.empty(ref.shape)
+        now = math.hypot(v0[0], v0[1])
+        setup = self.setup
         need_clear, clear_now, overlap = step_state(
-            pred, n_end, p0, math.hypot(v0[0], v0[1]), robot.max_speed, robot.max_accel, prob.ends, prob.intervals,
-            self.obstacles, self.setup.pieces, self.setup.world_bounds, r, other_radii, margins,
-            prob.eps[0], self._reach, self.settings.contact_tolerance, static, prob.eps_end, *state, ref, ref_local,
-            prob.static_base, prob.static_alpha @ v0, prob.static_line)
+            pred, n_end, p0, now, max_speed, max_accel, prob.ends, prob.intervals, self.obstacles, setup.pieces,
+            setup.world_bounds, r, other_radii, margins, prob.eps[0], self._reach, self.settings.contact_tolerance,
+            static, prob.eps_end, *state, ref, ref_local, prob.static_base, prob.static_alpha @ v0, prob.static_line)
         weight, reach = 0.0, 0.0
         if self.settings.braking_tail:
             # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
-            now = math.hypot(v0[0], v0[1])
-            top = min(robot.max_speed, now + robot.max_accel * self.horizon)
+            top = min(max_speed, now + max_accel * horizon)
             weight = top / (2.0 * prob.tail_decel)
-            reach = (r + min(robot.max_speed * self.horizon, now * self.horizon + robot.max_accel * self.horizon**2 / 2)
-                     + weight * top + 0.1)
+            reach = r + min(max_speed * horizon, now * horizon + max_accel * horizon**2 / 2) + weight * top + 0.1
+        # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
         return StepData(
-            p0=p0, v0=v0, ref_local=ref_local, pred_check=pred[:, n_end + 1:-1], x_now=x_now, away=away,
-            dist_now=dist_now, contact=contact, full=full, need=need, delta_sq=delta_sq, velocities=pred[:, -1],
-            far=far, gap_box=gap, need_box=need_box, n_walls=m_w,
-            static_lower=static, tail_weight=weight, tail_reach=reach,
-            box_low=box_low, box_high=box_high, need_clear=need_clear, clearance_now=clear_now,
-            overlap=overlap,
-        )
+            p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
+            pred[:, -1], far, gap, need_box, static, prob.n_walls, weight, reach, box_low, box_high, need_clear,
+            clear_now, overlap)
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a
@@ -488,7 +478,7 @@ class BSplineMPC:
                f"{why}; no braking trajectory known to be clear of the walls from this state "
                f"(braking along its velocity comes within {clear:.3f} m of a wall)")
         pos, vel = braking_profile(p0, v0, self.robot.max_accel, np.concatenate([[self.dt], prob.sample_times]))
-        return ControlResult(
+        return ControlResult.built(
             success=False, reason=f"infeasible: braking: {why}",
             velocity=(pos[0] - p0) / self.dt,
             next_position=pos[0], next_velocity=vel[0],

@@ -305,6 +305,9 @@ class MPCProblem:
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
         self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
+        # Every other robot's index: a failed step's conflict where no certificate names fewer (read only).
+        self.every_other = np.arange(n_others)
+        self.every_other.setflags(write=False)
         # A step's per-group state (:func:`~nodnav.control.mpc_rows.step_state` writes it; scratch
         # space like :attr:`rows`): x_now, away, dist_now, need, delta_sq, far, full, contact, then
         # the box's gap, need_box, box_low, box_high.

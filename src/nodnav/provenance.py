@@ -10,12 +10,21 @@ changes the hash. Library versions (NumPy, SciPy, DAQP) are not part of it.
 
 The hash is computed once per process and is the same in every worker process of one
 installation.
+
+:func:`numerics` says what else decides a result's last bits: the processor's architecture, the
+SIMD extensions NumPy dispatches to on it, NumPy's BLAS and the numerical libraries' versions.
+The same code and seed give bitwise the same trial on one machine, whatever the number of
+workers; on another processor the small matrix products may round differently (OpenBLAS takes
+fused multiply-adds where the processor has them), and the closed loop can carry a last-bit
+difference to another outcome (docs/studies.md, "Provenance"). Stored trials and saved
+histories record it next to the code version.
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
+import platform
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -63,3 +72,28 @@ def source_hash(root: Path) -> str:
 def code_version() -> str:
     """``<package version>+<first 12 hex digits of source_hash>`` of the installed package."""
     return f"{PACKAGE_VERSION}+{source_hash(Path(__file__).resolve().parent)[:12]}"
+
+
+def _library_version(name: str) -> str:
+    try:
+        return version(name)
+    except PackageNotFoundError:
+        return "absent"
+
+
+@functools.lru_cache(maxsize=1)
+def numerics() -> str:
+    """What besides the code decides a result's last bits, in one line: e.g. ``x86_64; NumPy
+    2.4.6 SIMD X86_V3+X86_V4+AVX512_ICL; BLAS scipy-openblas 0.3.31; SciPy 1.17.1; DAQP 0.11.0;
+    numba 0.68.1`` (once per process)."""
+    import numpy as np
+
+    config = getattr(np, "__config__", None)
+    info = getattr(config, "CONFIG", {}) if config is not None else {}
+    found = info.get("SIMD Extensions", {}).get("found", [])
+    blas = info.get("Build Dependencies", {}).get("blas", {})
+    blas_name = f"{blas.get('name', 'unknown')} {blas.get('version', '')}".rstrip()
+    libraries = "; ".join(f"{label} {_library_version(name)}" for label, name in
+                          (("SciPy", "scipy"), ("DAQP", "daqp"), ("numba", "numba")))
+    simd = "+".join(found) or "baseline"
+    return f"{platform.machine()}; NumPy {np.__version__} SIMD {simd}; BLAS {blas_name}; {libraries}"

@@ -1,6 +1,7 @@
 """Provenance: every stored trial records the code version, old databases are migrated, and a
 resumed sweep never silently mixes code versions."""
 
+import platform
 import shutil
 import sqlite3
 from contextlib import closing
@@ -14,7 +15,7 @@ import nodnav.experiments.sweep as sweep_module
 from nodnav.experiments.batch import run_sweep
 from nodnav.experiments.store import ResultStore
 from nodnav.experiments.study import SweepSpec
-from nodnav.provenance import UNKNOWN, code_version, result_files, source_hash
+from nodnav.provenance import UNKNOWN, code_version, numerics, result_files, source_hash
 
 
 @pytest.fixture
@@ -55,6 +56,21 @@ def test_every_stored_trial_records_the_code_version(tmp_path, cheap_trial):
     with ResultStore(db) as store:
         assert {r.code_version for r in store.records()} == {code_version()}
         assert store.code_versions() == {code_version(): 2}
+
+
+def test_every_stored_trial_records_the_numerics_of_the_machine_that_ran_it(tmp_path, cheap_trial):
+    """The architecture and the numerical libraries' versions, read here independently."""
+    import daqp  # noqa: F401  (installed: a dependency)
+    import numpy as np
+    import scipy
+
+    assert numerics().startswith(f"{platform.machine()}; NumPy {np.__version__} SIMD ")
+    assert f"; SciPy {scipy.__version__};" in numerics() and "; DAQP " in numerics()
+    db = tmp_path / "r.sqlite"
+    run_sweep(SweepSpec("s", ("2r-case1",), trials=2), db, quiet=True, trial_fn=cheap_trial)
+    with ResultStore(db) as store:
+        assert {r.summary["numerics"] for r in store.records()} == {numerics()}
+        assert store.numerics() == {numerics(): 2}
 
 
 SCHEMA_1 = store_module._SCHEMA.replace(",\n    code_version   TEXT NOT NULL DEFAULT 'unknown'\n", "\n")

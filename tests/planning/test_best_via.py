@@ -3,7 +3,8 @@
 
 import numpy as np
 
-from nodnav.planning.wall_paths import best_via as _best_via, best_via_plain as _best_via_plain
+from nodnav.planning.wall_paths import best_via as _best_via
+from nodnav.planning.wall_paths import best_via_plain as _best_via_plain
 
 INF = np.inf
 

@@ -4,11 +4,17 @@ points and lengths (the chain followed back along the predecessors, ``polyline_l
 
 import numpy as np
 
+from nodnav.geometry import TOL
 from nodnav.planning.polylines import polyline_length
 from nodnav.planning.visibility import VisibilityGraph
-from nodnav.geometry import TOL
 from nodnav.planning.wall_paths import (
-    DIRECT, NONE, VIA, best_via_plain, segments_to_check, walls_answers, walls_paths,
+    DIRECT,
+    NONE,
+    VIA,
+    best_via_plain,
+    segments_to_check,
+    walls_answers,
+    walls_paths,
 )
 from nodnav.scenario.world import paper_world
 
@@ -30,7 +36,8 @@ def test_segments_are_the_stacked_ones():
         a1, b1, need1, one = segments_to_check(starts, goals, v, cs, cg, 0.5, TOL)
         assert one == (m > 1)
         if one:  # the first start's segments only
-            assert np.array_equal(a1, np.vstack([starts, np.repeat(starts[:1], nv, axis=0), np.repeat(goals, nv, axis=0)]))
+            a_ref = np.vstack([starts, np.repeat(starts[:1], nv, axis=0), np.repeat(goals, nv, axis=0)])
+            assert np.array_equal(a1, a_ref)
             assert np.array_equal(b1, np.vstack([goals, np.tile(v, (1 + m, 1))]))
             assert np.array_equal(need1, np.concatenate([np.minimum(ts, tg), np.repeat(ts[:1], nv), np.repeat(tg, nv)]))
 

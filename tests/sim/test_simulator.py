@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from nodnav.provenance import code_version, numerics
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.schema import scenario_from_dict, scenario_to_dict
 from nodnav.scenario.world import paper_world
@@ -84,6 +85,8 @@ def test_history_round_trip(tmp_path):
     assert loaded.outcome == result.outcome and loaded.entry_order == result.history.entry_order
     for key, value in result.history.arrays().items():
         assert np.array_equal(loaded.arrays()[key], value, equal_nan=True)
+    meta = json.loads(str(np.load(path)["meta"]))  # provenance: the code and the machine's numerics
+    assert meta["code_version"] == code_version() and meta["numerics"] == numerics()
 
 
 def test_collision_is_detected():

@@ -375,6 +375,12 @@ class ResultStore:
         return dict(self._db.execute("SELECT code_version, COUNT(*) FROM trials GROUP BY code_version "
                                      "ORDER BY code_version").fetchall())
 
+    def numerics(self) -> dict[str, int]:
+        """Number of stored trials per machine numerics (:func:`nodnav.provenance.numerics`; trials
+        stored before it was recorded count under ``unknown``)."""
+        return dict(self._db.execute("SELECT COALESCE(json_extract(summary, '$.numerics'), 'unknown'), COUNT(*) "
+                                     "FROM trials GROUP BY 1 ORDER BY 1").fetchall())
+
     def stale_count(self) -> int:
         """Number of rows kept in ``stale_trials`` (trials re-run under another code version)."""
         return self._db.execute("SELECT COUNT(*) FROM stale_trials").fetchone()[0]

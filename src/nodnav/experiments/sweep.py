@@ -35,7 +35,7 @@ from nodnav.errors import NodnavError
 from nodnav.experiments.store import trial_config, trial_key
 from nodnav.experiments.study import SweepSpec
 from nodnav.heap import freeze_long_lived
-from nodnav.provenance import code_version
+from nodnav.provenance import code_version, numerics
 from nodnav.scenario.families import FamilyError
 from nodnav.scenario.fields import ScenarioError
 from nodnav.scenario.limits import MAX_STRATEGIES
@@ -256,7 +256,8 @@ def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int
         # After a process's first trial, its long-lived objects (libraries, compiled kernels) are
         # set aside from the collector's full sweeps (nodnav.heap); results are unaffected.
         freeze_long_lived()
-        return TrialOutput(key=key, outcome=result.outcome, summary=json_ready(result.to_dict()),
+        summary = {**json_ready(result.to_dict()), "numerics": numerics()}  # the machine's part of provenance
+        return TrialOutput(key=key, outcome=result.outcome, summary=summary,
                            metrics=json_ready(result.metrics), error=None, code_version=code_version())
     except Exception as exc:  # a failing trial is a result to store, not the end of the sweep
         message = _one_line(exc)

@@ -80,6 +80,10 @@ def _section_overview(rep: ReportDocument, db_path: Path) -> None:
             + ("). It holds:" if records_n else "). It holds no trials yet."), "")
     rep.add(*study_lines(store))
     rep.add("", missing_line(missing_parts(store), str(db_path)), "")
+    machines = store.numerics() if records_n else {}
+    if machines:  # last bits follow the processor and libraries, not only the code (docs/studies.md)
+        rep.add("Numerics of the machines that ran them: " + "; ".join(
+            f"`{name}` ({n} trials)" for name, n in sorted(machines.items())) + ".", "")
     recomputed = ([] if not rep.has(STUDY_FIG2C) else ["the Fig. 2a/2b heatmaps (an ODE)"]) + (
         [] if not rep.has(STUDY_SUCCESS) else ["the snapshot trials (re-run from their stored seed)"])
     rep.add("Every number below is read from that database"

@@ -144,12 +144,13 @@ class History:
         return pd.DataFrame(columns)
 
     def save(self, path: str | Path) -> Path:
-        """Write the history to ``path`` (``.npz``), with the code version that produced it."""
-        from nodnav.provenance import code_version
+        """Write the history to ``path`` (``.npz``), with the code version and the numerics
+        (:func:`nodnav.provenance.numerics`) that produced it."""
+        from nodnav.provenance import code_version, numerics
 
         meta = {"format": FORMAT_VERSION, "scenario": scenario_to_dict(self.scenario), "method": self.method,
                 "seed": self.seed, "events": self.events, "entry_order": self.entry_order,
-                "outcome": self.outcome, "code_version": code_version()}
+                "outcome": self.outcome, "code_version": code_version(), "numerics": numerics()}
         path = Path(path)
         with open(path, "wb") as fh:
             arrays: dict[str, Any] = {"meta": np.array(json.dumps(meta)), **self.arrays()}

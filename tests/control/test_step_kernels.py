@@ -71,15 +71,20 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     assert np.array_equal(ref_local, ref_in - p0)
 
 
-@pytest.mark.parametrize("cold", [False, True])
-def test_step_rows_are_the_separate_row_writers(cold):
-    rng = np.random.default_rng(7)
+def _two_others_step():
+    """A controller's step data with two others metres ahead and behind, and what it was built from."""
     ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
     prob = ctl._problem(2, TIMES)
     p0, v0 = np.array([-1.0, 0.2]), np.array([0.5, 0.1])
     ref = p0 + np.outer(TIMES, [0.8, 0.0])
     others = np.array([[1.5, 0.0], [-2.5, -0.3]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
-    data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2, 0.25]))
+    return ctl, prob, p0, v0, ref, others, ctl._step_data(prob, p0, v0, ref, others, np.array([0.2, 0.25]))
+
+
+@pytest.mark.parametrize("cold", [False, True])
+def test_step_rows_are_the_separate_row_writers(cold):
+    rng = np.random.default_rng(7)
+    ctl, prob, p0, v0, ref, others, data = _two_others_step()
     assert data.tail_weight > 0.0
     lin = prob.interp_ends @ ref + rng.normal(0.0, 0.05, (len(prob.ends), 2))
     lower = prob.write_separation(data, lin, cold, data.need)
@@ -151,12 +156,7 @@ def test_evaluate_is_the_separate_products_bit_for_bit(n_others):
 
 def test_step_data_fields_hold_what_they_name():
     """``_step_data`` builds its :class:`StepData` positionally: each field is the value it names."""
-    ctl = BSplineMPC(WORLD, ROBOT, PARAMS)
-    prob = ctl._problem(2, TIMES)
-    p0, v0 = np.array([-1.0, 0.2]), np.array([0.5, 0.1])
-    ref = p0 + np.outer(TIMES, [0.8, 0.0])
-    others = np.array([[1.5, 0.0], [-2.5, -0.3]])[:, None] + np.outer(TIMES, [-0.4, 0.0])[None]
-    data = ctl._step_data(prob, p0, v0, ref, others, np.array([0.2, 0.25]))
+    ctl, prob, p0, v0, ref, others, data = _two_others_step()
     x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
     n_end, pred = len(prob.ends), prob.interp_all @ others
     assert data.p0 is p0 and data.v0 is v0 and np.array_equal(data.ref_local, ref - p0)

@@ -44,20 +44,23 @@ def segments_to_check(starts, goals, vertices, c_start, c_goal, clearance, tol):
         a[i, 0], a[i, 1] = starts[i, 0], starts[i, 1]
         b[i, 0], b[i, 1] = goals[i, 0], goals[i, 1]
         need[i] = min(thr_start[i], thr_goal[i])
-    k = m
-    for i in range(ns):
-        for j in range(nv):
-            a[k, 0], a[k, 1] = starts[i, 0], starts[i, 1]
-            b[k, 0], b[k, 1] = vertices[j, 0], vertices[j, 1]
-            need[k] = thr_start[i]
-            k += 1
-    for i in range(m):
-        for j in range(nv):
-            a[k, 0], a[k, 1] = goals[i, 0], goals[i, 1]
-            b[k, 0], b[k, 1] = vertices[j, 0], vertices[j, 1]
-            need[k] = thr_goal[i]
-            k += 1
+    k = _to_vertices(starts, thr_start, ns, vertices, a, b, need, m)
+    _to_vertices(goals, thr_goal, m, vertices, a, b, need, k)
     return a, b, need, one_start
+
+
+@_compiled
+def _to_vertices(points, thresholds, count, vertices, a, b, need, k):
+    """Write the segments from each of the first ``count`` ``points`` to every vertex into
+    ``a``, ``b`` and ``need`` from row ``k`` on, each needing its point's threshold; returns the
+    next free row."""
+    for i in range(count):
+        for j in range(vertices.shape[0]):
+            a[k, 0], a[k, 1] = points[i, 0], points[i, 1]
+            b[k, 0], b[k, 1] = vertices[j, 0], vertices[j, 1]
+            need[k] = thresholds[i]
+            k += 1
+    return k
 
 
 @_compiled

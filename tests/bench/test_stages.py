@@ -98,3 +98,21 @@ def test_cli_prints_the_breakdown_as_json_and_refuses_several_player_counts(caps
     assert main(["bench", "sim", "--players", "1,2"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--players" in err[0]
+
+
+def test_every_solver_call_of_the_controller_is_charged_to_the_qp_stage():
+    """The tracking QPs, the certificate LPs and the evasive fallback's least-relaxation LPs all
+    count as ``QP solve`` inside :func:`qp_timed`, and the solver's methods are restored after."""
+    from nodnav.bench.stages import qp_timed
+
+    before = {name: SolverEffort.__dict__[name] for name in ("solve", "certificate", "relaxation")}
+    clock = StageClock()
+    rows, lower = np.array([[1.0], [-1.0]]), np.array([1.0, 0.0])  # x >= 1 and x <= 0: infeasible
+    with qp_timed(clock):
+        effort = SolverEffort()
+        effort.solve(np.eye(1), np.zeros(1), rows[:1], lower[:1], 1e-9)
+        effort.certificate(rows, lower)
+        _, relaxation = effort.relaxation(rows, lower)
+    assert clock.calls["QP solve"] == 3
+    assert abs(relaxation - 0.5) < 1e-6  # x = 1/2 violates each row by 1/2, the least uniform violation
+    assert {name: SolverEffort.__dict__[name] for name in before} == before

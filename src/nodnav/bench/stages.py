@@ -16,8 +16,9 @@ stage                     entry points
 ``planning``              the planner's ``plan`` (every planner call, inside decisions or not)
 ``control set-up``        each robot controller's ``control`` (building the MPC's QP data,
                           braking fallbacks, checks of the solution)
-``QP solve``              ``SolverEffort.solve`` and ``SolverEffort.certificate`` (DAQP and the
-                          certificate LPs)
+``QP solve``              ``SolverEffort.solve``, ``SolverEffort.certificate`` and
+                          ``SolverEffort.relaxation`` (DAQP, the certificate LPs and the
+                          evasive fallback's least-relaxation LPs)
 ``simulation``            the simulator's ``_judge`` (contact checks at the sub-steps, arrival,
                           progress) and ``_observe`` (sensing with its noise)
 ``bookkeeping: act``      the method's ``act`` outside the controllers (predictions, reaction
@@ -131,7 +132,7 @@ def instrument(sim: Simulation, clock: StageClock) -> None:
 @contextmanager
 def qp_timed(clock: StageClock) -> Iterator[None]:
     """``SolverEffort``'s solver calls charged to ``QP solve`` while inside (restored after)."""
-    saved = {name: SolverEffort.__dict__[name] for name in ("solve", "certificate")}
+    saved = {name: SolverEffort.__dict__[name] for name in ("solve", "certificate", "relaxation")}
     try:
         for name, fn in saved.items():
             setattr(SolverEffort, name, clock.wrap("QP solve", fn))

@@ -73,6 +73,17 @@ def test_every_stored_trial_records_the_numerics_of_the_machine_that_ran_it(tmp_
         assert store.numerics() == {numerics(): 2}
 
 
+def test_a_trial_that_ends_in_an_error_records_the_numerics_too(tmp_path):
+    def failing(scenario, method, seed):
+        raise RuntimeError("broken on purpose")
+
+    db = tmp_path / "r.sqlite"
+    run_sweep(SweepSpec("s", ("2r-case1",), trials=2), db, quiet=True, trial_fn=failing)
+    with ResultStore(db) as store:
+        assert [r.outcome for r in store.records()] == ["error", "error"]
+        assert store.numerics() == {numerics(): 2}
+
+
 SCHEMA_1 = store_module._SCHEMA.replace(",\n    code_version   TEXT NOT NULL DEFAULT 'unknown'\n", "\n")
 
 

@@ -17,37 +17,25 @@ import collections
 import hashlib
 import json
 import os
-import sqlite3
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
-
-def _sample(db: str, n: int, seed: int) -> list[tuple]:
-    rows = sqlite3.connect(db).execute(
-        "select t.key, t.config, t.seed, t.method, min(s.study) from trials t "
-        "join study_trials s on s.key = t.key group by t.key order by t.key").fetchall()
-    picked = np.random.default_rng(seed).choice(len(rows), size=min(n, len(rows)), replace=False)
-    return [rows[i] for i in picked]
+from stored_sample import sample, stored_trial
 
 
 def _worker(db: str, n: int, seed: int, cores: str) -> None:
     """Run the sample in this process (the checkout is whatever ``nodnav`` imports) and print one
     JSON line per trial."""
-    from nodnav.scenario.schema import scenario_from_dict
     from nodnav.sim.simulator import run_trial
 
     first, second = (int(c) for c in cores.split(","))
-    trials = _sample(db, n, seed)
+    trials = sample(db, n, seed, "s.study")
 
     def run(row):
-        _, config, trial_seed, method, _ = row
-        cfg = json.loads(config)
-        return run_trial(scenario_from_dict(cfg["scenario"], "sample"), cfg.get("method", method), trial_seed)
+        return run_trial(*stored_trial(row))
 
     os.sched_setaffinity(0, {first})
     run(trials[0])

@@ -6,39 +6,29 @@ processor time and outcome compared (docs/performance-11.md).
 """
 
 import collections
-import json
-import sqlite3
 import sys
 import time
 
-import numpy as np
-
-from nodnav.scenario.schema import scenario_from_dict
 from nodnav.sim.simulator import run_trial
+from stored_sample import sample, stored_trial
 
 if __name__ == "__main__":
     if len(sys.argv) != 6:
         print(__doc__, file=sys.stderr)
         sys.exit(2)
     db, n, seed, section, key = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4], sys.argv[5]
-    rows = sqlite3.connect(db).execute("select key, config, seed, method, n_robots from trials order by key").fetchall()
-    picked = np.random.default_rng(seed).choice(len(rows), size=min(n, len(rows)), replace=False)
+    picked = sample(db, n, seed, "t.n_robots")
     cpu: dict[bool, float] = {False: 0.0, True: 0.0}
     outcomes: collections.Counter[tuple[str, str]] = collections.Counter()
     by_robots: dict[int, list[float]] = collections.defaultdict(lambda: [0.0, 0.0])
     # The first sampled trial once, not counted: the compiled kernels load at their first call.
-    first = json.loads(rows[picked[0]][1])
-    run_trial(scenario_from_dict(first["scenario"], "warm-up"), first.get("method", rows[picked[0]][3]),
-              rows[picked[0]][2])
-    for i in picked:
-        _, config, trial_seed, method, n_robots = rows[i]
-        cfg = json.loads(config)
+    run_trial(*stored_trial(picked[0], "warm-up"))
+    for position, row in enumerate(picked):
+        n_robots = row[4]
         outcome = {}
-        for on in (False, True) if i % 2 else (True, False):
-            raw = json.loads(json.dumps(cfg["scenario"]))
-            raw.setdefault(section, {})[key] = on
+        for on in (False, True) if position % 2 else (True, False):
             start = time.process_time()
-            result = run_trial(scenario_from_dict(raw, "sample"), cfg.get("method", method), trial_seed)
+            result = run_trial(*stored_trial(row, settings={section: {key: on}}))
             elapsed = time.process_time() - start
             cpu[on] += elapsed
             by_robots[n_robots][on] += elapsed

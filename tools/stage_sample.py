@@ -10,17 +10,14 @@ certificate LP; wall time) and the time per outcome (docs/performance-11.md).
 """
 
 import collections
-import json
 import sqlite3
 import sys
 import time
 
-import numpy as np
-
 import nodnav.control.qp as qp
 from nodnav.bench.stages import STAGES, measure_stages
-from nodnav.scenario.schema import scenario_from_dict
 from nodnav.sim.simulator import run_trial
+from stored_sample import sample, stored_trial
 
 
 def _counting_daqp(times: collections.Counter[str], calls: collections.Counter[str]):
@@ -46,8 +43,8 @@ if __name__ == "__main__":
         print(__doc__, file=sys.stderr)
         sys.exit(2)
     db, n, seed = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
-    rows = sqlite3.connect(db).execute("select key, config, seed, method from trials order by key").fetchall()
-    picked = np.random.default_rng(seed).choice(len(rows), size=min(n, len(rows)), replace=False)
+    picked = sample(db, n, seed)
+    n_trials = sqlite3.connect(db).execute("select count(*) from trials").fetchone()[0]
     kinds: collections.Counter[str] = collections.Counter()
     kind_calls: collections.Counter[str] = collections.Counter()
     qp.daqp = _counting_daqp(kinds, kind_calls)
@@ -55,19 +52,16 @@ if __name__ == "__main__":
     by_outcome: dict[str, float] = collections.defaultdict(float)
     total = 0.0
     # The first sampled trial once, not counted: the compiled kernels load at their first call.
-    first = json.loads(rows[picked[0]][1])
-    run_trial(scenario_from_dict(first["scenario"], "warm-up"), first.get("method", rows[picked[0]][3]),
-              rows[picked[0]][2])
-    for i in picked:
-        _, config, trial_seed, method = rows[i]
-        cfg = json.loads(config)
-        times = measure_stages(scenario_from_dict(cfg["scenario"], "sample"), trial_seed, cfg.get("method", method))
+    run_trial(*stored_trial(picked[0], "warm-up"))
+    for row in picked:
+        scenario, method, trial_seed = stored_trial(row)
+        times = measure_stages(scenario, trial_seed, method)
         for stage, seconds in times.cpu_seconds.items():
             stages[stage] += seconds
         total += times.cpu_time
         by_outcome[times.outcome] += times.cpu_time
-    scale = len(rows) / len(picked)
-    print(f"sample {len(picked)} of {len(rows)}: {total:.1f} s of processor time; "
+    scale = n_trials / len(picked)
+    print(f"sample {len(picked)} of {n_trials}: {total:.1f} s of processor time; "
           f"estimate for all: {total * scale:.0f} s")
     for stage in STAGES:
         print(f"  {stage:20s} {stages[stage] * scale:7.0f} s  {100 * stages[stage] / total:5.1f} %")

@@ -68,14 +68,15 @@ class StraightCheck(NamedTuple):
 
 def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
                       committed_trajectory: Callable[[], Committed], max_speed: float,
-                      checked: StraightCheck | None = None) -> str:
+                      checked: StraightCheck | tuple | None = None) -> str:
     """Why the robot's fallback from a plan's next state fails the mutual braking check
     (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
     what the next step does if it finds no plan: straight braking where that stops clear of the
     walls, else the plan's committed trajectory (read from one step on; made by
-    ``committed_trajectory`` only then), moving at most ``max_speed``."""
-    position, velocity = next_state
+    ``committed_trajectory`` only then), moving at most ``max_speed``. ``checked``: the straight
+    braking's part made with the plan's check (a :class:`StraightCheck`, or its fields as a tuple)."""
     if checked is None:
+        position, velocity = next_state
         out = np.empty(len(partners.positions))
         straight, j = _straight_slack_kernel(position, velocity, walls.max_accel, walls.obstacles, walls.pieces,
                                              walls.bounds, walls.radius - walls.tolerance, partners.robot,
@@ -89,6 +90,7 @@ def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state:
             return ""
         return (f"its braking from its next step would come {-out[j]:.3f} m too close to robot {j}'s braking "
                 "trajectory (mutual braking)")
+    position, velocity = next_state
     fallback = None
     if walls.braking_clearance(position, velocity) < walls.radius - walls.tolerance:
         committed = committed_trajectory()

@@ -104,3 +104,37 @@ def test_step_state_tail_weight_and_reach_are_the_python_expressions(braking_tai
             weight = top / (2.0 * prob.tail_decel)
             reach = r + min(v_max * horizon, now * horizon + a_max * horizon**2 / 2) + weight * top + 0.1
         assert (data.tail_weight, data.tail_reach) == (weight, reach)
+
+
+def test_braking_reach_is_braking_deviation_fully_grown():
+    """The hopeless-step test's reach from the compiled scalar terms is NumPy's ``braking_deviation`` at ``inf``."""
+    from nodnav.control.mpc_braking import braking_reach
+    from nodnav.control.mutual_braking import braking_deviation
+
+    rng = np.random.default_rng(6)
+    cases = [(0.0, 2.0, 0.1), (0.2, 2.0, 0.1), (1e-12, 1.0, 0.05)]
+    cases += [(float(rng.uniform(0.0, 2.0)), float(rng.uniform(0.5, 4.0)), float(rng.uniform(0.02, 0.3)))
+              for _ in range(500)]
+    for speed, decel, dt in cases:
+        assert braking_reach(speed, decel, dt) == float(braking_deviation(speed, decel, dt, math.inf))
+
+
+def test_brake_is_the_two_braking_profiles():
+    """Braking's result from one profile over the step's end, the samples and the points within
+    the step is what the two separate profiles gave, bit for bit."""
+    from nodnav.control.base import STEP_FRACTIONS, ControlRequest
+    from nodnav.control.braking import braking_profile
+    from nodnav.control.qp import SolverEffort
+
+    rng = np.random.default_rng(8)
+    for _ in range(100):
+        ctl, prob, data = _step(rng, 1)
+        request = ControlRequest(position=data.p0, velocity=data.v0, reference=data.ref_local + data.p0,
+                                 sample_times=TIMES, others=np.zeros((1, len(TIMES), 2)), other_radii=np.full(1, 0.2))
+        out = ctl._brake(request, prob, 0.0, SolverEffort(), "test")
+        a = ROBOT.max_accel
+        pos, vel = braking_profile(data.p0, data.v0, a, np.concatenate([[ctl.dt], prob.sample_times]))
+        assert np.array_equal(out.velocity, (pos[0] - data.p0) / ctl.dt)
+        assert np.array_equal(out.next_position, pos[0]) and np.array_equal(out.next_velocity, vel[0])
+        assert np.array_equal(out.planned_positions, pos[1:])
+        assert np.array_equal(out.step_positions, braking_profile(data.p0, data.v0, a, ctl.dt * STEP_FRACTIONS)[0])

@@ -219,7 +219,7 @@ class BSplineMPC:
         keep_following = self._following and request.braking is not None
         if committed is not None and (keep_following or straight < self.robot.radius - self.settings.check_tolerance):
             return self._follow(committed, prob, start, effort, why)
-        return self._brake(request, prob, start, effort, why)
+        return self._brake(request, prob, start, effort, why, straight)
 
     def _walls_around(self) -> WallsAround:
         """What the mutual braking checks read of the robot and its walls (taken again when the
@@ -456,24 +456,22 @@ class BSplineMPC:
         return None if self._previous is None else self.setup.shift @ self._previous
 
     def _brake(self, request: ControlRequest, prob: MPCProblem, start: float, effort: SolverEffort,
-               why: str) -> ControlResult:
-        """Decelerate along the current velocity at max_accel; the previous plan is discarded."""
+               why: str, clear: float | None = None) -> ControlResult:
+        """Decelerate along the current velocity at max_accel; the previous plan is discarded.
+        ``clear``: the braking's clearance from the walls where the caller has it (:func:`tail_clearance`)."""
         p0 = np.asarray(request.position, dtype=float)
         v0 = np.asarray(request.velocity, dtype=float)
         self._previous, self._braking, self._committed, self._following = None, (p0, v0), None, False
-        clear = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
-                                      self.setup.world_bounds)
+        if clear is None:
+            clear = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
+                                   self.setup.world_bounds)
         why = (f"{why}; braking along its velocity stops clear of the walls ({clear:.3f} m)"
                if clear >= self.robot.radius - self.settings.check_tolerance else
                f"{why}; no braking trajectory known to be clear of the walls from this state "
                f"(braking along its velocity comes within {clear:.3f} m of a wall)")
-        pos, vel = braking_profile(p0, v0, self.robot.max_accel, np.concatenate([[self.dt], prob.sample_times]))
-        return ControlResult.built(
-            success=False, reason=f"infeasible: braking: {why}",
-            velocity=(pos[0] - p0) / self.dt,
-            next_position=pos[0], next_velocity=vel[0],
-            planned_positions=pos[1:],
-            solve_time=time.perf_counter() - start,
-            info={"fallback": "braking", **effort.as_info()},
-            step_positions=braking_profile(p0, v0, self.robot.max_accel, self.dt * STEP_FRACTIONS)[0],
-        )
+        # One call for the step's end, the samples and the points within the step (element-wise in the times).
+        pos, vel = braking_profile(p0, v0, self.robot.max_accel, prob.braking_times)
+        k = len(prob.sample_times)
+        return ControlResult.built(False, f"infeasible: braking: {why}", (pos[0] - p0) / self.dt, pos[0], vel[0],
+                                   pos[1:k + 1], time.perf_counter() - start, pos[k + 1:],
+                                   {"fallback": "braking", **effort.as_info()})

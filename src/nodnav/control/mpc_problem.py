@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from nodnav.control import bspline
+from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
 from nodnav.control.mpc_braking import WallsAround
@@ -248,6 +249,8 @@ class MPCProblem:
         # plus 0.1 m) and the braking tail's products of constants, then the scratch state.
         horizon, v_max, a_max = setup.horizon, robot.max_speed, robot.max_accel
         self.n_end = n_end
+        # When braking (BSplineMPC._brake): the step's end, the sample times, the points within the step.
+        self.braking_times = np.concatenate([[setup.dt], sample_times, setup.dt * STEP_FRACTIONS])
         self.state_constants = (
             n_end, self.ends, self.intervals, setup.obstacles, setup.pieces, setup.world_bounds, robot.radius, v_max,
             a_max, self.eps[0], robot.radius + v_max * horizon + 0.1, s.contact_tolerance, self.eps_end,

@@ -46,11 +46,12 @@ def test_step_state_is_group_state_with_numpy_clearances_and_box(seed):
     # Into buffers full of garbage (NaN), as a problem's scratch state is between steps: every entry is written.
     state = [np.full_like(a, np.nan) if a.dtype == float else np.ones_like(a) for a in prob.state]
     ref_in, ref_local = rng.normal(0.0, 3.0, (len(TIMES), 2)), np.full((len(TIMES), 2), np.nan)
-    scalars = step_state(pred, n_end, p0, math.hypot(*v0), ROBOT.max_speed, ROBOT.max_accel, prob.ends,
-                         prob.intervals, WORLD.obstacle_array, WORLD.piece_array, bounds, r, radii,
-                         np.full(3, margin), eps0, reach, tol, static, prob.eps_end, *state, ref_in, ref_local,
-                         prob.static_base, prob.static_alpha @ v0, prob.static_line)
-    out = (*state, *scalars)
+    scalars = step_state(pred, p0, math.hypot(*v0), radii, np.full(3, margin), ref_in, ref_local,
+                         prob.static_alpha @ v0, static, n_end, prob.ends, prob.intervals, WORLD.obstacle_array,
+                         WORLD.piece_array, bounds, r, ROBOT.max_speed, ROBOT.max_accel, eps0, reach, tol,
+                         prob.eps_end, prob.static_base, prob.static_line, False, 1.0, 1.0, 1.0, 1.0, 1.0, *state)
+    assert scalars[3:] == (0.0, 0.0)  # no braking tail: its weight and reach are 0
+    out = (*state, *scalars[:3])
     m_w = prob.n_walls
     full = np.concatenate([np.full(m_w, r), r + radii + margin])
     contact = np.concatenate([np.full(m_w, 1e-12), r + radii])

@@ -44,7 +44,7 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
-from nodnav.control.mpc_braking import StraightCheck, WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
@@ -91,8 +91,6 @@ class BSplineMPC:
         self._valid_margins: np.ndarray | None = None
         self._default_margins: dict[int, np.ndarray] = {}
         self._last_problem: tuple[tuple, MPCProblem] | None = None
-        # Beyond this distance a wall cannot be reached within the horizon.
-        self._reach = robot.radius + robot.max_speed * self.horizon + 0.1
         # A map's world: the rows hold only the walls within reach (:meth:`_local_walls`).
         self._grid = world.wall_grid if params.local_walls else None
         self._all_setup, self._anchor, self._local_radius = self.setup, np.zeros(2), -1.0
@@ -221,7 +219,7 @@ class BSplineMPC:
         keep_following = self._following and request.braking is not None
         if committed is not None and (keep_following or straight < self.robot.radius - self.settings.check_tolerance):
             return self._follow(committed, prob, start, effort, why)
-        return self._brake(request, prob, start, effort, why)
+        return self._brake(request, prob, start, effort, why, straight)
 
     def _walls_around(self) -> WallsAround:
         """What the mutual braking checks read of the robot and its walls (taken again when the
@@ -230,7 +228,7 @@ class BSplineMPC:
                            self.robot.max_accel, self.settings.check_tolerance)
 
     def _braking_conflict(self, request: ControlRequest, post: tuple, c: np.ndarray, prob: MPCProblem,
-                          checked: StraightCheck | None = None) -> str:
+                          checked: tuple | None = None) -> str:
         """Why the robot's fallback from the plan ``c``'s next state (``post``:
         :meth:`MPCProblem.evaluate`) fails the mutual braking check towards a robot of
         ``request.braking`` (:func:`~nodnav.control.mpc_braking.fallback_conflict`; ``checked``:
@@ -250,8 +248,8 @@ class BSplineMPC:
         :meth:`MPCProblem.evaluate`) the committed trajectory."""
         self._previous, self._braking, self._following = c, None, False
         end = post[1]
-        self._committed = Committed(points=c, knots=self.setup.knots, horizon=self.horizon, end_position=end[0],
-                                    end_velocity=end[1], decel=prob.tail_decel)
+        # Positionally (points, knots, horizon, end_position, end_velocity, decel): half the keywords' cost.
+        self._committed = Committed(c, self.setup.knots, self.horizon, end[0], end[1], prob.tail_decel)
 
     def _advance_committed(self, p0: np.ndarray, v0: np.ndarray) -> Committed | None:
         """The committed trajectory one step on, if the robot is on it (exact observations put it
@@ -262,7 +260,8 @@ class BSplineMPC:
         c.elapsed += self.dt
         # Where the last step said the robot would be (the committed trajectory one step on).
         at, vel = self._expected
-        if apart(at, p0) or apart(vel, v0):
+        # As a rule exactly there (the lists' equality is the cheap test); else within apart's tolerance.
+        if (at.tolist() != p0.tolist() or vel.tolist() != v0.tolist()) and (apart(at, p0) or apart(vel, v0)):
             self._committed = None
             return None
         return c
@@ -297,7 +296,9 @@ class BSplineMPC:
         out = post[2]
         position, velocity = out[0], out[1]  # views of the plan's values, as the result's
         self._expected = (position, velocity)
-        return ControlResult.built(success, reason, (position - data.p0) / self.dt, position, velocity, out[2:],
+        # A checked plan's values carry the velocity command (MPCProblem.checked_plan), evaluate's do not.
+        command = post[4] if len(post) > 4 else (position - data.p0) / self.dt
+        return ControlResult.built(success, reason, command, position, velocity, out[2:],
                                    time.perf_counter() - start, post[3], info)
 
     def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort,
@@ -310,9 +311,10 @@ class BSplineMPC:
         towards ``partners``, made with the plan's check, or None without partners).
         """
         best, best_post, why, conflict, best_checked = None, None, "", prob.every_other, None
-        gradient = prob.gradient(data.v0, data.ref_local)
-        for _ in range(self.settings.sqp_iterations):
-            lower = prob.write_separation(data, lin, cold, data.need)
+        gradient, lower = prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write their rows
+        for k in range(self.settings.sqp_iterations):
+            if k:
+                lower = prob.write_separation(data, lin, cold, data.need)
             sol = effort.solve(prob.hessian, gradient, prob.rows, lower, self.settings.qp_tolerance, kind=prob)
             if not sol.success:
                 why = f"tracking QP {sol.reason}"
@@ -429,28 +431,16 @@ class BSplineMPC:
         At ``tau = 0`` the distance is what it is: ``need`` is lowered to what the current state
         allows when it is already inside the margin, for each prediction separately.
         """
-        robot, n_end = self.robot, len(prob.ends)
-        r, max_speed, max_accel, horizon = robot.radius, robot.max_speed, robot.max_accel, self.horizon
         if margins is None:
             margins = self._safety_margins(len(other_radii))
         pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
-        static = np.empty(prob.n_static)  # step_state writes prob.static_lower_base(v0) plus the box
-        # The robot's own displacement over an interval: at most its reachable speed times it.
-        state = prob.state
-        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = state
-        ref_local = np.empty(ref.shape)
-        now = math.hypot(v0[0], v0[1])
-        setup = self.setup
-        need_clear, clear_now, overlap = step_state(
-            pred, n_end, p0, now, max_speed, max_accel, prob.ends, prob.intervals, self.obstacles, setup.pieces,
-            setup.world_bounds, r, other_radii, margins, prob.eps[0], self._reach, self.settings.contact_tolerance,
-            static, prob.eps_end, *state, ref, ref_local, prob.static_base, prob.static_alpha @ v0, prob.static_line)
-        weight, reach = 0.0, 0.0
-        if self.settings.braking_tail:
-            # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
-            top = min(max_speed, now + max_accel * horizon)
-            weight = top / (2.0 * prob.tail_decel)
-            reach = r + min(max_speed * horizon, now * horizon + max_accel * horizon**2 / 2) + weight * top + 0.1
+        # step_state writes prob.static_lower_base(v0) plus the box into static, ref - p0 into ref_local.
+        static, ref_local = np.empty(prob.n_static), np.empty(ref.shape)
+        need_clear, clear_now, overlap, weight, reach = step_state(
+            pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, prob.static_alpha @ v0, static,
+            *prob.state_constants)
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
+        n_end = prob.n_end
         # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
         return StepData(
             p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
@@ -466,24 +456,22 @@ class BSplineMPC:
         return None if self._previous is None else self.setup.shift @ self._previous
 
     def _brake(self, request: ControlRequest, prob: MPCProblem, start: float, effort: SolverEffort,
-               why: str) -> ControlResult:
-        """Decelerate along the current velocity at max_accel; the previous plan is discarded."""
+               why: str, clear: float | None = None) -> ControlResult:
+        """Decelerate along the current velocity at max_accel; the previous plan is discarded.
+        ``clear``: the braking's clearance from the walls where the caller has it (:func:`tail_clearance`)."""
         p0 = np.asarray(request.position, dtype=float)
         v0 = np.asarray(request.velocity, dtype=float)
         self._previous, self._braking, self._committed, self._following = None, (p0, v0), None, False
-        clear = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
-                                      self.setup.world_bounds)
+        if clear is None:
+            clear = tail_clearance(p0, v0, self.robot.max_accel, self.obstacles, self.setup.pieces,
+                                   self.setup.world_bounds)
         why = (f"{why}; braking along its velocity stops clear of the walls ({clear:.3f} m)"
                if clear >= self.robot.radius - self.settings.check_tolerance else
                f"{why}; no braking trajectory known to be clear of the walls from this state "
                f"(braking along its velocity comes within {clear:.3f} m of a wall)")
-        pos, vel = braking_profile(p0, v0, self.robot.max_accel, np.concatenate([[self.dt], prob.sample_times]))
-        return ControlResult.built(
-            success=False, reason=f"infeasible: braking: {why}",
-            velocity=(pos[0] - p0) / self.dt,
-            next_position=pos[0], next_velocity=vel[0],
-            planned_positions=pos[1:],
-            solve_time=time.perf_counter() - start,
-            info={"fallback": "braking", **effort.as_info()},
-            step_positions=braking_profile(p0, v0, self.robot.max_accel, self.dt * STEP_FRACTIONS)[0],
-        )
+        # One call for the step's end, the samples and the points within the step (element-wise in the times).
+        pos, vel = braking_profile(p0, v0, self.robot.max_accel, prob.braking_times)
+        k = len(prob.sample_times)
+        return ControlResult.built(False, f"infeasible: braking: {why}", (pos[0] - p0) / self.dt, pos[0], vel[0],
+                                   pos[1:k + 1], time.perf_counter() - start, pos[k + 1:],
+                                   {"fallback": "braking", **effort.as_info()})

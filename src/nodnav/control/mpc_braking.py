@@ -22,8 +22,8 @@ from nodnav.control.mutual_braking import (
     MAX_SAMPLES,
     SAMPLE_STEP,
     BrakingPartners,
+    _deviation_terms,
     _slack_kernel,
-    braking_deviation,
     braking_slack,
     passing_bound,
 )
@@ -68,14 +68,15 @@ class StraightCheck(NamedTuple):
 
 def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state: tuple[np.ndarray, np.ndarray],
                       committed_trajectory: Callable[[], Committed], max_speed: float,
-                      checked: StraightCheck | None = None) -> str:
+                      checked: StraightCheck | tuple | None = None) -> str:
     """Why the robot's fallback from a plan's next state fails the mutual braking check
     (:func:`braking_slack`) towards a robot of ``partners``; "" when it passes. The fallback is
     what the next step does if it finds no plan: straight braking where that stops clear of the
     walls, else the plan's committed trajectory (read from one step on; made by
-    ``committed_trajectory`` only then), moving at most ``max_speed``."""
-    position, velocity = next_state
+    ``committed_trajectory`` only then), moving at most ``max_speed``. ``checked``: the straight
+    braking's part made with the plan's check (a :class:`StraightCheck`, or its fields as a tuple)."""
     if checked is None:
+        position, velocity = next_state
         out = np.empty(len(partners.positions))
         straight, j = _straight_slack_kernel(position, velocity, walls.max_accel, walls.obstacles, walls.pieces,
                                              walls.bounds, walls.radius - walls.tolerance, partners.robot,
@@ -89,6 +90,7 @@ def fallback_conflict(partners: BrakingPartners, walls: WallsAround, next_state:
             return ""
         return (f"its braking from its next step would come {-out[j]:.3f} m too close to robot {j}'s braking "
                 "trajectory (mutual braking)")
+    position, velocity = next_state
     fallback = None
     if walls.braking_clearance(position, velocity) < walls.radius - walls.tolerance:
         committed = committed_trajectory()
@@ -118,6 +120,14 @@ def _straight_slack_kernel(p, v, decel, boxes, pieces, bounds, limit, i, positio
                                convention, dt, step, max_samples, out)
 
 
+def braking_reach(speed: float, decel: float, dt: float) -> float:
+    """``float(braking_deviation(speed, decel, dt, math.inf))``
+    (:func:`~nodnav.control.mutual_braking.braking_deviation`), the deviation once fully grown,
+    from the compiled scalar terms (the NumPy function's operations: ``min(inf, x)`` is ``x``)."""
+    dp, dv = _deviation_terms(speed, decel, dt, True)
+    return dp + dv * ((speed + decel * dt) / decel)
+
+
 def no_plan_passes(partners: BrakingPartners, walls: WallsAround, p0: np.ndarray, v0: np.ndarray,
                    dt: float) -> str:
     """Why no plan from ``(p0, v0)`` can pass the mutual braking check, so that solving for one is
@@ -125,15 +135,16 @@ def no_plan_passes(partners: BrakingPartners, walls: WallsAround, p0: np.ndarray
 
     The check is bounded from above for every plan at once (:func:`passing_bound`), which holds
     where every plan's fallback is straight braking. The straight braking from any next step
-    stays within :func:`braking_deviation` of the braking trajectory now at every instant, so its
-    segment is within that distance of the segment now, and it stops clear of the walls if the
-    braking now does by that much (otherwise some plan's fallback may be its committed trajectory,
-    which the bound does not cover: then the MPC solves as usual)."""
+    stays within :func:`~nodnav.control.mutual_braking.braking_deviation` of the braking
+    trajectory now at every instant, so its segment is within that distance of the segment now,
+    and it stops clear of the walls if the braking now does by that much (otherwise some plan's
+    fallback may be its committed trajectory, which the bound does not cover: then the MPC solves
+    as usual)."""
     bound, j = passing_bound(p0, v0, partners)
     if bound >= -BOUND_TOLERANCE:
         return ""
     pos, vel = braking_profile(p0, v0, walls.max_accel, np.array([dt]))
-    reach = float(braking_deviation(math.hypot(v0[0], v0[1]), walls.max_accel, dt, math.inf))
+    reach = braking_reach(math.hypot(v0[0], v0[1]), walls.max_accel, dt)
     if walls.braking_clearance(pos[0], vel[0]) - reach < walls.radius - walls.tolerance:
         return ""
     return (f"no plan can pass: braking from any next step comes at least {-bound:.3f} m too close to robot "

@@ -17,15 +17,13 @@ The QP (appendix, "Model Predictive Control"; the controller is :mod:`nodnav.con
   exactly (true distances and clearances at a fine step, derivative bounds,
   :meth:`MPCProblem.violation`) before it is used.
 
-Everything fixed for one robot's controller is :class:`MPCSetup`; everything fixed for a (number
-of other robots, sample times) pair is precomputed once in :class:`MPCProblem`: the static
-constraint rows, the Hessians and the map from the reference to the cost's gradient. A step
-(:class:`StepData`) only writes the new half-planes and bounds.
+Everything fixed for one robot's controller is :class:`~nodnav.control.mpc_setup.MPCSetup`;
+everything fixed for a (number of other robots, sample times) pair is precomputed once in
+:class:`MPCProblem`: the static constraint rows, the Hessians and the map from the reference to
+the cost's gradient. A step (:class:`StepData`) only writes the new half-planes and bounds.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,7 +31,7 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
-from nodnav.control.mpc_braking import StraightCheck, WallsAround
+from nodnav.control.mpc_braking import WallsAround
 from nodnav.control.mpc_plan import plan_after_qp, plan_after_qp_braking
 from nodnav.control.mpc_rows import (
     chord_inflation,
@@ -43,95 +41,14 @@ from nodnav.control.mpc_rows import (
     polygon_normals,
     step_rows,
     stopping_rows,
+    tracking_rows,
 )
+from nodnav.control.mpc_setup import DEGREE, MPCSetup, initial_state_nullspace
 from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.step_data import StepData
-from nodnav.scenario.params import MPCParams, RobotSpec
-from nodnav.scenario.world import World
 
-DEGREE = 3
-"""The paper's third-order (cubic) B-spline."""
-
-
-def initial_state_nullspace(knots: np.ndarray, degree: int) -> np.ndarray:
-    """``T`` (``(n, n - 2)``): the curves with ``p(0) = 0`` and ``v(0) = 0`` are exactly ``c = T z``.
-
-    The initial position and velocity (appendix) are linear in the first control points; the
-    first two are solved for, and ``z`` are the remaining ``n - 2`` control points. Every curve
-    with ``p(0) = p0``, ``v(0) = v0`` is the straight line ``p0 + v0 tau`` (control points
-    ``p0 + v0 xi_k``, :func:`~nodnav.control.bspline.greville_abscissae`) plus such a curve.
-    """
-    d0 = np.vstack([bspline.basis_derivative([0.0], knots, degree, 0),
-                    bspline.basis_derivative([0.0], knots, degree, 1)])
-    return np.vstack([-np.linalg.solve(d0[:, :2], d0[:, 2:]), np.eye(d0.shape[1] - 2)])
-
-
-@dataclass(frozen=True, eq=False)
-class MPCSetup:
-    """What is fixed for one robot's controller: its body and settings, the spline's knots and the
-    linear maps on its control points."""
-
-    robot: RobotSpec
-    """The robot."""
-    settings: MPCParams
-    """The controller's parameters."""
-    horizon: float
-    """T_MPC (s)."""
-    dt: float
-    """Control step (s)."""
-    knots: np.ndarray
-    """Uniform knots of the cubic spline over the horizon."""
-    nullspace: np.ndarray
-    """Curves with zero initial position and velocity, :func:`initial_state_nullspace`."""
-    greville: np.ndarray
-    """Greville abscissae: the control points of the line ``tau -> tau``."""
-    cost_hessian: np.ndarray
-    """Gram matrix of the tracking cost (position plus ``w_2`` velocity) on the control points."""
-    obstacles: np.ndarray
-    """Wall rectangles ``(M, 4)``."""
-    pieces: np.ndarray
-    """Convex pieces of polygon walls ``(P, K, 2)`` (:attr:`nodnav.scenario.world.World.piece_array`)."""
-    world_bounds: np.ndarray
-    """World bounds ``(x0, y0, x1, y1)``."""
-    b_step: np.ndarray
-    """Position one step ahead, as a row on the control points."""
-    b_substeps: np.ndarray
-    """Positions within the step (:data:`~nodnav.control.base.STEP_FRACTIONS`)."""
-    bv_step: np.ndarray
-    """Velocity one step ahead."""
-    rates: np.ndarray
-    """Points whose hulls hold the velocity (after ``v(0)``) and the acceleration."""
-    n_speed: int
-    """How many of :attr:`rates` are velocity points."""
-    shift: np.ndarray
-    """Moves a plan's control points on by one step."""
-
-    @staticmethod
-    def of(world: World, robot: RobotSpec, params: MPCParams) -> "MPCSetup":
-        """The setup of ``robot``'s controller in ``world``."""
-        horizon, dt = float(params.horizon), float(params.dt)
-        knots = bspline.uniform_knots(horizon, params.segments, DEGREE)
-        cost_hessian = (bspline.gram_matrix(knots, DEGREE, 0, 0.0, horizon)
-                        + params.w2 * bspline.gram_matrix(knots, DEGREE, 1, 0.0, horizon))
-        # Points whose hulls hold the velocity (after v(0)) and the acceleration, for the exact check.
-        d1 = bspline.velocity_hull_operator(knots)[1:]
-        # Moving a plan on by one step: least-squares fit of p(tau + dt) (the last span's
-        # polynomial continues past the horizon).
-        fit = np.linspace(0.0, horizon, 4 * params.segments + 1)
-        shift = np.linalg.lstsq(bspline.basis(fit, knots, DEGREE), bspline.basis(fit + dt, knots, DEGREE),
-                                rcond=None)[0]
-        return MPCSetup(
-            robot=robot, settings=params, horizon=horizon, dt=dt, knots=knots,
-            nullspace=initial_state_nullspace(knots, DEGREE), greville=bspline.greville_abscissae(knots, DEGREE),
-            cost_hessian=cost_hessian, obstacles=world.obstacle_array, pieces=world.piece_array,
-            world_bounds=world.bounds_array,
-            b_step=bspline.basis_derivative([dt], knots, DEGREE, 0)[0],
-            # Where the robot passes within a step: the spline is curved, the chord is not it.
-            b_substeps=bspline.basis_derivative(dt * STEP_FRACTIONS, knots, DEGREE, 0),
-            bv_step=bspline.basis_derivative([dt], knots, DEGREE, 1)[0],
-            rates=np.vstack([d1, bspline.derivative_control_operator(knots, DEGREE, 2)]), n_speed=len(d1),
-            shift=shift)
+__all__ = ["DEGREE", "MPCProblem", "MPCSetup", "StepData", "initial_state_nullspace"]  # the setup's names, as before
 
 
 class MPCProblem:
@@ -262,10 +179,18 @@ class MPCProblem:
         self.b_post = np.vstack([self.b_check, setup.rates, phi_tail, setup.b_step, setup.bv_step, self.b_samples,
                                  setup.b_substeps])
         n_cr = len(self.b_check) + len(setup.rates)
-        self.post_slices = (slice(0, n_cr), slice(n_cr, n_cr + 2), slice(n_cr + 2, len(self.b_post) - 4),
-                            slice(len(self.b_post) - 4, None))
+        n_post = len(self.b_post)
+        self.post_slices = (slice(0, n_cr), slice(n_cr, n_cr + 2), slice(n_cr + 2, n_post - 4),
+                            slice(n_post - 4, n_post))
         self.b_check_rates, self.b_tail, self.b_out, _ = (self.b_post[k] for k in self.post_slices)
         self.tail_decel = tail_decel(robot.max_accel, s.terminal_decel, s.accel_polygon_sides)
+        # What the compiled call after a QP reads of the problem (:meth:`checked_plan`), in its
+        # arguments' order: passed as one tuple, not looked up attribute by attribute every step.
+        # Its values have one row more than b_post's: the velocity command (mpc_plan.plan_after_qp).
+        self.plan_shapes = ((len(self.free_map), 2), (n_post + 1, 2))
+        self.plan_constants = (setup.greville, self.free_map, self.b_post, n_cr, len(self.check_times), setup.n_speed,
+                               setup.obstacles, setup.pieces, setup.world_bounds, n_cr + 2, setup.dt,
+                               s.check_tolerance, robot.max_speed, robot.max_accel)
         # The group of every row (-1: static and tail rows).
         self.row_group = np.concatenate([np.full(self.n_static, -1),
                                          np.repeat(np.arange(self.n_groups), self.rows_per_group),
@@ -305,6 +230,10 @@ class MPCProblem:
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
         self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
+        # What step_rows reads of the problem, in its arguments' order (as plan_constants).
+        self.row_constants = (setup.obstacles, setup.pieces, self.eps_end, self.group_point, self.group_wv,
+                              self.term_offset, self.dyn_phi, self.dyn_line, self.intervals[-1], self.tail_phi,
+                              self.tail_line, self.tol, self.rows)
         # Every other robot's index: a failed step's conflict where no certificate names fewer (read only).
         self.every_other = np.arange(n_others)
         self.every_other.setflags(write=False)
@@ -315,6 +244,18 @@ class MPCProblem:
         self.state = (np.empty((g, n_end, 2)), np.empty((g, 2)), np.empty(g), np.empty(g), np.empty((g, n_end)),
                       np.zeros(g, dtype=bool), np.empty(g), np.empty(g), np.empty(4), np.empty(4), np.empty(2),
                       np.empty(2))
+        # What step_state reads of the problem, in its arguments' order (as plan_constants): the
+        # robot's limits, the wall reach (its radius plus the farthest it can move in the horizon,
+        # plus 0.1 m) and the braking tail's products of constants, then the scratch state.
+        horizon, v_max, a_max = setup.horizon, robot.max_speed, robot.max_accel
+        self.n_end = n_end
+        # When braking (BSplineMPC._brake): the step's end, the sample times, the points within the step.
+        self.braking_times = np.concatenate([[setup.dt], sample_times, setup.dt * STEP_FRACTIONS])
+        self.state_constants = (
+            n_end, self.ends, self.intervals, setup.obstacles, setup.pieces, setup.world_bounds, robot.radius, v_max,
+            a_max, self.eps[0], robot.radius + v_max * horizon + 0.1, s.contact_tolerance, self.eps_end,
+            self.static_base, self.static_line, bool(s.braking_tail), horizon, v_max * horizon, a_max * horizon,
+            a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
@@ -382,11 +323,20 @@ class MPCProblem:
         lower = np.empty(self.n_rows)
         marked = self.no_group_marked if keep_arrangement is None else keep_arrangement
         step_rows(lin, cold, np.asarray(need, dtype=float), marked, data.x_now, data.away, data.dist_now, data.contact,
-                  data.delta_sq, data.far, data.velocities, data.p0, data.v0, data.static_lower, self.setup.obstacles,
-                  self.setup.pieces, self.eps_end, self.group_point, self.group_wv, self.term_offset, self.dyn_phi,
-                  self.dyn_line, data.tail_weight, data.tail_reach, data.box_low, data.box_high, self.intervals[-1],
-                  self.tail_phi, self.tail_line, self.tol, self.rows, lower)
+                  data.delta_sq, data.far, data.velocities, data.p0, data.v0, data.static_lower, data.tail_weight,
+                  data.tail_reach, data.box_low, data.box_high, *self.row_constants, lower)
         return lower
+
+    def tracking_rows(self, data: StepData, lin: np.ndarray, cold: bool) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`gradient` and :meth:`write_separation` (``data.need``, no group marked) in one compiled
+        call (:func:`~nodnav.control.mpc_rows.tracking_rows`): a step's first tracking QP's gradient
+        and lower bounds, its rows in :attr:`rows`."""
+        gradient, lower = np.empty(2 * self.nz), np.empty(self.n_rows)
+        tracking_rows(self.q_line, self.ref_weights @ data.ref_local, gradient, lin, cold, data.need,
+                      self.no_group_marked, data.x_now, data.away, data.dist_now, data.contact, data.delta_sq,
+                      data.far, data.velocities, data.p0, data.v0, data.static_lower, data.tail_weight,
+                      data.tail_reach, data.box_low, data.box_high, *self.row_constants, lower)
+        return gradient, lower
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:
         """Empty if the plan ``c``'s straight braking tail keeps ``need_clear`` from every wall and
@@ -422,34 +372,33 @@ class MPCProblem:
 
     def checked_plan(self, data: StepData, z: np.ndarray, separation: bool) -> tuple[np.ndarray, tuple, str]:
         """The plan of the QP's solution ``z``: :meth:`control_points`, :meth:`evaluate`'s values and
-        :meth:`violation`'s verdict, in one compiled call (:func:`~nodnav.control.mpc_plan.plan_after_qp`)."""
-        setup, (a, b, o, _) = self.setup, self.post_slices
+        :meth:`violation`'s verdict, in one compiled call (:func:`~nodnav.control.mpc_plan.plan_after_qp`).
+        The values are :meth:`evaluate`'s four, then the velocity command ``(p(dt) - p0) / dt``."""
+        c_shape, post_shape = self.plan_shapes
         # New arrays each plan: the plan is kept (committed) and its values are returned.
-        c, post = np.empty((len(self.free_map), 2)), np.empty((len(self.b_post), 2))
-        checks = plan_after_qp(
-            z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
-            setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
-            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0, c, post)
-        return c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, separation, *checks)
+        c, post = np.empty(c_shape), np.empty(post_shape)
+        passes, *checks = plan_after_qp(
+            z, data.p0, data.v0, *self.plan_constants, data.pred_check, data.need[self.n_walls:],
+            self.tail_decel if data.tail_weight > 0.0 else 0.0, data.need_clear, separation, c, post)
+        a, b, o, s = self.post_slices
+        return c, (post[a], post[b], post[o], post[s], post[-1]), "" if passes else self._verdict(
+            data, separation, *checks)
 
     def checked_plan_braking(self, data: StepData, z: np.ndarray, partners: BrakingPartners, walls: WallsAround
-                             ) -> tuple[np.ndarray, tuple, str, StraightCheck]:
+                             ) -> tuple[np.ndarray, tuple, str, tuple]:
         """:meth:`checked_plan` (with separation) and, in the same compiled call, the mutual braking
         check of the plan's next state towards ``partners`` where straight braking is its
-        fallback (:class:`~nodnav.control.mpc_braking.StraightCheck`, for
+        fallback (a :class:`~nodnav.control.mpc_braking.StraightCheck`'s fields as a plain tuple, for
         :func:`~nodnav.control.mpc_braking.fallback_conflict`)."""
-        setup, (a, b, o, _) = self.setup, self.post_slices
-        c, post = np.empty((len(self.free_map), 2)), np.empty((len(self.b_post), 2))
-        slack = np.empty(len(partners.positions))
-        *checks, straight, j = plan_after_qp_braking(
-            z, data.p0, data.v0, setup.greville, self.free_map, self.b_post, a.stop, len(self.check_times),
-            setup.n_speed, setup.obstacles, setup.pieces, setup.world_bounds, data.pred_check,
-            data.need[self.n_walls:], self.tail_decel if data.tail_weight > 0.0 else 0.0, c, post, o.start,
-            walls.max_accel, walls.radius - walls.tolerance, partners.robot, partners.positions, partners.velocities,
-            partners.decels, partners.radii, partners.keeps_rule, partners.seen, int(partners.turn),
-            partners.convention, float(partners.dt), SAMPLE_STEP, MAX_SAMPLES, slack)
-        return (c, (post[a], post[b], post[o], post[-4:]), self._verdict(data, True, *checks),
-                StraightCheck(straight, j, slack))
+        c_shape, post_shape = self.plan_shapes
+        c, post, slack = np.empty(c_shape), np.empty(post_shape), np.empty(len(partners.positions))
+        passes, *checks, straight, j = plan_after_qp_braking(
+            z, data.p0, data.v0, *self.plan_constants, data.pred_check, data.need[self.n_walls:],
+            self.tail_decel if data.tail_weight > 0.0 else 0.0, data.need_clear, walls.max_accel,
+            walls.radius - walls.tolerance, *partners, SAMPLE_STEP, MAX_SAMPLES, c, post, slack)
+        a, b, o, s = self.post_slices
+        return (c, (post[a], post[b], post[o], post[s], post[-1]),
+                "" if passes else self._verdict(data, True, *checks), (straight, j, slack))
 
     def _verdict(self, data: StepData, separation: bool, clear: float, short: float, j: int, speed: float,
                  accel: float, tail: float) -> str:

@@ -285,10 +285,10 @@ def all_finite(p0, v0, ref, others, radii):
 
 
 @compiled
-def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxes, pieces, bounds, radius,
-               other_radii, margins, eps0, reach, contact_tolerance, static, eps_end, x_now, away, dist_now, need,
-               delta_sq, far, full, contact, gap, need_box, box_low, box_high, ref, ref_local, static_base, alpha_v0,
-               static_line):
+def step_state(pred, p0, now, other_radii, margins, ref, ref_local, alpha_v0, static, n_end, ends, intervals, boxes,
+               pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end, static_base,
+               static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half, double_decel, x_now,
+               away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high):
     """A step's requirements: :func:`group_state` with the clearances it needs, ``full``
     (``radius`` from a wall, ``radius + r_j + margins[j]`` from another robot) and ``contact``
     (``1e-12`` from a wall, ``radius + r_j`` from a robot), the robot's reachable speed at each
@@ -298,13 +298,19 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     full, contact, gap, need_box, box_low, box_high`` (the caller's arrays, every entry: numba
     would box each returned array through a Python call). Returns the smallest clearance to keep
     from any wall or bound, the present clearance from the walls and bounds (the smallest
-    ``dist_now`` of a wall and ``gap``) and whether any other robot is closer than its
-    ``contact`` less ``contact_tolerance``. Writes the static rows' bounds into ``static``:
+    ``dist_now`` of a wall and ``gap``), whether any other robot is closer than its
+    ``contact`` less ``contact_tolerance``, and the braking tail's weight and reach (``tail_on``;
+    else 0, 0): ``top = min(max_speed, now + max_accel T)``, ``top / (2 a_tail)`` and ``radius +
+    min(max_speed T, now T + max_accel T^2 / 2) + weight top + 0.1``, with ``speed_horizon``,
+    ``accel_horizon``, ``accel_horizon_sq_half`` and ``double_decel`` the products of constants in
+    those expressions (the Python expressions' operations, in their order). Writes the static
+    rows' bounds into ``static``:
     ``static_base - alpha_v0 * static_line`` (:meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower_base`,
     the NumPy expression's operations, with ``alpha_v0`` its product ``static_alpha @ v0``), the
     box's bounds added to the first ``4 len(eps_end)`` entries (see
     :meth:`~nodnav.control.mpc_problem.MPCProblem.static_lower`), and writes the reference relative
-    to ``p0`` (``ref - p0``, the same subtractions as NumPy's) into ``ref_local``."""
+    to ``p0`` (``ref - p0``, the same subtractions as NumPy's) into ``ref_local``. The arguments
+    from ``n_end`` on are the problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.state_constants`)."""
     n_walls = boxes.shape[0] + pieces.shape[0]
     n_groups = n_walls + other_radii.shape[0]
     for g in range(n_walls):
@@ -350,7 +356,13 @@ def step_state(pred, n_end, p0, now, max_speed, max_accel, ends, intervals, boxe
     for k in range(ref.shape[0]):
         for d in range(2):
             ref_local[k, d] = ref[k, d] - p0[d]
-    return need_clear, clear_now, overlap
+    weight, tail_reach = 0.0, 0.0
+    if tail_on:
+        # |v(T)| <= V: the speed reachable by T from the present one (at most the limit).
+        top = min(max_speed, now + accel_horizon)
+        weight = top / double_decel
+        tail_reach = radius + min(speed_horizon, now * horizon + accel_horizon_sq_half) + weight * top + 0.1
+    return need_clear, clear_now, overlap, weight, tail_reach
 
 
 @compiled
@@ -366,11 +378,13 @@ def gradient_into(q_line, v0, weighted_ref, out):
 
 @compiled
 def step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact, delta_sq, far, vel, p0, v0,
-              static_lower, boxes, pieces, eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line,
-              tail_weight, tail_reach, box_low, box_high, last_interval, tail_phi, tail_line, tol, rows, lower):
+              static_lower, tail_weight, tail_reach, box_low, box_high, boxes, pieces, eps_end, group_point, group_wv,
+              term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows, lower):
     """Every row's lower bound into ``lower`` and the dynamic rows into ``rows``: the static
     bounds, :func:`separation_rows`, then the braking tail's :func:`~nodnav.control.braking.tail_rows`
-    (linearised about ``lin``'s last end with its last interval's velocity; ``-inf`` with no tail)."""
+    (linearised about ``lin``'s last end with its last interval's velocity; ``-inf`` with no tail).
+    The problem's own arrays come last, from ``boxes`` to ``rows``
+    (:attr:`~nodnav.control.mpc_problem.MPCProblem.row_constants`)."""
     n_static = static_lower.shape[0]
     n_walls = boxes.shape[0] + pieces.shape[0]
     lower[:n_static] = static_lower
@@ -386,6 +400,19 @@ def step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact,
     tail_rows(lin[n - 1], lin_v, tail_weight, p0, v0, x_now[:n_walls, x_now.shape[1] - 1], away[:n_walls],
               dist_now[:n_walls], need[:n_walls], tail_reach, boxes, pieces, box_low, box_high, tail_phi, tail_line,
               tol, cold, rows, lower, i0)
+
+
+@compiled
+def tracking_rows(q_line, weighted_ref, gradient, lin, cold, need, keep_arrangement, x_now, away, dist_now, contact,
+                  delta_sq, far, vel, p0, v0, static_lower, tail_weight, tail_reach, box_low, box_high, boxes, pieces,
+                  eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line,
+                  tol, rows, lower):
+    """A step's first tracking QP in one call: :func:`gradient_into` (into ``gradient``), then
+    :func:`step_rows` (the rest of the arguments, in its order)."""
+    gradient_into(q_line, v0, weighted_ref, gradient)
+    step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact, delta_sq, far, vel, p0, v0,
+              static_lower, tail_weight, tail_reach, box_low, box_high, boxes, pieces, eps_end, group_point, group_wv,
+              term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows, lower)
 
 
 @compiled

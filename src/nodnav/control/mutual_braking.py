@@ -378,9 +378,7 @@ def passing_bound(position: np.ndarray, velocity: np.ndarray, partners: BrakingP
     contact and margin), which at any one instant is at most the distance of the braking
     trajectories now plus that deviation. Where this bound is negative no plan can pass (with
     straight braking as its fallback), so the MPC need not solve for one."""
-    worst, worst_j = _bound_kernel(partners.robot, np.asarray(position, dtype=float),
-                                   np.asarray(velocity, dtype=float), partners.positions, partners.velocities,
-                                   partners.decels, partners.radii, partners.keeps_rule, partners.seen,
-                                   int(partners.turn), partners.convention, float(partners.dt), float(step),
-                                   MAX_SAMPLES)
-    return float(worst), int(worst_j)
+    # The partners' fields after ``robot`` are the kernel's arguments in their order; it returns a
+    # Python float and int.
+    return _bound_kernel(partners.robot, np.asarray(position, dtype=float), np.asarray(velocity, dtype=float),
+                         *partners[1:], float(step), MAX_SAMPLES)

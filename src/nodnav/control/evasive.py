@@ -93,7 +93,11 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
     its tolerance, and the certificate is the one the LP would have given after the QP's
     failure, so the plans are those of solving every QP. ``hard_consistent`` (the hard rows
     are known consistent, e.g. the last ones of the other linearisation) solves the QP first,
-    as before. The robots kept hard are kept clear whatever that costs in intrusion into the
+    as before, and so does a set of softened robots whose hard rows were consistent when last
+    decided (:func:`known_consistent`): a deadlock meets the same sets step after step, and
+    the LP would mostly have confirmed it (about half of the LPs of deadlocked trials saved);
+    should the QP fail, the same LP on the same rows comes after it, so the plans are those of
+    deciding first. The robots kept hard are kept clear whatever that costs in intrusion into the
     softened ones: softening every robot at once instead let the plan trade a late intrusion
     into an uninvolved robot for a smaller early one, and collided more often in closed loop.
 
@@ -108,23 +112,25 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
         robots = np.flatnonzero(soft[prob.n_walls:])
         lower = prob.write_separation(data, lin, cold, np.where(soft, data.full, data.need),
                                       soft if keep_arrangement else None)
-        hard = np.where(prob.softened_rows(soft), -np.inf, lower)
+        key = robots.tobytes()
         support = None
-        if not hard_consistent:
+        if not (hard_consistent or known_consistent(prob, key)):
             # The QP is feasible exactly when its hard rows are: decide that first, with the LP
             # that names the robots to soften next, and skip a QP certain to fail.
-            support, excess = effort.relaxation(prob.rows, hard)
+            support, excess = effort.relaxation(prob.rows, hard_lower(prob, soft, lower))
+            remember_consistent(prob, key, excess <= CERTAINLY_INFEASIBLE)
         if support is None or excess <= CERTAINLY_INFEASIBLE:
-            var, hessian, rows, bounds, start_active = evasive_structure(prob, robots)
+            var, hessian, rows, bounds, start_active, _ = evasive_structure(prob, robots)
             rows[:, :n] = prob.rows
             sol = effort.solve(hessian, gradient[var], rows, lower, prob.setup.settings.qp_tolerance, bounds=bounds,
-                               start_active=start_active, kind=(prob, robots.tobytes(), keep_arrangement),
-                               like=(prob, robots.tobytes(), not keep_arrangement))
+                               start_active=start_active, kind=(prob, key, keep_arrangement),
+                               like=(prob, key, not keep_arrangement))
+            remember_consistent(prob, key, sol.success)
             if sol.success:
                 c, _, why = prob.checked_plan(data, sol.x[:n], separation=False)
                 return (None if why else c), soft
             if support is None:
-                support = effort.certificate(prob.rows, hard)
+                support = effort.certificate(prob.rows, hard_lower(prob, soft, lower))
         if not support.size:
             return None, soft  # the solver failed on a problem the certificate finds consistent
         certified = prob.conflicting_others(support)
@@ -141,16 +147,38 @@ def elastic_plan(prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, 
 CERTAINLY_INFEASIBLE = 1e-4
 
 
+def hard_lower(prob: MPCProblem, soft: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """The lower bounds of the rows kept hard: ``-inf`` on the rows of the ``soft`` groups."""
+    return np.where(prob.softened_rows(soft), -np.inf, lower)
+
+
+def known_consistent(prob: MPCProblem, key: bytes) -> bool:
+    """Whether the hard rows of the evasive QP with the robots ``key`` (their indices' bytes)
+    softened were consistent when last decided on this problem (False if never, or forgotten)."""
+    hit = prob.evasive_memo.get(key)
+    return hit is not None and hit[5][0]
+
+
+def remember_consistent(prob: MPCProblem, key: bytes, consistent: bool) -> None:
+    """Note :func:`known_consistent`'s answer for the robots ``key`` (where their QP's structure
+    is remembered: a set whose QP was never solved starts with the LP anyway)."""
+    hit = prob.evasive_memo.get(key)
+    if hit is not None:
+        hit[5][0] = consistent
+
+
 #: How many sets of softened robots :func:`evasive_structure` remembers per problem.
 MEMO_SIZE = 8
 
 
 def evasive_structure(prob: MPCProblem, robots: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                                                    np.ndarray]:
+                                                                    np.ndarray, list[bool]]:
     """What the evasive QP with the other robots ``robots`` softened keeps from step to step
     (memoised per set of robots on the problem): its variables (``z``, then those robots'
     slacks), its Hessian, its rows (the first ``2 nz`` columns to be written with the problem's
-    rows at each solve, then the slack columns), its bounds and which bounds start active."""
+    rows at each solve, then the slack columns), its bounds, which bounds start active, and
+    whether its hard rows were consistent when last decided (a one-element list,
+    :func:`known_consistent` and :func:`remember_consistent`; False until decided)."""
     key = robots.tobytes()
     hit = prob.evasive_memo.get(key)
     if hit is None:
@@ -162,5 +190,5 @@ def evasive_structure(prob: MPCProblem, robots: np.ndarray) -> tuple[np.ndarray,
         bounds = prob.slack_bounds[var]
         if len(prob.evasive_memo) >= MEMO_SIZE:
             prob.evasive_memo.pop(next(iter(prob.evasive_memo)))
-        hit = prob.evasive_memo[key] = (var, prob.evasive_hessian[np.ix_(var, var)], rows, bounds, bounds == 0.0)
+        hit = prob.evasive_memo[key] = (var, prob.evasive_hessian[np.ix_(var, var)], rows, bounds, bounds == 0.0, [False])
     return hit

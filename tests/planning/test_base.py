@@ -90,6 +90,36 @@ def test_feasible_order_keeps_history_first():
     assert feasible_order((1, 0, 2), (1,)) == (1, 0, 2)
 
 
+def _feasible_order_as_it_was(order, entered, directions=None):
+    """feasible_order before its directions' queues became counters (the reference)."""
+    if not len(entered):
+        return tuple(int(k) for k in order)
+    done = tuple(int(k) for k in entered)
+    rest = tuple(int(k) for k in order if int(k) not in done)
+    if directions is None:
+        return done + rest
+    dirs = np.asarray(directions).tolist()
+    crossed = tuple(k for k in done if dirs[k] == 0)
+    queues = {d: [k for k in done if dirs[k] == d] for d in (1, -1)}
+    requested = [int(k) for k in order if int(k) in done and dirs[int(k)] != 0]
+    requested += [k for k in done if dirs[k] != 0 and k not in requested]
+    inside = tuple(queues[int(dirs[k])].pop(0) for k in requested)
+    return crossed + inside + rest
+
+
+def test_feasible_order_matches_the_queues_it_replaced():
+    rng = np.random.default_rng(4)
+    for _ in range(2000):
+        n = int(rng.integers(1, 7))
+        order = tuple(int(k) for k in rng.permutation(n))
+        entered = tuple(int(k) for k in rng.permutation(n)[:rng.integers(0, n + 1)])
+        dirs = rng.integers(-1, 2, size=n)
+        expected = _feasible_order_as_it_was(order, entered, dirs)
+        assert feasible_order(order, entered, dirs) == expected
+        assert feasible_order(order, entered, dirs.tolist()) == expected  # a list, as the planner passes
+        assert feasible_order(np.array(order), entered, None) == _feasible_order_as_it_was(order, entered)
+
+
 def test_crossing_directions(world):
     start = np.array([[-5.0, 0.0], [5.0, 1.0], [-5.0, 1.0], [0.0, 0.0], [1.0, 0.0], [0.5, 0.0], [5.0, 0.0]])
     goal = np.array([[5.0, 0.0], [-5.0, 1.0], [-6.0, -1.0], [6.0, 0.0], [-6.0, 0.0], [1.5, 0.0], [6.0, 1.0]])

@@ -114,3 +114,16 @@ def test_bad_polygon_from_the_command_line_exits_2(tmp_path, capsys):
     assert main(["show", str(path), "--out", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err.strip()
     assert "world.obstacles[0]" in err and "\n" not in err
+
+
+def test_side_of_along_is_the_two_wheres_it_replaced():
+    rng = np.random.default_rng(3)
+    for g in (paper_world().passage, Passage(start=(1.0, 2.0), end=(-2.0, 5.5), width=0.7)):
+        s = rng.uniform(-9.0, 9.0, size=(40, 3))
+        s[0, :] = [g.s_start, g.s_end, np.nan]
+        s[1, :] = [np.nextafter(g.s_start, -np.inf), np.nextafter(g.s_end, np.inf), -np.inf]
+        for shaped in (s, s[0], s[:, 1], s[0, 0], np.asarray(s[0, 1]), s.T, np.zeros((0, 2))):
+            want = np.where(shaped < g.s_start, LEFT, np.where(shaped > g.s_end, RIGHT, INSIDE))
+            got = g.side_of_along(shaped)
+            assert type(got) is type(want) and got.dtype == want.dtype and got.shape == want.shape
+            assert np.array_equal(got, want)

@@ -218,18 +218,30 @@ def feasible_order(order: tuple[int, ...], entered: tuple[int, ...],
     if not len(entered):  # nobody has entered: the requested order itself (what the rest gives)
         return tuple(int(k) for k in order)
     done = tuple(int(k) for k in entered)
-    rest = tuple(int(k) for k in order if int(k) not in done)
+    ints = [int(k) for k in order]
+    rest = tuple(k for k in ints if k not in done)
     if directions is None:
         return done + rest
-    dirs = np.asarray(directions).tolist()  # Python ints: the same comparisons, without NumPy scalars
+    # Python ints: the same comparisons, without NumPy scalars (a list is taken as it is).
+    dirs = directions if type(directions) is list else np.asarray(directions).tolist()
     crossed = tuple(k for k in done if dirs[k] == 0)
-    queues = {d: [k for k in done if dirs[k] == d] for d in (1, -1)}
     # The entered crossing robots in the requested relative order (entered robots the request
-    # leaves out keep their entry places at the end), each place refilled from its direction's queue.
-    requested = [int(k) for k in order if int(k) in done and dirs[int(k)] != 0]
+    # leaves out keep their entry places at the end), each place refilled from its direction's
+    # queue: the i-th of a direction's places gets that direction's i-th robot to enter.
+    requested = [k for k in ints if k in done and dirs[k] != 0]
     requested += [k for k in done if dirs[k] != 0 and k not in requested]
-    inside = tuple(queues[int(dirs[k])].pop(0) for k in requested)
-    return crossed + inside + rest
+    ahead = [k for k in done if dirs[k] == 1]
+    behind = [k for k in done if dirs[k] == -1]
+    taken = [0, 0]
+    inside = []
+    for k in requested:
+        if dirs[k] == 1:
+            inside.append(ahead[taken[0]])
+            taken[0] += 1
+        else:
+            inside.append(behind[taken[1]])
+            taken[1] += 1
+    return crossed + tuple(inside) + rest
 
 
 def crossing_directions(world: World, positions: np.ndarray, destinations: np.ndarray) -> np.ndarray:

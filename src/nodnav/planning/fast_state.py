@@ -196,6 +196,12 @@ class State:
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
     @cached_property
+    def required_list(self) -> list:
+        """:attr:`required` as lists of Python floats (``required_list[j][k]`` is
+        ``float(required[j, k])``, without indexing NumPy)."""
+        return self.required.tolist()
+
+    @cached_property
     def direction_list(self) -> list:
         """:attr:`directions` as a list of Python numbers (the same comparisons, cheaper)."""
         return self.directions.tolist()
@@ -204,6 +210,11 @@ class State:
     def door_list(self) -> list:
         """:attr:`door` as a list of Python ints."""
         return self.door.tolist()
+
+    @cached_property
+    def in_door_list(self) -> list:
+        """:attr:`in_door` as a list of Python bools."""
+        return self.in_door.tolist()
 
     @cached_property
     def inside_robots(self) -> frozenset:

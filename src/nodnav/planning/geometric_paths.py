@@ -105,12 +105,16 @@ class GeometricPaths:
         """The geometric path, keeping clear of later robots' positions and earlier robots'
         destinations if possible, else of the destinations only, else of the walls only."""
         graph = self.graph(world, radius)
-        attempts = [(centres, rads)]
+        path = graph.shortest_path(start, goal, centres, rads)
+        if path.success:  # the common case: no set of discs given up
+            return Route(path, centres, rads, detour=False)
+        attempts = []
         if n_later:
             attempts.append((centres[n_later:], rads[n_later:]))
-        if len(attempts[-1][0]):
+        if len(attempts[-1][0] if attempts else centres):
             attempts.append((np.zeros((0, 2)), np.zeros(0)))
-        level = 0  # how many sets of discs had to be given up
+        c, r = centres, rads
+        level = 1  # how many sets of discs had to be given up
         for c, r in attempts:
             path = graph.shortest_path(start, goal, c, r)
             if path.success:

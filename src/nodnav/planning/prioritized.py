@@ -177,12 +177,12 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             inside = state.inside_robots
             if inside:
                 entered += tuple(k for k in order if k in inside and k not in entered)
-            dirs = state.directions if self.params.inside == "back-out" else None
+            back_out = self.params.inside == "back-out"
             # The repair depends on these three only: the same few come back round after round.
-            repair = (order, entered, None if dirs is None else dirs.tobytes())
+            repair = (order, entered, state.directions.tobytes() if back_out else None)
             planned = self._repairs.get(repair)
             if planned is None:
-                planned = feasible_order(order, entered, dirs)
+                planned = feasible_order(order, entered, state.direction_list if back_out else None)
                 remember_briefly(self._repairs, repair, planned)
             known = (entered, planned)
             remember_briefly(self._orders, asked, known)
@@ -347,7 +347,7 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         """Robot ``k``'s path and timing among the robots before it. Robots after it that stand
         in its way, or in the door zone it will come out of, get out of the way first; one pinned
         where only ``k``'s own place would let it out gets that room: ``k`` backs off first."""
-        dirs = state.directions
+        dirs = state.direction_list  # Python ints: the same comparisons, without NumPy scalars
         heads = dict(layout.heads)  # grows as robots get out of the way
         evasions: dict[int, Motion] = {}
         seen: list = [layout]  # the layout now; None once evade() has changed heads
@@ -372,8 +372,9 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             seen[0] = None
 
         if dirs[k] != 0:
+            in_door = state.in_door_list
             for j in layout.later:
-                if j not in heads and state.in_door[j] and dirs[j] == -dirs[k]:
+                if j not in heads and in_door[j] and dirs[j] == -dirs[k]:
                     evade(j)
         track = self._track_for(world, state, k, now())
         if track.route.detour:

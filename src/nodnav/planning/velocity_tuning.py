@@ -22,6 +22,9 @@ from nodnav.planning.occupancy import Motion, blocked_rows, boxes_apart, join_mo
 from nodnav.planning.timing import ARRIVED, Timing, timing_of
 from nodnav.scenario.world import World
 
+#: No gates, as the compiled timing call takes them (it only reads them).
+_NO_GATES = np.zeros((0, 2), dtype=np.int64)
+
 
 def _allclose_point(a: np.ndarray, b: np.ndarray) -> bool:
     """``np.allclose(a, b)`` of two finite points ``(2,)`` at its default tolerances
@@ -83,15 +86,21 @@ class VelocityTuning(FastPlannerHooks):
         """:meth:`_timing` as the compiled call returns it: ``(outcome, step cornered at, cells,
         arc, samples, stays)`` (:func:`~nodnav.planning.fused_timing._search_kernel`)."""
         cells, n = track.cells, len(track.cells)
-        x0, y0 = float(cells[0, 0]), float(cells[0, 1])
-        required = state.required
+        x0, y0 = cells[0].tolist()
+        required = state.required_list  # Python floats: float(state.required[j, k]), cheaper
+        by_id = self._rows_by_id
         # Each motion's rows, one after the other; the compiled call ORs them into the table.
         parts, rows = [], []
         for j, m in fixed:
-            r = float(required[j, k])
-            hx, hy = m.samples[min(t0, len(m.samples) - 1)].tolist()
+            r = required[j][k]
+            samples = m.samples
+            hx, hy = samples[min(t0, len(samples) - 1)].tolist()
             gap = math.hypot(hx - x0, hy - y0)
-            bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
+            if gap >= r:
+                hit = by_id.get((id(cells), id(m), r))  # _blocked's first memo, without its call
+                bits = hit[2] if hit is not None else self._blocked(cells, m, r)
+            else:
+                bits = relaxed_bits(cells, m, r, gap)
             parts.append(bits)
             rows.append(len(bits))
         if len(parts) == 1:
@@ -110,7 +119,8 @@ class VelocityTuning(FastPlannerHooks):
         ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)
         geometry = NO_GEOMETRY if world is None else self._stay_geometry(world)
         return _timing_kernel(
-            stack, np.array(rows, dtype=np.int64), n, np.array(gates, dtype=np.int64).reshape(-1, 2), t0, ok2,
+            stack, np.array(rows, dtype=np.int64), n,
+            np.array(gates, dtype=np.int64).reshape(-1, 2) if gates else _NO_GATES, t0, ok2,
             self.params.waiting == "early", retime, track.arc, cells, v0, vmax, alpha, float(self.params.dt), geometry)
 
     def _stay_geometry(self, world: World) -> np.ndarray:
@@ -169,5 +179,5 @@ class VelocityTuning(FastPlannerHooks):
             motion = join_motions(head, motion)
             stays = None
         else:
-            stays = tuple(int(v) for v in stays)
+            stays = tuple(map(int, stays))
         return Attempt(True, "", RobotPlan(motion, world, self.params.door_clearance, head is not None, stays))

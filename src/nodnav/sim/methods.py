@@ -196,7 +196,7 @@ class PlannedMethod:
         conflicted = reactions.conflicted
         # What is the same for every robot of the step, once: a Team narrows keeps_rule after
         # construction, so its bytes stamp the margins (_margins_of); with exact sensing every
-        # robot's view is one object, whose arrays are then read once.
+        # robot's view is one object, whose arrays and braking partners are then read once.
         stamp = self.keeps_rule.tobytes() if self._restart_gap else b""
         last = None
         for i, view in views.items():
@@ -204,6 +204,7 @@ class PlannedMethod:
             if view is not last:
                 last, positions, velocities = view, view.positions, view.velocities
                 sensed = view.age is not None or view.sigma is not None
+                partners = self._partners_shared(t, view, positions, velocities)
             if gated:  # observe, wait, read, predict, advance and widen: one compiled call
                 seen = reactions.seen(i, positions, velocities)
                 reference, predictions, radii = gated_step(
@@ -229,7 +230,8 @@ class PlannedMethod:
                 conflicted[i] = False
                 continue
             request = ControlRequest.built(positions[i], velocities[i], reference, self.sample_times, predictions,
-                                           radii, firm, self._partners(i, t, view, positions, velocities), margins)
+                                           radii, firm, None if partners is None else BrakingPartners(i, *partners),
+                                           margins)
             result = out[i] = self.controllers[i].control(request)
             conflicted[i] = not result.success
         return out
@@ -259,21 +261,25 @@ class PlannedMethod:
             cached = self._margins[i] = (stamp, tiled)
         return cached[1]
 
-    def _partners(self, i: int, t: float, view: RobotView, positions: np.ndarray | None = None,
-                  velocities: np.ndarray | None = None) -> BrakingPartners | None:
+    def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:
         """What robot ``i``'s next step is checked against (``execution.mutual_braking``): every
-        robot's state as ``i`` sees it (``view``'s ``positions`` and ``velocities``, if the
-        caller has read them already), and who sees whom now (:mod:`nodnav.control.mutual_braking`)."""
+        robot's state as ``i`` sees it, and who sees whom now (:mod:`nodnav.control.mutual_braking`)."""
+        shared = self._partners_shared(t, view, view.positions, view.velocities)
+        return None if shared is None else BrakingPartners(i, *shared)
+
+    def _partners_shared(self, t: float, view: RobotView, positions: np.ndarray,
+                         velocities: np.ndarray) -> tuple | None:
+        """:meth:`_partners`'s fields after the robot's own index, the same for every robot that
+        sees through ``view`` (whose ``positions`` and ``velocities`` the caller has read) at
+        ``t``: :meth:`act` reads them once per view; None without the check."""
         if self._convention < 0:
             return None
-        if positions is None or velocities is None:
-            positions, velocities = view.positions, view.velocities
         seen = self._all_seen if view.age is None else view.age == 0.0
         if t != self._turn[0]:  # the same for every robot of a step: once a step
             self._turn = (t, int(math.floor(t / self._turn_period + 1e-9)) % 2)
         turn = self._turn[1]
-        return BrakingPartners(i, positions, velocities, self._accel, self._radii, self.keeps_rule, seen,
-                               turn, self._convention, self.dt)
+        return (positions, velocities, self._accel, self._radii, self.keeps_rule, seen, turn, self._convention,
+                self.dt)
 
     def _stay(self, position: np.ndarray) -> ControlResult:
         """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""

@@ -237,7 +237,8 @@ class Simulation:
                 spread = self.trackers[i].position_sigma.copy()
                 spread[i] = 0.0
             several_ = tuple(tuple(seen[i]) for _, seen in self.entered_by) if self.routes is not None else ()
-            out[i] = RobotView.built(self.t, times, self._windows[i], tuple(self.entered_seen[i]), age, spread, several_)
+            out[i] = RobotView.built(self.t, times, self._windows[i], tuple(self.entered_seen[i]), age, spread,
+                                     several_)
         return out
 
     # -- the loop ------------------------------------------------------------------------------

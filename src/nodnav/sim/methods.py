@@ -193,13 +193,22 @@ class PlannedMethod:
         out = {}
         gated = self._execution_settings.gated
         reactions = self.reactions
+        conflicted = reactions.conflicted
+        # What is the same for every robot of the step, once: a Team narrows keeps_rule after
+        # construction, so its bytes stamp the margins (_margins_of); with exact sensing every
+        # robot's view is one object, whose arrays and braking partners are then read once.
+        stamp = self.keeps_rule.tobytes() if self._restart_gap else b""
+        last = None
         for i, view in views.items():
             _, execution, rows, columns, step = self._held(i)
-            positions, velocities = view.positions, view.velocities
+            if view is not last:
+                last, positions, velocities = view, view.positions, view.velocities
+                sensed = view.age is not None or view.sigma is not None
+                partners = self._partners_shared(t, view, positions, velocities)
             if gated:  # observe, wait, read, predict, advance and widen: one compiled call
                 seen = reactions.seen(i, positions, velocities)
                 reference, predictions, radii = gated_step(
-                    positions, velocities, i, t, *step, *seen, *reactions.constants[i], bool(reactions.conflicted[i]),
+                    positions, velocities, i, t, *step, *seen, *reactions.constants[i], bool(conflicted[i]),
                     self._other_radii[i])
             else:
                 execution.observe(positions[rows])
@@ -212,28 +221,32 @@ class PlannedMethod:
                 cap = self.occlusion.speed(i, positions[i], limit)
                 if cap < limit:
                     reference = slowed_reference(positions[i], reference, self.sample_times, cap)
-            firm, margins = self._firm, self._margins_of(i)
-            if view.age is not None or view.sigma is not None:
+            firm, margins = self._firm, self._margins_of(i, stamp)
+            if sensed:
                 predictions, radii, firm, margins = self._sensed(i, view, predictions, radii, margins)
             if self._rest is not None and at_rest_and_clear(positions[i], velocities[i], reference,
                                                             predictions, radii, *self._rest[i]):
                 out[i] = self._stay(positions[i])
-                self.reactions.conflicted[i] = False
+                conflicted[i] = False
                 continue
             request = ControlRequest.built(positions[i], velocities[i], reference, self.sample_times, predictions,
-                                           radii, firm, self._partners(i, t, view), margins)
-            out[i] = self.controllers[i].control(request)
-            self.reactions.conflicted[i] = not out[i].success
+                                           radii, firm, None if partners is None else BrakingPartners(i, *partners),
+                                           margins)
+            result = out[i] = self.controllers[i].control(request)
+            conflicted[i] = not result.success
         return out
 
-    def _margins_of(self, i: int) -> np.ndarray | None:
+    def _margins_of(self, i: int, stamp: bytes | None = None) -> np.ndarray | None:
         """The clearance robot ``i`` keeps from each of its predictions (``ControlRequest.margins``):
         the safety margin, and from a robot that keeps the mutual braking rule as ``i`` does at
         least the gap from which either can start again (``execution.restart_gap``); None (the
-        controller's margin) when that changes nothing."""
+        controller's margin) when that changes nothing. ``stamp``: ``keeps_rule``'s bytes now (a
+        Team narrows it after construction), which the margins kept are checked against; None:
+        read here (:meth:`act` reads them once for all its robots)."""
         if not self._restart_gap or not self.keeps_rule[i]:
             return None
-        stamp = self.keeps_rule.tobytes()  # a Team narrows keeps_rule after construction
+        if stamp is None:
+            stamp = self.keeps_rule.tobytes()
         cached = self._margins.get(i)
         if cached is None or cached[0] != stamp:
             others = self._others_array[i]
@@ -251,14 +264,22 @@ class PlannedMethod:
     def _partners(self, i: int, t: float, view: RobotView) -> BrakingPartners | None:
         """What robot ``i``'s next step is checked against (``execution.mutual_braking``): every
         robot's state as ``i`` sees it, and who sees whom now (:mod:`nodnav.control.mutual_braking`)."""
+        shared = self._partners_shared(t, view, view.positions, view.velocities)
+        return None if shared is None else BrakingPartners(i, *shared)
+
+    def _partners_shared(self, t: float, view: RobotView, positions: np.ndarray,
+                         velocities: np.ndarray) -> tuple | None:
+        """:meth:`_partners`'s fields after the robot's own index, the same for every robot that
+        sees through ``view`` (whose ``positions`` and ``velocities`` the caller has read) at
+        ``t``: :meth:`act` reads them once per view; None without the check."""
         if self._convention < 0:
             return None
         seen = self._all_seen if view.age is None else view.age == 0.0
         if t != self._turn[0]:  # the same for every robot of a step: once a step
             self._turn = (t, int(math.floor(t / self._turn_period + 1e-9)) % 2)
         turn = self._turn[1]
-        return BrakingPartners(i, view.positions, view.velocities, self._accel, self._radii, self.keeps_rule, seen,
-                               turn, self._convention, self.dt)
+        return (positions, velocities, self._accel, self._radii, self.keeps_rule, seen, turn, self._convention,
+                self.dt)
 
     def _stay(self, position: np.ndarray) -> ControlResult:
         """The step of a robot at rest that skips its MPC (``execution.skip_at_rest``): it stays exactly where it is."""

@@ -111,6 +111,8 @@ class Simulation:
         self._last_sides: list[np.ndarray | None] = [None] * len(scenario.world.passages)
         # The true sides of each passage at the last update (none yet: 99, no side).
         self._last_truth = [np.full(n, UNSEEN, dtype=np.int64) for _ in scenario.world.passages]
+        # sides_changed's arguments of each passage after the positions, read once.
+        self._sides_args = [(p.along_x, p.axis[0], p.axis[1], p.s_start, p.s_end) for p in scenario.world.passages]
         self._window_offsets = self.dt * np.arange(m)[::-1]
         self.routes = team_routes(self.method, scenario) if several(scenario) else None
         """Each robot's route with several passages (:mod:`nodnav.sim.several`); None with one."""
@@ -180,14 +182,17 @@ class Simulation:
         corridor they have left ahead of them: the one nearest its exit is ahead.
         """
         n = self.scenario.n_robots
+        changed = None
+        if self._exact:  # everyone sees the truth: the records change only when its sides do (each passage's checked)
+            changed = [sides_changed(self.positions, *args, truth) for args, truth in zip(self._sides_args,
+                                                                                            self._last_truth)]
+            if True not in changed:
+                return
         seen = None
         for number, (passage, approach, (true_log, seen_logs)) in enumerate(zip(
                 self.scenario.world.passages, self._passage_sides, self.entered_by)):
-            if self._exact:  # everyone sees the truth: the records change only when its sides do
-                truth = self._last_truth[number]
-                if not sides_changed(self.positions, passage.along_x, passage.axis[0], passage.axis[1],
-                                     passage.s_start, passage.s_end, truth):
-                    continue
+            if changed is not None and not changed[number]:
+                continue
             if seen is None:
                 seen = np.stack([self.positions] + [self.observed[i][-1][:, :2] for i in range(n)])
             s = passage.along(seen)
@@ -220,11 +225,10 @@ class Simulation:
         """Every robot's view of the last opinion period."""
         times = self.t - self._window_offsets
         first = self.entered_seen[0]
-        if self._exact and self.routes is None and all(log == first for log in self.entered_seen):
+        seen_logs = self.entered_seen
+        if self._exact and self.routes is None and seen_logs.count(first) == len(seen_logs):
             # Everyone sees the truth through one window with the same entry records: one view for all.
-            return dict.fromkeys(range(self.scenario.n_robots),
-                                 RobotView(t=self.t, window_times=times, window_states=self._windows[0],
-                                           entered=tuple(first)))
+            return dict.fromkeys(range(len(seen_logs)), RobotView.built(self.t, times, self._windows[0], tuple(first)))
         out = {}
         for i in range(self.scenario.n_robots):
             age = None if self.sight is None else self.sight.ages(i, self.t)
@@ -233,8 +237,8 @@ class Simulation:
                 spread = self.trackers[i].position_sigma.copy()
                 spread[i] = 0.0
             several_ = tuple(tuple(seen[i]) for _, seen in self.entered_by) if self.routes is not None else ()
-            out[i] = RobotView(t=self.t, window_times=times, window_states=self._windows[i],
-                               entered=tuple(self.entered_seen[i]), age=age, sigma=spread, passage_entered=several_)
+            out[i] = RobotView.built(self.t, times, self._windows[i], tuple(self.entered_seen[i]), age, spread,
+                                     several_)
         return out
 
     # -- the loop ------------------------------------------------------------------------------

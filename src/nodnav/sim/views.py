@@ -32,6 +32,18 @@ class RobotView:
     """With several passages, the robots the observer has seen enter each passage, in order
     (``entered`` is the first passage's); empty with one passage."""
 
+    @classmethod
+    def built(cls, t: float, window_times: np.ndarray, window_states: np.ndarray, entered: tuple[int, ...],
+              age: np.ndarray | None = None, sigma: np.ndarray | None = None,
+              passage_entered: tuple[tuple[int, ...], ...] = ()) -> "RobotView":
+        """The view the constructor builds, with the same fields, without the frozen dataclass's
+        assignment of one field at a time (the simulator builds one or more every control step,
+        as :meth:`~nodnav.control.base.ControlRequest.built`)."""
+        view = object.__new__(cls)
+        view.__dict__.update(t=t, window_times=window_times, window_states=window_states, entered=entered, age=age,
+                             sigma=sigma, passage_entered=passage_entered)
+        return view
+
     @property
     def seen(self) -> np.ndarray:
         """Which robots the observer sees now ``(N_r,)``."""

@@ -58,8 +58,13 @@ def _worker(db: str, n: int, seed: int, cores: str) -> None:
 def _launch(checkout: str, db: str, n: int, seed: int, cores: str) -> subprocess.Popen:
     # A kernel cache per checkout, kept between runs (compiling takes minutes).
     digest = hashlib.sha256(str(Path(checkout).resolve()).encode()).hexdigest()[:12]
-    env = dict(os.environ, PYTHONPATH=str(Path(checkout) / "src"),
-               NUMBA_CACHE_DIR=str(Path(tempfile.gettempdir()) / "nodnav-ab-kernels" / digest))
+    cache = Path(tempfile.gettempdir()) / "nodnav-ab-kernels" / digest
+    if not cache.exists():
+        # Kernels used first by later trials would compile inside their timing (the throw-away
+        # trial loads only its own): such a run's times are not comparable.
+        print(f"{checkout}: empty kernel cache {cache}; its trials compile kernels inside the timing: "
+              "run the comparison again for figures", file=sys.stderr)
+    env = dict(os.environ, PYTHONPATH=str(Path(checkout) / "src"), NUMBA_CACHE_DIR=str(cache))
     return subprocess.Popen([sys.executable, __file__, "--worker", db, str(n), str(seed), cores],
                             env=env, stdout=subprocess.PIPE, text=True)
 

@@ -190,5 +190,6 @@ def evasive_structure(prob: MPCProblem, robots: np.ndarray) -> tuple[np.ndarray,
         bounds = prob.slack_bounds[var]
         if len(prob.evasive_memo) >= MEMO_SIZE:
             prob.evasive_memo.pop(next(iter(prob.evasive_memo)))
-        hit = prob.evasive_memo[key] = (var, prob.evasive_hessian[np.ix_(var, var)], rows, bounds, bounds == 0.0, [False])
+        hit = prob.evasive_memo[key] = (var, prob.evasive_hessian[np.ix_(var, var)], rows, bounds, bounds == 0.0,
+                                        [False])
     return hit

@@ -262,7 +262,8 @@ def execute_trial(trial_fn: Callable, scenario: Scenario, method: str, seed: int
     except Exception as exc:  # a failing trial is a result to store, not the end of the sweep
         message = _one_line(exc)
         summary = {"outcome": "error", "error": message, "traceback": traceback.format_exc(),
-                   "wall_time_s": time.perf_counter() - start, "numerics": numerics()}  # errors too can be the machine's
+                   "wall_time_s": time.perf_counter() - start,
+                   "numerics": numerics()}  # an error too can be the machine's
         return TrialOutput(key=key, outcome="error", summary=summary, metrics={}, error=message,
                            code_version=code_version())
 

@@ -202,7 +202,7 @@ class Planner(Protocol):
 
 
 def feasible_order(order: tuple[int, ...], entered: tuple[int, ...],
-                   directions: np.ndarray | None = None) -> tuple[int, ...]:
+                   directions: np.ndarray | list[int] | None = None) -> tuple[int, ...]:
     """The closest order that history still allows: robots that have entered the corridor first,
     then the others in the requested relative order.
 

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from nodnav.scenario.params import FastPlannerParams
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Route:
     """One robot's geometric path and the standing robots (discs) it keeps clear of."""
 
@@ -36,7 +36,7 @@ class Route:
     """Whether the path had to ignore the robots standing in the way (it may cross them)."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Track:
     """A robot's geometric path cut into cells, ready for timing."""
 
@@ -57,7 +57,7 @@ class Track:
     """The path's segments, :func:`polyline_segments`."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Cut:
     """A path cut into cells, before any standing robot is considered (see :class:`Track`)."""
 
@@ -72,7 +72,7 @@ class Cut:
     segments: tuple
 
 
-@dataclass(frozen=True)
+@dataclass
 class RobotPlan:
     """One robot's planned motion."""
 
@@ -202,6 +202,11 @@ class State:
         return self.required.tolist()
 
     @cached_property
+    def position_list(self) -> list:
+        """:attr:`positions` as lists of Python floats."""
+        return self.positions.tolist()
+
+    @cached_property
     def direction_list(self) -> list:
         """:attr:`directions` as a list of Python numbers (the same comparisons, cheaper)."""
         return self.directions.tolist()
@@ -312,7 +317,7 @@ def state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str
     return ""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Attempt:
     success: bool
     reason: str
@@ -322,7 +327,7 @@ class Attempt:
     """``(robot, motion)`` of the robots after it that get out of its way first."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Joint:
     """Every robot planned in one order: what all results for that order share."""
 
@@ -343,7 +348,7 @@ class Joint:
     """The robots that wait aside before they park, so as not to block the robots after them."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Layout:
     """Where everybody is while one robot is planned: the robots before it (their plans), and
     the robots after it, standing where they are or where they get out of the way to."""

@@ -119,7 +119,7 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, tur
     return c + away * scale[:, None]
 
 
-@dataclass(frozen=True)
+@dataclass
 class GeometricPath:
     """A collision-free polyline for one disc robot, or why there is none."""
 

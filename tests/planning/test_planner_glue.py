@@ -70,3 +70,23 @@ def test_no_entered_robot_keeps_the_order():
     for order in ((0, 1, 2, 3), (3, 1, 0, 2), (2, 0, 1)):
         for dirs in (None, [1] * len(order), [-1, 0, 1, 1][:len(order)]):
             assert feasible_order(order, (), dirs) == order
+
+
+def test_remembered_property_computes_once_and_keeps_the_value():
+    """``remembered_property`` (``cached_property`` without the lock): computed on the first
+    read only, kept in the instance, documented as the function, the descriptor on the class."""
+    from nodnav.planning.memo import remembered_property
+
+    calls = []
+
+    class Thing:
+        @remembered_property
+        def value(self) -> int:
+            """The value."""
+            calls.append(1)
+            return 7
+
+    thing = Thing()
+    assert thing.value == 7 and thing.value == 7 and len(calls) == 1
+    assert thing.__dict__["value"] == 7
+    assert isinstance(Thing.value, remembered_property) and Thing.value.__doc__ == "The value."

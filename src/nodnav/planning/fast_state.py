@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -13,6 +12,7 @@ import numpy as np
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
+from nodnav.planning.memo import remembered_property
 from nodnav.planning.occupancy import Motion, _passage_kernel, corridor_passage
 from nodnav.planning.retiming import points_at
 from nodnav.planning.visibility import GeometricPath
@@ -90,7 +90,7 @@ class RobotPlan:
     def arrival(self) -> int:
         return self.motion.last_step
 
-    @cached_property
+    @remembered_property
     def _stays(self) -> tuple[int, int, int, int, int, int]:
         """:attr:`passage` and :attr:`doors` in one compiled pass over the samples."""
         if self.stays is not None:
@@ -195,38 +195,38 @@ class State:
     accels: np.ndarray | None = None
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
-    @cached_property
+    @remembered_property
     def required_list(self) -> list:
         """:attr:`required` as lists of Python floats (``required_list[j][k]`` is
         ``float(required[j, k])``, without indexing NumPy)."""
         return self.required.tolist()
 
-    @cached_property
+    @remembered_property
     def position_list(self) -> list:
         """:attr:`positions` as lists of Python floats."""
         return self.positions.tolist()
 
-    @cached_property
+    @remembered_property
     def direction_list(self) -> list:
         """:attr:`directions` as a list of Python numbers (the same comparisons, cheaper)."""
         return self.directions.tolist()
 
-    @cached_property
+    @remembered_property
     def door_list(self) -> list:
         """:attr:`door` as a list of Python ints."""
         return self.door.tolist()
 
-    @cached_property
+    @remembered_property
     def in_door_list(self) -> list:
         """:attr:`in_door` as a list of Python bools."""
         return self.in_door.tolist()
 
-    @cached_property
+    @remembered_property
     def inside_robots(self) -> frozenset:
         """The robots that stand in the corridor (:attr:`inside`), as Python ints."""
         return frozenset(k for k, here in enumerate(self.inside.tolist()) if here)
 
-    @cached_property
+    @remembered_property
     def stands_and_goals(self) -> np.ndarray:
         """The positions, then the destinations, ``(2n, 2)`` (m): the discs a robot's path keeps
         clear of are rows of it when nobody has got out of the way (one indexing picks them)."""

@@ -13,12 +13,12 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
+from nodnav.planning.memo import remembered_property
 
 #: How far below their present distance the separation of a pair that starts too close is set
 #: (m): the geometric paths keep that distance within :data:`TOL`, the timing then never fails by
@@ -157,13 +157,13 @@ class Motion:
         """The step from which the robot stands still."""
         return len(self.samples) - 1
 
-    @cached_property
+    @remembered_property
     def length(self) -> float:
         """The polyline's length, the sum of its segments' lengths (remembered: the plan of a
         robot is shared by the joint plans of many orders)."""
         return float(self.segments[2].sum())
 
-    @cached_property
+    @remembered_property
     def sweep(self) -> tuple:
         """What :func:`conflict_intervals` needs of this motion whatever the cells: the matrix
         and offsets that give a point's coordinates along and across every segment, the

@@ -161,7 +161,7 @@ class Motion:
     def length(self) -> float:
         """The polyline's length, the sum of its segments' lengths (remembered: the plan of a
         robot is shared by the joint plans of many orders)."""
-        return float(self.segments[2].sum())
+        return float(np.add.reduce(self.segments[2]))  # what .sum() calls, without its wrapper
 
     @remembered_property
     def sweep(self) -> tuple:

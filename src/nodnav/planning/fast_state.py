@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import TYPE_CHECKING, NoReturn
 
 import numpy as np
@@ -13,6 +12,7 @@ import numpy as np
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
+from nodnav.planning.memo import remembered_property
 from nodnav.planning.occupancy import Motion, _passage_kernel, corridor_passage
 from nodnav.planning.retiming import points_at
 from nodnav.planning.visibility import GeometricPath
@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from nodnav.scenario.params import FastPlannerParams
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Route:
     """One robot's geometric path and the standing robots (discs) it keeps clear of."""
 
@@ -36,7 +36,7 @@ class Route:
     """Whether the path had to ignore the robots standing in the way (it may cross them)."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Track:
     """A robot's geometric path cut into cells, ready for timing."""
 
@@ -57,7 +57,7 @@ class Track:
     """The path's segments, :func:`polyline_segments`."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Cut:
     """A path cut into cells, before any standing robot is considered (see :class:`Track`)."""
 
@@ -72,7 +72,7 @@ class Cut:
     segments: tuple
 
 
-@dataclass(frozen=True)
+@dataclass
 class RobotPlan:
     """One robot's planned motion."""
 
@@ -90,7 +90,7 @@ class RobotPlan:
     def arrival(self) -> int:
         return self.motion.last_step
 
-    @cached_property
+    @remembered_property
     def _stays(self) -> tuple[int, int, int, int, int, int]:
         """:attr:`passage` and :attr:`doors` in one compiled pass over the samples."""
         if self.stays is not None:
@@ -195,33 +195,38 @@ class State:
     accels: np.ndarray | None = None
     """Acceleration limits ``(n,)`` (m/s^2) when paths are timed within them, else None."""
 
-    @cached_property
+    @remembered_property
     def required_list(self) -> list:
         """:attr:`required` as lists of Python floats (``required_list[j][k]`` is
         ``float(required[j, k])``, without indexing NumPy)."""
         return self.required.tolist()
 
-    @cached_property
+    @remembered_property
+    def position_list(self) -> list:
+        """:attr:`positions` as lists of Python floats."""
+        return self.positions.tolist()
+
+    @remembered_property
     def direction_list(self) -> list:
         """:attr:`directions` as a list of Python numbers (the same comparisons, cheaper)."""
         return self.directions.tolist()
 
-    @cached_property
+    @remembered_property
     def door_list(self) -> list:
         """:attr:`door` as a list of Python ints."""
         return self.door.tolist()
 
-    @cached_property
+    @remembered_property
     def in_door_list(self) -> list:
         """:attr:`in_door` as a list of Python bools."""
         return self.in_door.tolist()
 
-    @cached_property
+    @remembered_property
     def inside_robots(self) -> frozenset:
         """The robots that stand in the corridor (:attr:`inside`), as Python ints."""
         return frozenset(k for k, here in enumerate(self.inside.tolist()) if here)
 
-    @cached_property
+    @remembered_property
     def stands_and_goals(self) -> np.ndarray:
         """The positions, then the destinations, ``(2n, 2)`` (m): the discs a robot's path keeps
         clear of are rows of it when nobody has got out of the way (one indexing picks them)."""
@@ -312,7 +317,7 @@ def state_problem(dest: np.ndarray, clear: np.ndarray, radii: np.ndarray) -> str
     return ""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Attempt:
     success: bool
     reason: str
@@ -322,7 +327,7 @@ class Attempt:
     """``(robot, motion)`` of the robots after it that get out of its way first."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Joint:
     """Every robot planned in one order: what all results for that order share."""
 
@@ -343,7 +348,7 @@ class Joint:
     """The robots that wait aside before they park, so as not to block the robots after them."""
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Layout:
     """Where everybody is while one robot is planned: the robots before it (their plans), and
     the robots after it, standing where they are or where they get out of the way to."""

@@ -13,12 +13,12 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 
 import numpy as np
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
+from nodnav.planning.memo import remembered_property
 
 #: How far below their present distance the separation of a pair that starts too close is set
 #: (m): the geometric paths keep that distance within :data:`TOL`, the timing then never fails by
@@ -134,7 +134,7 @@ def _segments_kernel(path):
     return start[:k], unit[:k], length[:k], arc0[:k]
 
 
-@dataclass(frozen=True)
+@dataclass
 class Motion:
     """A robot moving along a polyline: where it is at every step; afterwards it stays there."""
 
@@ -157,7 +157,13 @@ class Motion:
         """The step from which the robot stands still."""
         return len(self.samples) - 1
 
-    @cached_property
+    @remembered_property
+    def length(self) -> float:
+        """The polyline's length, the sum of its segments' lengths (remembered: the plan of a
+        robot is shared by the joint plans of many orders)."""
+        return float(np.add.reduce(self.segments[2]))  # what .sum() calls, without its wrapper
+
+    @remembered_property
     def sweep(self) -> tuple:
         """What :func:`conflict_intervals` needs of this motion whatever the cells: the matrix
         and offsets that give a point's coordinates along and across every segment, the
@@ -291,14 +297,27 @@ def blocked_rows(cells: np.ndarray, motion: Motion, required: float) -> np.ndarr
     """:func:`blocked_bits` of :func:`_conflicts_with`'s intervals, one row per step of
     ``motion`` (``cells`` contiguous ``(N, 2)``), in one compiled call: the same bits."""
     basis, offset, s0, length, step, chord_a, chord_b = motion.sweep
-    frame = cells @ basis - offset if motion.last_step > 0 and len(length) else np.zeros((len(cells), 0))
-    return _blocked_kernel(cells, frame, motion.samples[-1], motion.arc, s0, length, step, chord_a, chord_b,
+    # The matrix product stays NumPy's (its rounding, see _conflicts_with); the offsets are
+    # subtracted in the compiled call, element by element as NumPy would.
+    product = cells @ basis if motion.last_step > 0 and len(length) else _NO_FRAME
+    return _blocked_kernel(cells, product, offset, motion.samples[-1], motion.arc, s0, length, step, chord_a, chord_b,
                            motion.last_step, required, (required - TOL) ** 2)
 
 
+#: The frame of a motion that does not move (the compiled loops do not read it).
+_NO_FRAME = np.zeros((0, 0))
+
+
 @_compiled
-def _blocked_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step, required, parked2):
-    """:func:`_intervals_kernel`, then :func:`_close_kernel` into a new table of ``last_step + 1`` rows."""
+def _blocked_kernel(cells, product, offset, end, arc, s0, length, step, chord_a, chord_b, last_step, required,
+                    parked2):
+    """``frame = product - offset`` (in place, when the motion moves), :func:`_intervals_kernel`,
+    then :func:`_close_kernel` into a new table of ``last_step + 1`` rows."""
+    frame = product
+    if last_step > 0 and length.shape[0] > 0:
+        for c in range(frame.shape[0]):
+            for j in range(frame.shape[1]):
+                frame[c, j] = frame[c, j] - offset[j]
     cols, firsts, lasts = _intervals_kernel(cells, frame, end, arc, s0, length, step, chord_a, chord_b, last_step,
                                             required, parked2)
     bits = np.zeros((last_step + 1, (cells.shape[0] + 63) // 64), dtype=np.uint64)
@@ -457,6 +476,5 @@ def free_cells(n_cells: int, n_rows: int, intervals, gates=()) -> np.ndarray:
 
 def join_motions(head: Motion, tail: Motion) -> Motion:
     """``head`` up to its last step, then ``tail``, which starts where ``head`` ends."""
-    length = float(head.segments[2].sum())
     return Motion(np.vstack([head.path, tail.path[1:]]), np.vstack([head.samples[:-1], tail.samples]),
-                  np.concatenate([head.arc[:-1], tail.arc + length]))
+                  np.concatenate([head.arc[:-1], tail.arc + head.length]))

@@ -177,13 +177,16 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
             inside = state.inside_robots
             if inside:
                 entered += tuple(k for k in order if k in inside and k not in entered)
-            back_out = self.params.inside == "back-out"
-            # The repair depends on these three only: the same few come back round after round.
-            repair = (order, entered, state.directions.tobytes() if back_out else None)
-            planned = self._repairs.get(repair)
-            if planned is None:
-                planned = feasible_order(order, entered, state.direction_list if back_out else None)
-                remember_briefly(self._repairs, repair, planned)
+            if not entered:  # nobody has entered: the order itself (what feasible_order gives)
+                planned = order
+            else:
+                back_out = self.params.inside == "back-out"
+                # The repair depends on these three only: the same few come back round after round.
+                repair = (order, entered, state.directions.tobytes() if back_out else None)
+                planned = self._repairs.get(repair)
+                if planned is None:
+                    planned = feasible_order(order, entered, state.direction_list if back_out else None)
+                    remember_briefly(self._repairs, repair, planned)
             known = (entered, planned)
             remember_briefly(self._orders, asked, known)
         entered, planned = known
@@ -282,7 +285,7 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
         # Each robot standing at its last sample once it has arrived, in one compiled call.
         trajectory = JointTrajectory(*joint_arrays(np.concatenate(samples), np.array(ends, dtype=np.int64), t0, dt))
         arrival = np.array([(e - 1) * dt for e in ends])
-        lengths = np.array([float(m.segments[2].sum()) for m in motions])
+        lengths = np.array([m.length for m in motions])
         # Shared by every result of this order: nobody may change them in place.
         for a in (trajectory.times, trajectory.positions, trajectory.velocities, arrival, lengths):
             a.setflags(write=False)

@@ -26,15 +26,12 @@ from nodnav.scenario.world import World
 _NO_GATES = np.zeros((0, 2), dtype=np.int64)
 
 
-def _allclose_point(a: np.ndarray, b: np.ndarray) -> bool:
-    """``np.allclose(a, b)`` of two finite points ``(2,)`` at its default tolerances
-    (``|a - b| <= 1e-8 + 1e-5 |b|`` per coordinate, the same float operations), without its
-    array overhead (it ran once per planned robot)."""
-    for d in range(2):
-        x, y = float(a[d]), float(b[d])
-        if not abs(x - y) <= 1e-08 + 1e-05 * abs(y):
-            return False
-    return True
+def _allclose_point(x: float, y: float, b: list) -> bool:
+    """``np.allclose((x, y), b)`` of two finite points (``b`` as a list of two Python floats)
+    at its default tolerances (``|a - b| <= 1e-8 + 1e-5 |b|`` per coordinate, the same float
+    operations), without its array overhead (it ran once per planned robot)."""
+    bx, by = b
+    return abs(x - bx) <= 1e-08 + 1e-05 * abs(bx) and abs(y - by) <= 1e-08 + 1e-05 * abs(by)
 
 
 class VelocityTuning(FastPlannerHooks):
@@ -113,7 +110,7 @@ class VelocityTuning(FastPlannerHooks):
         if state.accels is not None and state.velocities is not None:
             retime = True
             # Moving now only if it starts where it stands now (not after getting out of the way).
-            if t0 == 0 and len(track.segments[1]) and _allclose_point(cells[0], state.positions[k]):
+            if t0 == 0 and len(track.segments[1]) and _allclose_point(x0, y0, state.position_list[k]):
                 v0 = max(0.0, float(state.velocities[k] @ track.segments[1][0]))
             vmax, alpha = float(state.max_speeds[k]), float(state.accels[k]) * float(self.params.dt)
         ok2 = track.ok2 if track.ok2.dtype == np.bool_ else np.asarray(track.ok2, dtype=bool)

@@ -34,7 +34,7 @@ from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear
 from nodnav.planning.disc_checks import _crosses_any, disc_violations
 from nodnav.planning.graph_search import shortest_chain
-from nodnav.planning.memo import remember
+from nodnav.planning.memo import remember, remembered_property
 from nodnav.planning.polylines import polyline_length
 from nodnav.planning.wall_paths import NONE, segments_to_check, walls_answers
 from nodnav.scenario.world import World
@@ -119,7 +119,7 @@ def octagon_exits(point: np.ndarray, centres: np.ndarray, radii: np.ndarray, tur
     return c + away * scale[:, None]
 
 
-@dataclass(frozen=True)
+@dataclass
 class GeometricPath:
     """A collision-free polyline for one disc robot, or why there is none."""
 
@@ -130,7 +130,7 @@ class GeometricPath:
     points: np.ndarray
     """Vertices ``(V, 2)`` from start to goal (m); just the start on failure."""
 
-    @functools.cached_property
+    @remembered_property
     def length(self) -> float:
         """Length of the polyline (m); ``inf`` on failure. Computed when first read: the fast
         planner makes thousands of paths per trial and reads few lengths."""

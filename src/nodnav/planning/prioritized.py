@@ -183,10 +183,11 @@ class PrioritizedPlanner(GeometricPaths, VelocityTuning, MakingWay, DeferredPark
                 back_out = self.params.inside == "back-out"
                 # The repair depends on these three only: the same few come back round after round.
                 repair = (order, entered, state.directions.tobytes() if back_out else None)
-                planned = self._repairs.get(repair)
-                if planned is None:
-                    planned = feasible_order(order, entered, state.direction_list if back_out else None)
-                    remember_briefly(self._repairs, repair, planned)
+                repaired = self._repairs.get(repair)
+                if repaired is None:
+                    repaired = feasible_order(order, entered, state.direction_list if back_out else None)
+                    remember_briefly(self._repairs, repair, repaired)
+                planned = repaired
             known = (entered, planned)
             remember_briefly(self._orders, asked, known)
         entered, planned = known

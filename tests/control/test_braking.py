@@ -134,7 +134,9 @@ def test_every_step_leaves_a_braking_trajectory_clear_of_the_walls(state):
             # clear), else only without a committed trajectory, saying why.
             straight = tail_clearance(p, v, robot.max_accel, world.obstacle_array, world.piece_array,
                                       world.bounds_array)
-            if straight >= robot.radius:
+            # Within the controller's check tolerance of the radius counts as clear (as it does
+            # for the controller; a random draw once fell in that 1e-4 m band).
+            if straight >= robot.radius - PARAMS.check_tolerance:
                 assert "stops clear of the walls" in res.reason and moved >= robot.radius - 1e-3
             else:
                 assert not had, res.reason

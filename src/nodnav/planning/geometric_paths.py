@@ -108,19 +108,18 @@ class GeometricPaths:
         path = graph.shortest_path(start, goal, centres, rads)
         if path.success:  # the common case: no set of discs given up
             return Route(path, centres, rads, detour=False)
-        attempts = []
+        # Give up the later robots' positions, then every disc (each only if it leaves any out).
+        attempts, c, r = [], centres, rads
         if n_later:
             attempts.append((centres[n_later:], rads[n_later:]))
         if len(attempts[-1][0] if attempts else centres):
             attempts.append((np.zeros((0, 2)), np.zeros(0)))
-        c, r = centres, rads
-        level = 1  # how many sets of discs had to be given up
         for c, r in attempts:
             path = graph.shortest_path(start, goal, c, r)
             if path.success:
                 break
-            level += 1
-        return Route(path, c, r, detour=bool(n_later) and level > 0)
+        # At least one set of discs was given up: a detour where later robots were kept clear of.
+        return Route(path, c, r, detour=bool(n_later))
 
     def _prepare(self, world: World, radius: float, step: float, route: Route) -> Track:
         """The path cut into cells (:meth:`_cut`), with the full-speed moves that would cut a

@@ -85,7 +85,6 @@ class VelocityTuning(FastPlannerHooks):
         cells, n = track.cells, len(track.cells)
         x0, y0 = cells[0].tolist()
         required = state.required_list  # Python floats: float(state.required[j, k]), cheaper
-        by_id = self._rows_by_id
         # Each motion's rows, one after the other; the compiled call ORs them into the table.
         parts, rows = [], []
         for j, m in fixed:
@@ -93,11 +92,7 @@ class VelocityTuning(FastPlannerHooks):
             samples = m.samples
             hx, hy = samples[min(t0, len(samples) - 1)].tolist()
             gap = math.hypot(hx - x0, hy - y0)
-            if gap >= r:
-                hit = by_id.get((id(cells), id(m), r))  # _blocked's first memo, without its call
-                bits = hit[2] if hit is not None else self._blocked(cells, m, r)
-            else:
-                bits = relaxed_bits(cells, m, r, gap)
+            bits = self._blocked(cells, m, r) if gap >= r else relaxed_bits(cells, m, r, gap)
             parts.append(bits)
             rows.append(len(bits))
         if len(parts) == 1:

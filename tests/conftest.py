@@ -1,11 +1,21 @@
 """What several test modules share: a stand-in for a trial's result, for tests of what is done
 with results (sweeps, the results database, reports) rather than of the trials themselves."""
 
+import os
 import sys
 from dataclasses import dataclass, field
 
 import cloudpickle
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run (derandomize: each test's draws are seeded
+# from the test itself), so a failure in CI fails again on any machine; HYPOTHESIS_PROFILE=explore
+# draws fresh examples each run, to look for new counterexamples on purpose. No example database:
+# a clean clone and a developer's checkout run the same examples.
+settings.register_profile("repeatable", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False, database=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 # A sweep with several workers sends its trial function to other processes, which cannot import
 # this file: what it defines goes by value.

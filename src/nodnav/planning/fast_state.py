@@ -12,8 +12,10 @@ import numpy as np
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL
 from nodnav.planning.base import JointTrajectory
+from nodnav.planning.disc_checks import corner_heights
 from nodnav.planning.memo import remembered_property
-from nodnav.planning.occupancy import Motion, _passage_kernel, corridor_passage
+from nodnav.planning.occupancy import Motion, _entry_kernel, _passage_kernel, _segments_kernel, corridor_passage
+from nodnav.planning.polylines import _grid_kernel
 from nodnav.planning.retiming import points_at
 from nodnav.planning.visibility import GeometricPath
 from nodnav.planning.waiting_spots import in_door_zone
@@ -151,6 +153,26 @@ def zones_of(points, g):
     :func:`~nodnav.planning.fused_timing.stay_geometry` packs them into ``g``."""
     return _zones_kernel(points, g[0] != 0.0, g[1], g[2], g[3], g[4], g[5], g[6], g[7], g[8], g[9], g[10], g[11],
                          g[12], g[13])
+
+
+@_compiled
+def grid_and_corners(path, spacing):
+    """:func:`~nodnav.planning.polylines.arc_length_grid` of ``path`` (contiguous ``(m, 2)``) and
+    :func:`~nodnav.planning.disc_checks.corner_heights` of its points, in one compiled call (the
+    same kernels): ``(cells, arc, corners, height)``; no corners for fewer than three cells."""
+    cells, arc = _grid_kernel(path, spacing)
+    corners, height = corner_heights(cells)
+    return cells, arc, corners, height
+
+
+@_compiled
+def cut_zones(cells, g, path):
+    """:func:`zones_of` ``cells``, the :func:`~nodnav.planning.occupancy.entry_cell` of each zone
+    and :func:`~nodnav.planning.occupancy.polyline_segments` of ``path`` (contiguous ``(m, 2)``),
+    in one compiled call (the same kernels): ``(inside, entry, left entry, right entry, segments)``."""
+    inside, left, right = zones_of(cells, g)
+    return (inside, _entry_kernel(inside), _entry_kernel(left), _entry_kernel(right),
+            _segments_kernel(path))
 
 
 @_compiled

@@ -14,11 +14,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nodnav.geometry import TOL, segment_is_clear
-from nodnav.planning.disc_checks import corner_cuts_of, corner_heights
-from nodnav.planning.fast_state import Cut, Route, Track, zones_of
+from nodnav.planning.disc_checks import corner_cuts_of
+from nodnav.planning.fast_state import Cut, Route, Track, cut_zones, grid_and_corners
 from nodnav.planning.memo import remember, remember_within
-from nodnav.planning.occupancy import entry_cell, polyline_segments
-from nodnav.planning.polylines import arc_length_grid
 from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.world import World
 
@@ -150,15 +148,14 @@ class GeometricPaths:
         cut = self._cuts.get(key)
         if cut is not None:
             return cut
-        grid = arc_length_grid(path, step / 2.0)
-        cells = grid.points
+        poly = np.ascontiguousarray(path, dtype=float).reshape(-1, 2)
+        # arc_length_grid, then the corners and each chord's distance from its middle cell
+        # (none for fewer than three cells), in one compiled call.
+        cells, arc, corners, height = grid_and_corners(poly, float(step / 2.0))
         n = len(cells)
         ok = np.zeros(n, dtype=bool)
-        corners = np.zeros(0, dtype=int)
         if n >= 3:
             ok[:n - 2] = True
-            # The corners and each chord's distance from its middle cell, in one compiled loop.
-            corners, height = corner_heights(cells)
             if len(corners):
                 end_clearance = float(world.clearance(path[[0, -1]]).min())
                 good = min(radius + self.wall_margin, end_clearance) - height >= radius
@@ -169,9 +166,9 @@ class GeometricPaths:
                     good[unsure] = segment_is_clear(world, au, bu, limit - TOL)
                 ok[corners] = good
         # World.on_line (a robot waiting in a bay is out of the single file) and in_door_zone of
-        # both entrances, in one compiled pass with their operations.
-        inside, left, right = zones_of(cells, self._stay_geometry(world))
-        doors = (entry_cell(left), entry_cell(right))
-        cut = Cut(cells, grid.arc_length, ok, corners, inside, entry_cell(inside), doors, polyline_segments(path))
+        # both entrances with their operations, each zone's entry_cell and the path's
+        # polyline_segments, in one compiled call.
+        inside, entry, left, right, segments = cut_zones(cells, self._stay_geometry(world), poly)
+        cut = Cut(cells, arc, ok, corners, inside, int(entry), (int(left), int(right)), segments)
         remember(self._cuts, key, cut)
         return cut

@@ -169,9 +169,11 @@ def test_exact_sensing_shared_by_every_robot_gives_the_same_trial():
     scenario = load_scenario("3r-case4")
     shared = Simulation(scenario, seed=4)
     assert shared._exact and all(w is shared._windows[0] for w in shared._windows)
+    assert all(r is shared.observed[0] for r in shared.observed)  # one record, shared
     alone = Simulation(scenario, seed=4)
     alone._exact = False  # the general path: every robot observes, keeps its window, every record updated
     alone._windows = [copy.deepcopy(w) for w in alone._windows]
+    alone.observed = [list(r) for r in alone.observed]  # each robot its own record
     for a, b in zip(_history(shared, 120), _history(alone, 120)):
         assert a.tobytes() == b.tobytes()
 

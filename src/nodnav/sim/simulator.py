@@ -96,9 +96,12 @@ class Simulation:
         """Whether every robot observes exactly the truth (the paper's sensing): then all observe
         the same states, computed once a step and shared (read-only) by every robot's record."""
         self.observed: list[list[np.ndarray]] = [[] for _ in range(n)]
-        # Each robot's own record of what it observed (noisy for the others), newest last.
-        for i in range(n):
-            self.observed[i].append(self.observed[0][-1] if self._exact and i else self._observe(i))
+        # Each robot's own record of what it observed (noisy for the others), newest last. With
+        # exact sensing every record is the same: one list, shared (and only read) by every robot.
+        if self._exact:
+            self.observed = [self.observed[0]] * n
+        for i in range(1 if self._exact else n):
+            self.observed[i].append(self._observe(i))
         # Each robot's window of the last opinion period (N_r, M, 4), shifted by one sample a
         # step rather than stacked anew; before one whole period has passed it is padded with
         # the first sample. Read-only: every view of a step shares it (and with exact sensing
@@ -251,7 +254,11 @@ class Simulation:
         if self.k % self.steps_per_decision == 0:
             self._decide(views)
         results = self.method.act(self.t, views)
-        path = np.repeat(self.positions[None], len(STEP_FRACTIONS), axis=0)  # where each robot passes
+        positions, velocities = self.positions, self.velocities
+        n = len(positions)
+        # Where each robot passes: every column is written below when every robot has a result.
+        path = (np.empty((CONTACT_SUBSTEPS, n, 2)) if len(results) == n else
+                np.repeat(positions[None], CONTACT_SUBSTEPS, axis=0))
         for i, res in results.items():
             if not res.success:
                 self.mpc_infeasible += 1
@@ -259,23 +266,22 @@ class Simulation:
             if res.step_positions is not None:
                 path[:, i] = res.step_positions
             else:
-                path[:, i] = straight_substeps(self.positions[i:i + 1], res.next_position[None], STEP_FRACTIONS)[:, 0]
-            self.positions[i] = res.next_position
-            self.velocities[i] = res.next_velocity
+                path[:, i] = straight_substeps(positions[i:i + 1], res.next_position[None], STEP_FRACTIONS)[:, 0]
+            positions[i] = res.next_position
+            velocities[i] = res.next_velocity
         self.k += 1
         self.t = self.k * self.dt
         if self.sight is not None:
             self.sight.update(self.t, self.positions)
-        if self._exact:  # everyone observes the same: one observation and one window for all
+        if self._exact:  # everyone observes the same: one observation, one (shared) record and one window for all
             seen = self._observe(0)
             window = _frozen(np.concatenate((self._windows[0][:, 1:], seen[:, None]), axis=1))
-            keep = -(self.steps_per_decision + 2)
-            for i in range(self.scenario.n_robots):
-                self.observed[i].append(seen)
-                del self.observed[i][:keep]
-                self._windows[i] = window
+            record = self.observed[0]
+            record.append(seen)
+            del record[:-(self.steps_per_decision + 2)]
+            self._windows = [window] * n
         else:
-            for i in range(self.scenario.n_robots):
+            for i in range(n):
                 seen = self._observe(i)
                 self.observed[i].append(seen)
                 del self.observed[i][: -(self.steps_per_decision + 2)]

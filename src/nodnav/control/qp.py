@@ -382,7 +382,7 @@ class SolverEffort:
         t = time.perf_counter()
         memory = self.reduced if reach is not None and kind is not None else None
         sol = None
-        if memory is not None:
+        if memory is not None and reach is not None:  # (memory implies reach; said again for mypy)
             last = memory.get(kind, 0.0)
             if last == last:  # not NaN: the last solve of this kind succeeded (or there was none)
                 sol, norm = solve_reduced(hessian, gradient, rows, lower, tol, reach, last, warm)

@@ -8,8 +8,11 @@ import pytest
 from nodnav.control.mpc import BSplineMPC
 from nodnav.control.mpc_rows import row_reach
 from nodnav.control.qp import SolverEffort, solve_qp, solve_reduced
+from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
+from nodnav.scenario.transform import transform_scenario
 from nodnav.scenario.world import paper_world
+from nodnav.sim.simulator import Simulation
 
 NZ = 6
 
@@ -76,6 +79,32 @@ def test_the_problems_reach_is_row_reach_of_its_rows():
     finite = np.isfinite(plain)
     assert np.array_equal(np.isinf(prob.reach), ~finite)
     assert np.allclose(prob.reach[finite], plain[finite], rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("turn", [0.0, 30.0])
+def test_every_closed_loop_reach_is_the_plain_distance(turn, monkeypatch):
+    """row_reach reads each row's normal back from its shape: every tracking QP of a closed loop,
+    in the paper's corridor and turned by 30 degrees (polygon walls), has the reach of its rows
+    (a wrong reach would leave out rows DAQP needs)."""
+    checked = []
+    solve = SolverEffort.solve
+
+    def checking(self, hessian, gradient, rows, lower, tol, *args, reach=None, **kwargs):
+        if reach is not None:
+            plain = _reach_plain(rows, lower, gradient)
+            finite = np.isfinite(plain)
+            assert np.array_equal(np.isinf(reach), ~finite)
+            assert np.allclose(reach[finite], plain[finite], rtol=1e-10, atol=1e-12)
+            checked.append(len(rows))
+        return solve(self, hessian, gradient, rows, lower, tol, *args, reach=reach, **kwargs)
+
+    monkeypatch.setattr(SolverEffort, "solve", checking)
+    scenario = load_scenario("4r-case4")
+    sim = Simulation(transform_scenario(scenario, turn) if turn else scenario, "nod", 1)
+    for _ in range(120):
+        if sim.step():
+            break
+    assert len(checked) > 300
 
 
 def _same(a, b):

@@ -30,7 +30,7 @@ from nodnav.planning.base import PlanRequest, PlanResult, crossing_directions, r
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
-from nodnav.sim.plan_cache import PlanCache, crossed_state, hashable, state_key
+from nodnav.sim.plan_cache import PlanCache, crossed_state, hashable, stack_key, state_key
 from nodnav.sim.views import Decision, RobotView  # defined there, imported from here by the methods
 
 
@@ -151,6 +151,10 @@ class NODAgent:
         self.accel = self.arrays[3]
         self._arrays_keys = (hashable(self.destinations), hashable(self.radii))
         """:func:`hashable` of the (read-only) destinations and radii, for the plan cache's keys."""
+        self._everyone = np.ones(scenario.n_robots, dtype=bool)
+        self._everyone.flags.writeable = False
+        self._everyone_key = hashable(self._everyone)
+        """What ``RobotView.known`` is with the paper's sensing (no ages): every robot, and its key."""
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -186,6 +190,12 @@ class NODAgent:
         through the same (read-only) window: every agent, with exact sensing."""
         window = view.window_states
         return self.plans.once(("positions", id(window)), lambda: hashable(view.positions), window)
+
+    def _known(self, view: RobotView) -> np.ndarray:
+        """``view.known``; with the paper's sensing (no ages) the agent's read-only array of every robot."""
+        if view.age is None and view.window_states.shape[0] == len(self._everyone):
+            return self._everyone
+        return view.known
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
         """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
@@ -226,14 +236,15 @@ class NODAgent:
         social = np.zeros(len(plans))
         if players and self.social:
             columns = [planning.index(k) for k in players]
-            stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
+            stacked_key = stack_key(plans, view.window_times)  # its key, part of eq. (4a)'s below
+            stacked = self.plans.stacked_states(plans, view.window_times, stacked_key)  # (G, n, M, 4), for the round
             dt = float(view.window_times[1] - view.window_times[0])
             if stacked.ndim == 4:
                 # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
                 # same and planned alike (each element reads its own robot's row only); this
                 # robot's players' columns of it, laid out as eq. (4a) of its players alone.
                 rows = list(planning)
-                key = ("eq4", tuple(id(p.trajectory) for p in plans), view.window_times.tobytes(), planning,
+                key = ("eq4", *stacked_key, planning,
                        self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
                        self.accel[rows].tobytes())
                 everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
@@ -245,7 +256,7 @@ class NODAgent:
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
             # of the game standing for class_size of the N_r! strategies.
-            social = class_size(self.scenario.n_robots, len(game)) * r.sum(axis=0)
+            social = class_size(self.scenario.n_robots, len(game)) * np.add.reduce(r, axis=0)  # r.sum's reduction
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
@@ -350,7 +361,7 @@ class NODAgent:
             window = view.window_states  # every agent of the round that sees through it asks the same
             inside = self.plans.shared(("in corridor", id(world), id(window)), lambda: world.in_corridor(view.positions),
                                        (world, window))
-            known = view.known
+            known = self._known(view)
             entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
@@ -363,10 +374,14 @@ class NODAgent:
         planning = [self.index, *players, *entered]
         if len(planning) == s.n_robots:  # packed_crossed adds robots outside the plan only: there are none
             return entered
-        known = view.known
-        done = known if self.settled is None else known & self.settled
+        known = self._known(view)
+        if known is self._everyone and self.settled is None:  # every robot known and done: the key is the agent's
+            done, done_key = known, self._everyone_key
+        else:
+            done = known if self.settled is None else known & self.settled
+            done_key = hashable(done)
         # Game players of one game ask the same, so the plan cache answers once per round.
-        state = crossed_state(world, self._positions_key(view), *self._arrays_keys, hashable(done),
+        state = crossed_state(world, self._positions_key(view), *self._arrays_keys, done_key,
                               s.sim.goal_tolerance, s.planner.margin)
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
                                                    planning, s.sim.goal_tolerance, s.planner.margin, state)
@@ -462,6 +477,6 @@ class NODAgent:
         plan = plans[strategy]
         if not available.any():  # nothing to follow: get out of everybody's way
             plan = clearing_plan(self.scenario, view, planning, self.index, plan, self._graphs)
-        return Decision(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
+        return Decision.built(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players, game=game,
                         order=tuple(orders[strategy].tolist()))

@@ -144,12 +144,14 @@ class PlanCache:
                                                             packed, masks))
         return hit
 
-    def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
+    def stacked_states(self, plans: list[PlanResult], times: np.ndarray, key: tuple | None = None) -> np.ndarray:
         """:meth:`states_at` of every plan of ``plans`` stacked, ``(G, n, M, 4)``, once per round
         for the same plans and times: every game player of a shared game reads the whole list
         of the round before, each keeping its own players' columns. Plans of unequal robot
-        counts cannot be stacked: their states are stacked by the caller per column."""
-        key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
+        counts cannot be stacked: their states are stacked by the caller per column. ``key``:
+        :func:`stack_key` of the arguments, if the caller has it."""
+        if key is None:
+            key = stack_key(plans, times)
         hit = self._stacks.get(key)
         if hit is None:
             states = [self._states_at(p.trajectory, times, key[1]) for p in plans]
@@ -215,6 +217,12 @@ def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
     return request
 
 
+def stack_key(plans: list[PlanResult], times: np.ndarray) -> tuple[tuple[int, ...], bytes]:
+    """What :meth:`PlanCache.stacked_states` is keyed by: the plans' trajectories by ``id`` (the
+    cache holds the plans) and the times' bytes."""
+    return tuple(id(p.trajectory) for p in plans), times.tobytes()
+
+
 def crossed_state(world: World, positions: tuple, destinations: tuple, radii: tuple, known: tuple,
                   goal_tolerance: float, margin: float) -> tuple:
     """The key :meth:`PlanCache.packed_crossed` gives the arguments other than ``planning``, the
@@ -232,4 +240,4 @@ def hashable(value):
     return value
 
 
-__all__ = ["PlanCache", "crossed_state", "hashable", "state_key"]
+__all__ = ["PlanCache", "crossed_state", "hashable", "stack_key", "state_key"]

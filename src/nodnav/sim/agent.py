@@ -359,8 +359,8 @@ class NODAgent:
         entered: tuple[int, ...] = ()
         if view.entered:  # the corridor test only for the robots seen to enter
             window = view.window_states  # every agent of the round that sees through it asks the same
-            inside = self.plans.shared(("in corridor", id(world), id(window)), lambda: world.in_corridor(view.positions),
-                                       (world, window))
+            inside = self.plans.shared(("in corridor", id(world), id(window)),
+                                       lambda: world.in_corridor(view.positions), (world, window))
             known = self._known(view)
             entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":

@@ -101,3 +101,39 @@ def test_scalar_paths_of_the_opinion_update_are_the_array_paths_bit_for_bit():
     rows = [rng.uniform(0, 9, 6) for _ in range(4)]
     now = rng.uniform(0, 9, 6)
     assert np.array_equal(progress_beyond_best(now, rows), np.vstack(rows).min(axis=0) - now)
+
+
+def test_a_decision_built_is_the_constructors():
+    from nodnav.sim.views import Decision
+
+    z = np.array([0.5, -0.5])
+    fields = dict(strategy=1, robots=(2, 0), plan=None, opinions=z, probabilities=z, players=(0,), game=(0, 2),
+                  order=(2, 0))
+    built, constructed = Decision.built(**fields), Decision(**fields)
+    assert type(built) is Decision and built.__dict__ == constructed.__dict__
+    assert Decision.built(**{k: v for k, v in fields.items() if k not in ("game", "order")}).game == ()
+
+
+def test_the_agents_known_robots_are_the_views():
+    from nodnav.sim.agent import NODAgent
+    from nodnav.sim.plan_cache import PlanCache
+    from nodnav.sim.views import RobotView
+
+    scenario = load_scenario("4r-case1")
+    agent = NODAgent(scenario, 0, np.random.default_rng(0), PlanCache(None))
+    window = np.zeros((4, 3, 4))
+    exact = RobotView.built(0.0, np.zeros(3), window, ())
+    assert np.array_equal(agent._known(exact), exact.known) and not agent._known(exact).flags.writeable
+    ages = RobotView.built(0.0, np.zeros(3), window, (), age=np.array([0.0, np.inf, 1.0, 0.0]))
+    assert agent._known(ages).tolist() == [True, False, True, True]
+
+
+def test_the_sides_key_follows_the_sides_an_agent_is_given():
+    from nodnav.sim.agent import NODAgent, approach_sides
+    from nodnav.sim.plan_cache import PlanCache
+
+    scenario = load_scenario("4r-case1")
+    agent = NODAgent(scenario, 0, np.random.default_rng(0), PlanCache(None))
+    assert agent._sides_key == approach_sides(scenario).tobytes()
+    agent.sides = -agent.sides  # as a passage's agent is given its passage's sides
+    assert agent._sides_key == (-approach_sides(scenario)).tobytes()

@@ -99,3 +99,28 @@ def test_the_stacked_states_of_a_round_are_each_plans_states_once():
     assert cache.stacked_states(list(plans), times.copy()) is stacked  # asked again: the same array
     cache.clear()
     assert cache.stacked_states(plans, times) is not stacked
+
+
+def test_a_callers_state_key_is_the_key_the_cache_builds():
+    from nodnav.sim.plan_cache import crossed_state, hashable
+
+    cache = PlanCache(PrioritizedPlanner(WORLD))
+    positions, destinations, radii, known = robots()
+    state = crossed_state(WORLD, *(hashable(a) for a in (positions, destinations, radii, known)), TOL, MARGIN)
+    assert cache.packed_crossed(WORLD, positions, destinations, radii, known, [0], TOL, MARGIN, state) == (1, 2, 3)
+    # The cache's own key of the same arguments finds the answer given for the caller's.
+    assert cache._crossed and cache.packed_crossed(WORLD, positions, destinations, radii, known, [0], TOL,
+                                                   MARGIN) == (1, 2, 3)
+    assert len(cache._crossed) == 1 and len(cache._packed) == 1
+
+
+def test_a_callers_stack_key_is_the_key_the_cache_builds():
+    from nodnav.planning.base import JointTrajectory, PlanResult
+    from nodnav.sim.plan_cache import stack_key
+
+    cache = PlanCache(PrioritizedPlanner(WORLD))
+    times = np.array([0.0, 1.0])
+    t = np.array([0.0, 4.0])
+    plans = [PlanResult(True, "", 1.0, JointTrajectory.from_positions(t, np.zeros((2, 1, 2))), (0,), (0,), 0.0)]
+    stacked = cache.stacked_states(plans, times, stack_key(plans, times))
+    assert cache.stacked_states(plans, times) is stacked

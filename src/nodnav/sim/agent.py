@@ -30,7 +30,7 @@ from nodnav.planning.base import PlanRequest, PlanResult, crossing_directions, r
 from nodnav.planning.clearing import clear_the_way
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import LEFT, RIGHT, distance_to_go
-from nodnav.sim.plan_cache import PlanCache, state_key
+from nodnav.sim.plan_cache import PlanCache, crossed_state, hashable, stack_key, state_key
 from nodnav.sim.views import Decision, RobotView  # defined there, imported from here by the methods
 
 
@@ -149,6 +149,12 @@ class NODAgent:
         """The scenario's destinations, radii, speed and acceleration limits (:func:`robot_arrays`)."""
         self.destinations, self.radii = self.arrays[0], self.arrays[1]
         self.accel = self.arrays[3]
+        self._arrays_keys = (hashable(self.destinations), hashable(self.radii))
+        """:func:`hashable` of the (read-only) destinations and radii, for the plan cache's keys."""
+        self._everyone = np.ones(scenario.n_robots, dtype=bool)
+        self._everyone.flags.writeable = False
+        self._everyone_key = hashable(self._everyone)
+        """What ``RobotView.known`` is with the paper's sensing (no ages): every robot, and its key."""
         self.game: tuple[int, ...] = ()
         """The robots the opinions are about: this robot and its game players, in increasing index."""
         self.z = np.zeros(0)
@@ -167,6 +173,29 @@ class NODAgent:
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
         self._to_go_args: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         self._graphs = plans.graphs  # visibility graphs by radius, shared through the plan cache
+
+    @property
+    def sides(self) -> np.ndarray:
+        """The side each robot approaches the corridor from (:func:`approach_sides`), ``(N_r,)``;
+        with several passages the passage's (:func:`~nodnav.sim.methods.passage_nod_agent` sets them)."""
+        return self._sides
+
+    @sides.setter
+    def sides(self, sides: np.ndarray) -> None:
+        self._sides = sides
+        self._sides_key = sides.tobytes()  # part of the plan cache's keys, taken once
+
+    def _positions_key(self, view: RobotView) -> tuple:
+        """:func:`hashable` of ``view.positions``, once per round for every agent that sees
+        through the same (read-only) window: every agent, with exact sensing."""
+        window = view.window_states
+        return self.plans.once(("positions", id(window)), lambda: hashable(view.positions), window)
+
+    def _known(self, view: RobotView) -> np.ndarray:
+        """``view.known``; with the paper's sensing (no ages) the agent's read-only array of every robot."""
+        if view.age is None and view.window_states.shape[0] == len(self._everyone):
+            return self._everyone
+        return view.known
 
     def orders_of(self, game: tuple[int, ...]) -> np.ndarray:
         """The passing orders of ``game`` ``((k+1)!, k+1)`` (scenario indices, :func:`game_orders`)."""
@@ -207,14 +236,15 @@ class NODAgent:
         social = np.zeros(len(plans))
         if players and self.social:
             columns = [planning.index(k) for k in players]
-            stacked = self.plans.stacked_states(plans, view.window_times)  # (G, n, M, 4), shared by the round
+            stacked_key = stack_key(plans, view.window_times)  # its key, part of eq. (4a)'s below
+            stacked = self.plans.stacked_states(plans, view.window_times, stacked_key)  # (G, n, M, 4), for the round
             dt = float(view.window_times[1] - view.window_times[0])
             if stacked.ndim == 4:
                 # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
                 # same and planned alike (each element reads its own robot's row only); this
                 # robot's players' columns of it, laid out as eq. (4a) of its players alone.
                 rows = list(planning)
-                key = ("eq4", tuple(id(p.trajectory) for p in plans), view.window_times.tobytes(), planning,
+                key = ("eq4", *stacked_key, planning,
                        self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
                        self.accel[rows].tobytes())
                 everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
@@ -226,7 +256,7 @@ class NODAgent:
             r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
             # of the game standing for class_size of the N_r! strategies.
-            social = class_size(self.scenario.n_robots, len(game)) * r.sum(axis=0)
+            social = class_size(self.scenario.n_robots, len(game)) * np.add.reduce(r, axis=0)  # r.sum's reduction
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
@@ -256,7 +286,7 @@ class NODAgent:
             return undecided_first(L, view.entered) if undecided else L
 
         # Every agent of the round that sees the same asks the same (its own row differs only).
-        key = ("likelihoods", id(world), positions.tobytes(), self.sides.tobytes(), self.params.delta,
+        key = ("likelihoods", id(world), self._positions_key(view), self._sides_key, self.params.delta,
                view.entered if undecided else None)
         L = self.plans.shared(key, likelihoods, world)
         return players_in_sight(L, view, self.index, self.n_players, self.eligible)
@@ -328,7 +358,10 @@ class NODAgent:
         world = self.scenario.world
         entered: tuple[int, ...] = ()
         if view.entered:  # the corridor test only for the robots seen to enter
-            inside, known = world.in_corridor(view.positions), view.known
+            window = view.window_states  # every agent of the round that sees through it asks the same
+            inside = self.plans.shared(("in corridor", id(world), id(window)),
+                                       lambda: world.in_corridor(view.positions), (world, window))
+            known = self._known(view)
             entered = tuple(k for k in view.entered if inside[k] and known[k] and k != self.index and k not in players)
         if self.params.crossed != "planned":
             return entered
@@ -341,11 +374,17 @@ class NODAgent:
         planning = [self.index, *players, *entered]
         if len(planning) == s.n_robots:  # packed_crossed adds robots outside the plan only: there are none
             return entered
-        known = view.known
-        done = known if self.settled is None else known & self.settled
+        known = self._known(view)
+        if known is self._everyone and self.settled is None:  # every robot known and done: the key is the agent's
+            done, done_key = known, self._everyone_key
+        else:
+            done = known if self.settled is None else known & self.settled
+            done_key = hashable(done)
         # Game players of one game ask the same, so the plan cache answers once per round.
+        state = crossed_state(world, self._positions_key(view), *self._arrays_keys, done_key,
+                              s.sim.goal_tolerance, s.planner.margin)
         return entered + self.plans.packed_crossed(world, view.positions, self.destinations, self.radii, done,
-                                                   planning, s.sim.goal_tolerance, s.planner.margin)
+                                                   planning, s.sim.goal_tolerance, s.planner.margin, state)
 
     def standoff(self, view: RobotView, players: tuple[int, ...]) -> int:
         """The game player this robot has been in a standoff with for ``standoff_patience``
@@ -355,8 +394,11 @@ class NODAgent:
         to_go_now = None
         if patience > 0 and self.previous is not None and self.selected >= 0 and players:
             planning, _, _, plans = self.previous
-            ends = view.window_states[:, [0, -1], :2]  # every robot at the start and end of the period
-            to_go = self._shared_to_go(ends)
+            # Every robot at the start and end of the period: one look-up per window for the round.
+            window = view.window_states
+            to_go = self.plans.once(("ends to go", id(self.scenario.world), id(window), self._sides_key,
+                                     self._arrays_keys[0]),
+                                    lambda: self._shared_to_go(window[:, [0, -1], :2]), window)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
             progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if self.params.standoff_progress == "best":  # beyond the best over the patience
@@ -391,8 +433,8 @@ class NODAgent:
         """:meth:`_to_go`, computed once per round for every agent that asks it of the same
         positions, robots, approach sides and destinations (read-only)."""
         world = self.scenario.world
-        key = ("to_go", id(world), positions.shape, positions.tobytes(), robots, self.sides.tobytes(),
-               self.destinations.tobytes())
+        key = ("to_go", id(world), positions.shape, positions.tobytes(), robots, self._sides_key,
+               self._arrays_keys[0])
         return self.plans.shared(key, lambda: self._to_go(positions, robots), world)
 
     def _to_go(self, positions: np.ndarray, robots=None) -> np.ndarray:
@@ -435,6 +477,6 @@ class NODAgent:
         plan = plans[strategy]
         if not available.any():  # nothing to follow: get out of everybody's way
             plan = clearing_plan(self.scenario, view, planning, self.index, plan, self._graphs)
-        return Decision(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
+        return Decision.built(strategy=strategy, robots=robots, plan=relabel(plan, [planning.index(k) for k in robots]),
                         opinions=self.z.copy(), probabilities=x, players=players, game=game,
                         order=tuple(orders[strategy].tolist()))

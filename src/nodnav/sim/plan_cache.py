@@ -46,7 +46,7 @@ class PlanCache:
         asking what another already asked (:func:`~nodnav.sim.parked.packed_crossed`) gets the
         same path without searching again."""
         self._crossed: dict[tuple, tuple[int, ...]] = {}
-        self._packed: dict[tuple, tuple[tuple[np.ndarray, np.ndarray], dict]] = {}
+        self._packed: dict[tuple, tuple[tuple[np.ndarray, np.ndarray], dict, World]] = {}
         self._stacks: dict[tuple, tuple[list, np.ndarray]] = {}
         self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
         self._once: dict[tuple, tuple[object, Any]] = {}
@@ -120,12 +120,15 @@ class PlanCache:
 
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
-                       margin: float) -> tuple[int, ...]:
+                       margin: float, state: tuple | None = None) -> tuple[int, ...]:
         """:func:`~nodnav.sim.parked.packed_crossed` with this cache's graphs, computed at most
         once per round for the same arguments: robots that see the same and plan the same robots
         (every game player of a shared game) ask it alike. Keyed by every argument (arrays by
-        their bytes, ``planning`` as a set: only membership counts)."""
-        state = tuple(_hashable(a) for a in (world, positions, destinations, radii, known, goal_tolerance, margin))
+        their bytes, ``planning`` as a set: only membership counts); ``state``: the key of every
+        argument but ``planning`` if the caller has built it (:func:`crossed_state`)."""
+        if state is None:
+            state = crossed_state(world, hashable(positions), hashable(destinations), hashable(radii),
+                                  hashable(known), goal_tolerance, margin)
         key = (*state, tuple(sorted(planning)))
         hit = self._crossed.get(key)
         if hit is None:
@@ -134,19 +137,21 @@ class PlanCache:
             shared = self._packed.get(state)
             if shared is None:
                 masks = crossed_and_arriving(world, positions, destinations, known, goal_tolerance)
-                shared = self._packed[state] = (masks, {})
-            masks, packed = shared
+                shared = self._packed[state] = (masks, {}, world)  # holding the world keeps its id unique
+            masks, packed, _ = shared
             hit = self._crossed[key] = tuple(packed_crossed(world, positions, destinations, radii, known,
                                                             list(planning), goal_tolerance, margin, self.graphs,
                                                             packed, masks))
         return hit
 
-    def stacked_states(self, plans: list[PlanResult], times: np.ndarray) -> np.ndarray:
+    def stacked_states(self, plans: list[PlanResult], times: np.ndarray, key: tuple | None = None) -> np.ndarray:
         """:meth:`states_at` of every plan of ``plans`` stacked, ``(G, n, M, 4)``, once per round
         for the same plans and times: every game player of a shared game reads the whole list
         of the round before, each keeping its own players' columns. Plans of unequal robot
-        counts cannot be stacked: their states are stacked by the caller per column."""
-        key = (tuple(id(p.trajectory) for p in plans), times.tobytes())
+        counts cannot be stacked: their states are stacked by the caller per column. ``key``:
+        :func:`stack_key` of the arguments, if the caller has it."""
+        if key is None:
+            key = stack_key(plans, times)
         hit = self._stacks.get(key)
         if hit is None:
             states = [self._states_at(p.trajectory, times, key[1]) for p in plans]
@@ -212,13 +217,27 @@ def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
     return request
 
 
-def _hashable(value):
+def stack_key(plans: list[PlanResult], times: np.ndarray) -> tuple[tuple[int, ...], bytes]:
+    """What :meth:`PlanCache.stacked_states` is keyed by: the plans' trajectories by ``id`` (the
+    cache holds the plans) and the times' bytes."""
+    return tuple(id(p.trajectory) for p in plans), times.tobytes()
+
+
+def crossed_state(world: World, positions: tuple, destinations: tuple, radii: tuple, known: tuple,
+                  goal_tolerance: float, margin: float) -> tuple:
+    """The key :meth:`PlanCache.packed_crossed` gives the arguments other than ``planning``, the
+    arrays already made :func:`hashable`: the world by its ``id`` (hashing the frozen dataclass
+    walks every field at every look-up; the cache holds the world with the answer)."""
+    return (id(world), positions, destinations, radii, known, goal_tolerance, margin)
+
+
+def hashable(value):
     """``value`` as part of a memo's key: arrays by their dtype, shape and bytes, lists as tuples."""
     if isinstance(value, np.ndarray):
         return (value.dtype.str, value.shape, value.tobytes())
     if isinstance(value, list):
-        return tuple(_hashable(v) for v in value)
+        return tuple(hashable(v) for v in value)
     return value
 
 
-__all__ = ["PlanCache", "state_key"]
+__all__ = ["PlanCache", "crossed_state", "hashable", "stack_key", "state_key"]

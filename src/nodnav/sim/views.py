@@ -94,6 +94,17 @@ class Decision:
     order: tuple[int, ...] = ()
     """The selected passing order of ``game`` (scenario indices); empty without one."""
 
+    @classmethod
+    def built(cls, strategy: int, robots: tuple[int, ...], plan: PlanResult, opinions: np.ndarray,
+              probabilities: np.ndarray, players: tuple[int, ...], game: tuple[int, ...] = (),
+              order: tuple[int, ...] = ()) -> "Decision":
+        """The decision the constructor builds, with the same fields, without the frozen
+        dataclass's assignment of one field at a time (every agent builds one every period)."""
+        decision = object.__new__(cls)
+        decision.__dict__.update(strategy=strategy, robots=robots, plan=plan, opinions=opinions,
+                                 probabilities=probabilities, players=players, game=game, order=order)
+        return decision
+
     @property
     def own_trajectory(self) -> JointTrajectory:
         """The agent's own reference path."""

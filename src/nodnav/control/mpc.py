@@ -105,7 +105,6 @@ class BSplineMPC:
         # DAQP's warm starts: the constraints active at the last solution of each kind of QP
         # (:class:`~nodnav.control.qp.SolverEffort`); the same problem has the same rows.
         self._starts: dict = {}
-        self._reduced: dict = {}  # what a reduced tracking solve reads of the last (SolverEffort.reduced)
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
@@ -114,7 +113,6 @@ class BSplineMPC:
         self._committed = None
         self._following = False
         self._starts.clear()
-        self._reduced.clear()
 
     def motion(self, times: np.ndarray, order: int = 0) -> np.ndarray:
         """The motion chosen at the last control step, ``times`` after it: positions (``order`` 0)
@@ -155,7 +153,7 @@ class BSplineMPC:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
         data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
-        effort = SolverEffort(starts=self._starts, reduced=self._reduced)
+        effort = SolverEffort(starts=self._starts)
         committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = data.clearance_now
@@ -316,9 +314,8 @@ class BSplineMPC:
         gradient, lower = prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write their rows
         for k in range(self.settings.sqp_iterations):
             if k:
-                lower = prob.write_separation(data, lin, cold, data.need, gradient=gradient)
-            sol = effort.solve(prob.hessian, gradient, prob.rows, lower, self.settings.qp_tolerance, kind=prob,
-                               reach=prob.reach)
+                lower = prob.write_separation(data, lin, cold, data.need)
+            sol = effort.solve(prob.hessian, gradient, prob.rows, lower, self.settings.qp_tolerance, kind=prob)
             if not sol.success:
                 why = f"tracking QP {sol.reason}"
                 # DAQP can also stop cycling on an infeasible degenerate QP; the LP decides.
@@ -411,7 +408,6 @@ class BSplineMPC:
         self._walls = self._walls_around()
         self._problems, self._last_problem = {}, None
         self._starts.clear()  # they name the old problems' rows (and would keep them alive)
-        self._reduced.clear()
         self._anchor, self._local_radius = p0.copy(), radius
 
     def _problem(self, n_others: int, times: np.ndarray) -> MPCProblem:

@@ -39,7 +39,6 @@ from nodnav.control.mpc_rows import (
     gradient_into,
     plan_check,
     polygon_normals,
-    row_reach,
     step_rows,
     stopping_rows,
     tracking_rows,
@@ -231,16 +230,6 @@ class MPCProblem:
         self.slack_bounds = np.concatenate([np.full(2 * self.nz, -np.inf), np.zeros(n_slack)])
         self.slack_gradient = np.tile(self.slack_weights, n_others)
         self.no_group_marked = np.zeros(self.n_groups, dtype=bool)  # write_separation's default
-        # Every row is a unit normal times one of the functionals phi_t (its shape), but the braking
-        # tail's (-1: their shape changes every step); what row_reach reads of them, and its output
-        # (scratch space like rows, written with them: :meth:`tracking_rows`, :meth:`write_separation`).
-        shapes = np.ascontiguousarray(phi_t)
-        shape_norm = np.linalg.norm(shapes, axis=1)
-        row_shape = np.concatenate([static_f, dyn_f, np.full(self.n_tail, -1)]).astype(np.intp)
-        row_shape[row_shape >= 0] = np.where(shape_norm[row_shape[row_shape >= 0]] > 0.0,
-                                             row_shape[row_shape >= 0], -1)
-        self.reach_constants = (row_shape, shapes, shape_norm, np.argmax(np.abs(shapes), axis=1).astype(np.intp))
-        self.reach = np.empty(self.n_rows)
         # What step_rows reads of the problem, in its arguments' order (as plan_constants).
         self.row_constants = (setup.obstacles, setup.pieces, self.eps_end, self.group_point, self.group_wv,
                               self.term_offset, self.dyn_phi, self.dyn_line, self.intervals[-1], self.tail_phi,
@@ -310,8 +299,7 @@ class MPCProblem:
         return data.p0 + self.setup.greville[:, None] * data.v0 + self.free_map @ z.reshape(2, -1).T
 
     def write_separation(self, data: StepData, lin: np.ndarray, cold: bool, need: np.ndarray,
-                         keep_arrangement: np.ndarray | None = None, gradient: np.ndarray | None = None
-                         ) -> np.ndarray:
+                         keep_arrangement: np.ndarray | None = None) -> np.ndarray:
         """Write the wall and separation rows into :attr:`rows`; return every row's lower bound.
 
         At each interval end, the half-plane through the linearisation point ``lin`` tangent to
@@ -331,28 +319,23 @@ class MPCProblem:
         (:func:`~nodnav.control.braking.tail_rows`; ``-inf`` with ``settings.braking_tail`` off).
         The loops run compiled, all in one call (:func:`~nodnav.control.mpc_rows.step_rows`): a
         few hundred scalar rows are cheaper there than as dozens of small array operations.
-        With a tracking QP's ``gradient``, also writes :attr:`reach` (:func:`~nodnav.control.mpc_rows.row_reach`).
         """
         lower = np.empty(self.n_rows)
         marked = self.no_group_marked if keep_arrangement is None else keep_arrangement
         step_rows(lin, cold, np.asarray(need, dtype=float), marked, data.x_now, data.away, data.dist_now, data.contact,
                   data.delta_sq, data.far, data.velocities, data.p0, data.v0, data.static_lower, data.tail_weight,
                   data.tail_reach, data.box_low, data.box_high, *self.row_constants, lower)
-        if gradient is not None:
-            row_reach(self.rows, lower, gradient, *self.reach_constants, self.reach)
         return lower
 
     def tracking_rows(self, data: StepData, lin: np.ndarray, cold: bool) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`gradient` and :meth:`write_separation` (``data.need``, no group marked) in one compiled
         call (:func:`~nodnav.control.mpc_rows.tracking_rows`): a step's first tracking QP's gradient
-        and lower bounds, its rows in :attr:`rows`, how far inside each row the unconstrained
-        minimiser lies in :attr:`reach` (:func:`~nodnav.control.mpc_rows.row_reach`)."""
+        and lower bounds, its rows in :attr:`rows`."""
         gradient, lower = np.empty(2 * self.nz), np.empty(self.n_rows)
         tracking_rows(self.q_line, self.ref_weights @ data.ref_local, gradient, lin, cold, data.need,
                       self.no_group_marked, data.x_now, data.away, data.dist_now, data.contact, data.delta_sq,
                       data.far, data.velocities, data.p0, data.v0, data.static_lower, data.tail_weight,
-                      data.tail_reach, data.box_low, data.box_high, *self.row_constants, lower,
-                      *self.reach_constants, self.reach)
+                      data.tail_reach, data.box_low, data.box_high, *self.row_constants, lower)
         return gradient, lower
 
     def tail_violation(self, data: "StepData", c: np.ndarray) -> str:

@@ -406,55 +406,13 @@ def step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact,
 def tracking_rows(q_line, weighted_ref, gradient, lin, cold, need, keep_arrangement, x_now, away, dist_now, contact,
                   delta_sq, far, vel, p0, v0, static_lower, tail_weight, tail_reach, box_low, box_high, boxes, pieces,
                   eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line,
-                  tol, rows, lower, row_shape, shapes, shape_norm, pivot, reach):
+                  tol, rows, lower):
     """A step's first tracking QP in one call: :func:`gradient_into` (into ``gradient``), then
-    :func:`step_rows` (the arguments up to ``lower``, in its order), then :func:`row_reach` (the rest)."""
+    :func:`step_rows` (the rest of the arguments, in its order)."""
     gradient_into(q_line, v0, weighted_ref, gradient)
     step_rows(lin, cold, need, keep_arrangement, x_now, away, dist_now, contact, delta_sq, far, vel, p0, v0,
               static_lower, tail_weight, tail_reach, box_low, box_high, boxes, pieces, eps_end, group_point, group_wv,
               term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows, lower)
-    row_reach(rows, lower, gradient, row_shape, shapes, shape_norm, pivot, reach)
-
-
-@compiled
-def row_reach(rows, lower, gradient, row_shape, shapes, shape_norm, pivot, reach):
-    """How far inside each row's half-plane the unconstrained minimiser lies, in the whitened
-    variables (the Hessian is the identity): ``reach[i] = -(lower[i] + rows[i] @ gradient) /
-    |rows[i]|`` (``inf`` for a row at ``-inf``, ``-inf`` for a zero row: never left out), the
-    distance :func:`~nodnav.control.qp.solve_reduced` compares with its radius.
-
-    A row ``i`` with ``row_shape[i] = k >= 0`` is ``[n_x s_k, n_y s_k]``, a normal ``n`` times
-    the shape ``shapes[k]`` (``(K, nz)``, of norm ``shape_norm[k]``): its normal is read back
-    from the shape's largest entry (index ``pivot[k]``), and its product with the gradient is
-    ``n_x (s_k @ g_x) + n_y (s_k @ g_y)``, two products per shape, not one per row. Rows with
-    ``k < 0`` (the braking tail's, whose shape changes every step) take their full products.
-    Rounding makes these differ from DAQP's own by a few ulps; the caller's margin covers that."""
-    n_shapes, nz = shapes.shape
-    along = np.empty((n_shapes, 2))
-    for k in range(n_shapes):
-        for d in range(2):
-            s = 0.0
-            for j in range(nz):
-                s += shapes[k, j] * gradient[d * nz + j]
-            along[k, d] = s
-    for i in range(lower.shape[0]):
-        b = lower[i]
-        if b == -np.inf:
-            reach[i] = np.inf
-            continue
-        k = row_shape[i]
-        if k >= 0:
-            p = pivot[k]
-            nx, ny = rows[i, p] / shapes[k, p], rows[i, nz + p] / shapes[k, p]
-            dot = nx * along[k, 0] + ny * along[k, 1]
-            norm = np.sqrt(nx * nx + ny * ny) * shape_norm[k]
-        else:
-            dot, sq = 0.0, 0.0
-            for j in range(2 * nz):
-                dot += rows[i, j] * gradient[j]
-                sq += rows[i, j] * rows[i, j]
-            norm = np.sqrt(sq)
-        reach[i] = -(b + dot) / norm if norm > 0.0 else -np.inf
 
 
 @compiled

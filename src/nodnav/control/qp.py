@@ -99,100 +99,6 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     return QPSolution(False, _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"), x, iterations, info["lam"])
 
 
-#: How far beyond the radius (relative, absolute) a row must lie to be left out of a reduced solve
-#: (:func:`solve_reduced`): covers the few ulps by which :func:`~nodnav.control.mpc_rows.row_reach`'s
-#: distances and DAQP's own products differ.
-REACH_MARGIN = (1e-9, 1e-9)
-
-
-def solve_reduced(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
-                  reach: np.ndarray, last: float, start_multipliers: np.ndarray | None = None
-                  ) -> tuple[QPSolution | None, float]:
-    """:func:`solve_qp` of an identity-Hessian QP (no bounds) on only the rows DAQP could pick, or
-    None where that cannot be shown; and the radius it took.
-
-    DAQP solves the least-distance problem ``min |u|`` over ``u = x + gradient`` (with ``H = I``
-    its whitened coordinates are these), rows ``rows[i] @ u >= lower[i] + rows[i] @ gradient``,
-    each scaled to a unit normal (``daqp_normalize_M``). It adds a row to its working set only in
-    ``daqp_add_infeasible``: the row with the most negative scaled slack, ties to the lowest
-    index, and only if that slack is below ``-tol``; and only at iterates whose multipliers are
-    all non-negative. Such an iterate minimises ``|u|`` over its working set's rows alone, a
-    relaxation of the QP: it is no longer than the optimum ``u*``. A row whose half-plane holds
-    the whole ball ``|u| <= r`` (``reach[i] >= r``, :func:`~nodnav.control.mpc_rows.row_reach`)
-    therefore never has a negative slack while ``|u*| <= r``, and is never picked. Every per-row
-    quantity (``daqp_compute_Mu``, the scaling, ``daqp_update_ldp``'s slacks) depends on that row
-    alone, so the same QP without such rows (the others in their order) takes DAQP through the
-    same working sets: the same ``x``, multipliers (zero on the rows left out) and iterations.
-    DAQP's shortcut for a cold start (``daqp_check_unconstrained``: ``x = -gradient`` checked
-    against every row) gives the same verdict too: a row left out holds ``u = 0`` with a slack
-    of at least its margin. Rows at ``-inf`` are never picked; the rows of the warm start's
-    working set (:func:`warm_flags`) are always kept.
-
-    The radius is guessed (``max(2 |gradient|, 2 last)``, ``last`` the norm of the previous
-    optimum of the same problem) and checked after the solve: the reduced solution is returned
-    only if DAQP succeeded (warm, else cold after a failed warm start, as :func:`solve_qp`) with
-    ``|u*| <= r``. Otherwise None: the caller solves the full QP, whose failures and reasons are
-    its own. Also returns ``|u*|`` (NaN when DAQP failed): the next solve's ``last``."""
-    n = lower.shape[0]
-    sense = np.empty(n, dtype=np.intc)
-    found = start_multipliers is not None and warm_flags(lower, start_multipliers, sense)
-    if not found:
-        sense[:] = 0
-    kept_rows, kept_lower, kept_sense, index = np.empty(rows.shape), np.empty(n), np.empty(n, dtype=np.intc), \
-        np.empty(n, dtype=np.intp)
-    m, radius = reduced_rows(rows, lower, reach, gradient, last, REACH_MARGIN[0], REACH_MARGIN[1], sense, kept_rows,
-                             kept_lower, kept_sense, index)
-    a, low = kept_rows[:m], kept_lower[:m]
-    x, _, flag, info = daqp.solve(hessian, gradient, a, _no_upper(m), low, kept_sense[:m] if found else None,
-                                  primal_tol=tol)
-    iterations = int(info["iterations"])
-    if found and flag not in (1, -1):
-        x, _, flag, info = daqp.solve(hessian, gradient, a, _no_upper(m), low, None, primal_tol=tol)
-        iterations += int(info["iterations"])
-    if flag != 1:
-        return None, np.nan
-    norm = whitened_norm(x, gradient)
-    if not norm <= radius:
-        return None, norm
-    multipliers = np.zeros(n)
-    multipliers[index[:m]] = info["lam"]
-    return QPSolution(True, "", x, iterations, multipliers), norm
-
-
-@compiled
-def reduced_rows(rows, lower, reach, gradient, last, relative, absolute, sense, kept_rows, kept_lower, kept_sense,
-                 index):
-    """:func:`solve_reduced`'s rows: the radius ``r = max(2 |gradient|, 2 last)``, then, in order,
-    the rows with ``reach < r (1 + relative) + absolute`` or a nonzero ``sense`` (the warm
-    start's), copied with their bounds and flags into the first ``m`` entries of ``kept_*`` and
-    their indices into ``index``. Returns ``m`` and ``r``."""
-    sq = 0.0
-    for j in range(gradient.shape[0]):
-        sq += gradient[j] * gradient[j]
-    radius = max(2.0 * np.sqrt(sq), 2.0 * last)
-    cut = radius * (1.0 + relative) + absolute
-    m = 0
-    for i in range(lower.shape[0]):
-        if reach[i] < cut or sense[i] != 0:
-            index[m] = i
-            kept_lower[m] = lower[i]
-            kept_sense[m] = sense[i]
-            for j in range(rows.shape[1]):
-                kept_rows[m, j] = rows[i, j]
-            m += 1
-    return m, radius
-
-
-@compiled
-def whitened_norm(x, gradient):
-    """``|x + gradient|``: the length of DAQP's ``u`` at ``x`` when the Hessian is the identity."""
-    sq = 0.0
-    for j in range(x.shape[0]):
-        u = x[j] + gradient[j]
-        sq += u * u
-    return np.sqrt(sq)
-
-
 def cold_flags(start_active: np.ndarray | None, n_rows: int) -> np.ndarray | None:
     """DAQP's constraint flags of a cold start: 3 (active, at the lower bound) on the bounds
     ``start_active`` marks, 0 on the rest and on the ``n_rows`` rows; None (all 0) without a mask."""
@@ -358,21 +264,13 @@ class SolverEffort:
     """Warm starts by kind of QP (the controller's, kept between steps): the multipliers of the
     last solution of each kind (its start is :func:`start_from`'s, :func:`warm_flags`); None:
     every solve starts cold."""
-    reduced: dict | None = None
-    """What a reduced solve (:func:`solve_reduced`) of each kind reads of the last solve of that
-    kind (the controller's, kept between steps): NaN if it failed, else its optimum's whitened
-    norm. None: every solve is of the full QP."""
 
     def solve(self, hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower: np.ndarray, tol: float,
               bounds: np.ndarray | None = None, start_active: np.ndarray | None = None,
-              kind: object = None, like: object = None, reach: np.ndarray | None = None) -> QPSolution:
+              kind: object = None, like: object = None) -> QPSolution:
         """:func:`solve_qp`, counted, and warm-started from the last solution of the same
         ``kind`` (a key naming the same rows and variables in the same order, e.g. the problem
-        object), else from that of the kind ``like`` (the same rows and variables, other data).
-        With ``reach`` (an identity Hessian and no bounds: :func:`solve_reduced`) and a
-        :attr:`reduced` memory, first on the rows DAQP could pick, unless the last solve of the
-        same kind failed (a deadlocked robot's fails step after step, and a failure means a full
-        solve besides); the same result either way."""
+        object), else from that of the kind ``like`` (the same rows and variables, other data)."""
         starts = self.starts if kind is not None else None  # where this kind's start is kept, if anywhere
         warm = None
         if starts is not None:
@@ -380,20 +278,7 @@ class SolverEffort:
             if warm is None and like is not None:
                 warm = starts.get(like)
         t = time.perf_counter()
-        memory = self.reduced if reach is not None and kind is not None else None
-        sol = None
-        if memory is not None and reach is not None:  # (memory implies reach; said again for mypy)
-            last = memory.get(kind, 0.0)
-            if last == last:  # not NaN: the last solve of this kind succeeded (or there was none)
-                sol, norm = solve_reduced(hessian, gradient, rows, lower, tol, reach, last, warm)
-        if sol is None:
-            sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm)
-            if memory is not None:
-                norm = whitened_norm(sol.x, gradient) if sol.success else np.nan
-        if memory is not None:
-            if len(memory) >= MAX_STARTS and kind not in memory:
-                memory.pop(next(iter(memory)))
-            memory[kind] = norm
+        sol = solve_qp(hessian, gradient, rows, lower, tol, bounds, start_active, None, warm)
         self.qp_time += time.perf_counter() - t
         self.qps += 1
         self.qp_steps += sol.iterations

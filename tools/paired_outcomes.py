@@ -39,12 +39,12 @@ def mcnemar_exact(only_a: int, only_b: int) -> float:
 
 def match_key(config: dict, seed: int, ignore: tuple[str, ...] = ()) -> str:
     """The trial's ``run_key`` with the scenario's fields ``ignore`` (``section.key``) left out."""
-    scenario = json.loads(json.dumps(config["scenario"]))  # a deep copy
+    scenario = dict(config["scenario"])  # the caller's sections stay as they are
     for field in ignore:
         section, _, name = field.partition(".")
         part = scenario.get(section)
         if isinstance(part, dict):
-            part.pop(name, None)
+            scenario[section] = {k: v for k, v in part.items() if k != name}
     return run_key({**config, "scenario": scenario}, seed)
 
 

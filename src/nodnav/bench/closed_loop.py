@@ -33,6 +33,8 @@ class SimBenchmark:
     """Wall time to load the compiled kernels, paid once per process, not per trial (s)."""
     stages: tuple[StageTimes, ...] = ()
     """Each trial run again with its time split by stage (:mod:`nodnav.bench.stages`); empty if not asked."""
+    settings: tuple[str, ...] = ()
+    """The scenario settings given on top of the scenario's (``--set KEY=VALUE`` as typed); empty: its own."""
 
     def stage_seconds(self, cpu: bool = True) -> dict[str, float]:
         """Processor (``cpu``) or wall time per stage summed over the measured trials (s)."""
@@ -76,7 +78,8 @@ class SimBenchmark:
 
     def to_dict(self) -> dict:
         """JSON-ready figures."""
-        return {"scenario": self.scenario, "planner": self.planner, "seeds": list(self.seeds),
+        return {"scenario": self.scenario, "planner": self.planner, "settings": list(self.settings),
+                "seeds": list(self.seeds),
                 "sim_time_s": list(self.sim_times), "wall_time_s": list(self.wall_times),
                 "outcomes": list(self.outcomes), "setup_time_s": self.setup_time,
                 "speedup_median": float(np.median(self.speedups)), "speedup_min": float(self.speedups.min()),
@@ -86,7 +89,8 @@ class SimBenchmark:
     def format(self) -> str:
         """A human summary."""
         d = self.to_dict()
-        return (f"{self.scenario} with {self.planner}, {len(self.seeds)} trials: "
+        given = f" ({', '.join(self.settings)})" if self.settings else ""
+        return (f"{self.scenario} with {self.planner}{given}, {len(self.seeds)} trials: "
                 f"{d['speedup_total']:.1f}x real time overall (median {d['speedup_median']:.1f}x, "
                 f"slowest {d['speedup_min']:.1f}x); set-up {self.setup_time:.1f} s (compiled kernels); "
                 f"outcomes {', '.join(self.outcomes)}"
@@ -95,8 +99,12 @@ class SimBenchmark:
 
 
 def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast", seeds=(1, 2, 3),
-                          breakdown: bool = True, players: str = "all") -> SimBenchmark:
+                          breakdown: bool = True, players: str = "all", overrides: dict | None = None,
+                          settings: tuple[str, ...] = ()) -> SimBenchmark:
     """Run trials of ``scenario_name`` with ``players`` game players per robot (all by default) and time them.
+
+    ``overrides``: scenario settings on top of the scenario's (:func:`~nodnav.scenario.loading.load_scenario`'s),
+    e.g. a speed setting measured against its default; ``settings``: the same as typed, for the report.
 
     Each trial builds its own planner inside its timing, as a sweep's trials do, so no trial
     reuses what another planned. A study also pays a set-up once per worker process: loading
@@ -111,7 +119,8 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     unmeasured runs.
     """
     game_players = players if players == "all" else int(players)
-    scenario = load_scenario(scenario_name).with_overrides(game_players=game_players, **{"planner.name": planner})
+    scenario = load_scenario(scenario_name, overrides or None).with_overrides(
+        game_players=game_players, **{"planner.name": planner})
     start = time.perf_counter()
     warm_up = Simulation(scenario, seed=0)
     while not warm_up.step():
@@ -127,4 +136,5 @@ def benchmark_closed_loop(scenario_name: str = "4r-case2", planner: str = "fast"
     stages = tuple(measured)
     return SimBenchmark(scenario=scenario.name, planner=planner, seeds=tuple(seeds),
                         sim_times=tuple(r.sim_time for r in results), wall_times=tuple(r.wall_time for r in results),
-                        outcomes=tuple(r.outcome for r in results), setup_time=setup, stages=stages)
+                        outcomes=tuple(r.outcome for r in results), setup_time=setup, stages=stages,
+                        settings=tuple(settings))

@@ -12,6 +12,7 @@ import json
 import sys
 
 from nodnav.cli.scaling import add_scaling_options, check_scaling_only, cmd_bench_scaling
+from nodnav.cli.settings import add_set_option, parse_settings
 from nodnav.cli.terminal import plural, whole
 from nodnav.errors import NodnavError, shown
 
@@ -44,8 +45,10 @@ def _bench_mpc(args: argparse.Namespace) -> None:
 def _bench_sim(args: argparse.Namespace) -> None:
     from nodnav.bench.closed_loop import benchmark_closed_loop
 
+    overrides, _ = parse_settings(args.settings)
     results = [benchmark_closed_loop(args.scenario[0], planner, seeds=tuple(range(1, (args.trials or 3) + 1)),
-                                     breakdown=not args.no_breakdown, players=args.sim_players or "all")
+                                     breakdown=not args.no_breakdown, players=args.sim_players or "all",
+                                     overrides=overrides, settings=tuple(args.settings or ()))
                for planner in (args.planner or ("fast",))]
     if args.json:
         print(json.dumps([r.to_dict() for r in results]))
@@ -75,6 +78,8 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     from nodnav.planning import PLANNERS
     from nodnav.scenario.loading import load_scenario
 
+    if args.settings and args.target != "sim":
+        raise NodnavError("--set: only 'nodnav bench sim' takes it")
     args.sim_players = None
     if args.target == "sim" and args.players is not None:  # one number of game players, or 'all'
         from nodnav.cli.scaling import parse_players
@@ -91,6 +96,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             raise NodnavError(f"--planner: unknown planner {shown(p)}{nearest_hint(p, PLANNERS, 'planners')}")
     if args.seeds is not None and args.target != "solvers":
         raise NodnavError("--seeds: only 'nodnav bench solvers' takes it")
+    overrides, labels = parse_settings(args.settings)
+    for key, option in (("planner.name", "--planner"), ("game_players", "--players")):
+        if key in overrides:  # the benchmark sets these itself, after the overrides
+            raise NodnavError(f"{labels[key]}: 'bench sim' takes {key} from {option}; give it there")
     if args.target == "sim":
         if len(args.scenario or ()) > 1:
             raise NodnavError(f"--scenario: 'bench sim' takes one scenario, got {len(args.scenario)}")
@@ -104,7 +113,7 @@ def _cmd_bench(args: argparse.Namespace) -> int:
             raise NodnavError(f"'bench solvers' needs {' and '.join(missing)}: install the solvers extra, "
                               "pip install 'nodnav[solvers]'")
     for name in args.scenario or () if args.target in ("sim", "solvers") else ():
-        load_scenario(name)
+        load_scenario(name, overrides or None, labels)  # a bad --set fails here, naming the option
     if not args.execute:
         return 0
     if not args.json:
@@ -131,5 +140,6 @@ def add_parsers(sub) -> None:
     p.add_argument("--no-breakdown", action="store_true", help="'sim': skip the second, measured run of each "
                    "trial that splits its time by stage (decision, planning, control set-up, QP solve, simulation, "
                    "bookkeeping)")
+    add_set_option(p)
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_bench)

@@ -5,10 +5,16 @@ that play the same game pose the same joint planning problems, evaluate the same
 round before, and ask which parked robots join a plan with the same arguments. A
 :class:`PlanCache` answers each of these once per round, keyed by everything the answer reads,
 so a hit returns exactly what the agent would have computed alone.
+
+With ``planner.reuse_tolerance`` above 0 (off by default) a query the round before asked too is
+answered with that round's plan of it, carried on to now (:func:`plan_tail`), when the robots
+have moved as that plan said they would (:func:`on_plan`): Algorithm 1 plans every strategy from
+the state X(t) each period; a plan that X(t) follows to within the tolerance is kept instead.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -34,9 +40,22 @@ class PlanCache:
     computed alone; the simulator clears the cache at every decision time.
     """
 
-    def __init__(self, planner: Planner):
+    def __init__(self, planner: Planner, reuse_tolerance: float | None = None):
         self.planner = planner
+        params = getattr(planner, "params", None)
+        self.reuse_tolerance = float(getattr(params, "reuse_tolerance", 0.0) if reuse_tolerance is None
+                                     else reuse_tolerance)
+        """How far (m) the robots may be from last round's plan of a query for it to be kept
+        (:func:`on_plan`); 0: every query planned anew each round. None: the planner's
+        ``params.reuse_tolerance``."""
+        self._step = float(getattr(params, "dt", 0.0))  # the planner's time step: a kept plan's samples
         self._plans: dict[tuple, PlanResult] = {}
+        # With reuse: this round's and the last round's answers by their key without the state.
+        self._fresh: dict[tuple, PlanResult] = {}
+        self._previous: dict[tuple, PlanResult] = {}
+        self.reused = 0
+        """Queries answered with the round before's plan (neither hits nor misses: the planner
+        was not asked)."""
         self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
@@ -52,7 +71,10 @@ class PlanCache:
         self._once: dict[tuple, tuple[object, Any]] = {}
 
     def clear(self) -> None:
-        """Forget every plan and evaluation (called when the state of the world has moved on)."""
+        """Forget every plan and evaluation (called when the state of the world has moved on); with
+        reuse, this round's plans become the round before's."""
+        if self.reuse_tolerance > 0:
+            self._previous, self._fresh = self._fresh, {}
         self._plans.clear()
         self._states.clear()
         self._crossed.clear()
@@ -84,12 +106,12 @@ class PlanCache:
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
         :func:`state_key` of the request if the caller has it already."""
-        key = (request.order, request.entered, request.t0, *(state_key(request) if state is None else state))
+        if state is None:
+            state = state_key(request)
+        key = (request.order, request.entered, request.t0, *state)
         result = self._plans.get(key)
         if result is None:
-            self.misses += 1
-            result = self.planner.plan(request)
-            self._plans[key] = result
+            result = self._plans[key] = self._answer(request, request.order, state)
         else:
             self.hits += 1
         return result
@@ -110,13 +132,31 @@ class PlanCache:
             key = (order, *rest)
             result = plans.get(key)
             if result is None:
-                self.misses += 1
                 request = template if template.order == order else _in_order(template, order)
-                result = plans[key] = self.planner.plan(request)
+                result = plans[key] = self._answer(request, order, state)
             else:
                 self.hits += 1
             out.append(result)
         return out
+
+    def _answer(self, request: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
+        """A query the round has not answered (``order``: its order, ``state``: its
+        :func:`state_key`): last round's plan of it carried on to now if the robots are on it
+        within :attr:`reuse_tolerance`, else the planner's."""
+        if self.reuse_tolerance <= 0:
+            self.misses += 1
+            return self.planner.plan(request)
+        # Everything the planner reads but the robots' positions and velocities (and the time).
+        unmoved = (order, request.entered, *state[2:])
+        last = self._previous.get(unmoved)
+        result = None if last is None else kept_plan(last, request, self.reuse_tolerance, self._step)
+        if result is None:
+            self.misses += 1
+            result = self.planner.plan(request)
+        else:
+            self.reused += 1
+        self._fresh[unmoved] = result
+        return result
 
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
@@ -208,6 +248,67 @@ def trajectory_states(times, positions, velocities, query):
     return out
 
 
+def kept_plan(last: PlanResult, request: PlanRequest, tolerance: float, dt: float) -> PlanResult | None:
+    """``last`` (a plan of the round before, of a query that differs from ``request`` in the
+    robots' positions, velocities and time only) carried on to ``request.t0`` (:func:`plan_tail`)
+    if it is still good: planned successfully, ``request.t0`` a whole number of the planner's
+    steps ``dt`` after its start, and every robot :func:`on_plan` within ``tolerance``. None otherwise.
+
+    Robots outside the query do not enter the planner, so they cannot make it wrong; robots that
+    entered the corridor or joined or left the query change the key it is found by."""
+    trajectory = last.trajectory
+    if not last.success or dt <= 0:
+        return None
+    elapsed = request.t0 - float(trajectory.times[0])
+    steps = int(round(elapsed / dt))
+    if steps < 1 or abs(elapsed - steps * dt) > 1e-6 * dt:
+        return None
+    if not on_plan(trajectory, steps, request.positions, request.velocities, request.max_accels, tolerance):
+        return None
+    return plan_tail(last, steps, request.t0, dt)
+
+
+def on_plan(trajectory: JointTrajectory, steps: int, positions: np.ndarray, velocities: np.ndarray,
+            accels: np.ndarray | None, tolerance: float) -> bool:
+    """Whether every robot is within ``tolerance`` (m) of its state in ``trajectory`` at its sample
+    ``steps`` (held after the last): its distance from the planned position plus, with
+    acceleration limits ``accels``, how much farther its velocity error ``dv`` takes it while it
+    is braked away at that limit, ``|dv|^2 / 2a``. Within it, the planner, which places a robot
+    on its path to a cell of ``v_max dt / 2``, would start from nearly the same state."""
+    last = len(trajectory.times) - 1
+    k = min(steps, last)
+    off = np.sqrt(((np.asarray(positions, dtype=float) - trajectory.positions[k]) ** 2).sum(axis=1))
+    if accels is not None:
+        # The velocity of the segment the time falls in, zero from the last sample on (trajectory_states).
+        planned = trajectory.velocities[k] if steps < last else np.zeros_like(trajectory.positions[k])
+        dv2 = ((np.asarray(velocities, dtype=float) - planned) ** 2).sum(axis=1)
+        off = off + dv2 / (2.0 * np.asarray(accels, dtype=float))
+    return bool((off <= tolerance).all())
+
+
+def plan_tail(result: PlanResult, steps: int, t0: float, dt: float) -> PlanResult:
+    """``result`` from its sample ``steps`` on, started at ``t0``, as the planner would return a
+    plan asked at ``t0``: its times ``t0 + dt j`` (execution starts its clocks at the first
+    sample); with the fast planner's ``info["arrival_times"]``, those counted from ``t0`` (at
+    least 0) and the cost their sum, as the fast planner's (another planner's cost is kept);
+    ``info["kept_from"]`` the plan's first time. After its last sample the plan holds every
+    robot where it ends, as before."""
+    traj = result.trajectory
+    k = min(steps, len(traj.times) - 1)
+    times = t0 + dt * np.arange(len(traj.times) - k)
+    times.setflags(write=False)  # the planner's plans are shared read-only, and so is this one
+    info = {**result.info, "kept_from": float(traj.times[0])}
+    cost = result.cost
+    arrival = result.info.get("arrival_times")
+    if arrival is not None:
+        arrival = np.maximum(np.asarray(arrival, dtype=float) - steps * dt, 0.0)
+        arrival.setflags(write=False)
+        info["arrival_times"] = arrival
+        cost = float(arrival.sum())
+    return replace(result, cost=cost, trajectory=JointTrajectory(times, traj.positions[k:], traj.velocities[k:]),
+                   compute_time=0.0, info=info)
+
+
 def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
     """``dataclasses.replace(template, order=order)`` without its field-by-field rebuild (a
     :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class."""
@@ -240,4 +341,4 @@ def hashable(value):
     return value
 
 
-__all__ = ["PlanCache", "crossed_state", "hashable", "stack_key", "state_key"]
+__all__ = ["PlanCache", "crossed_state", "hashable", "kept_plan", "on_plan", "plan_tail", "stack_key", "state_key"]

@@ -51,6 +51,7 @@ if __name__ == "__main__":
     cpu: dict[bool, float] = {False: 0.0, True: 0.0}
     calls: dict[bool, int] = {False: 0, True: 0}
     kept: dict[bool, int] = {False: 0, True: 0}
+    simulated: dict[bool, float] = {False: 0.0, True: 0.0}
     outcomes: collections.Counter[tuple[str, str]] = collections.Counter()
     by_robots: dict[int, list[float]] = collections.defaultdict(lambda: [0.0, 0.0])
     # The first sampled trial once, not counted: the compiled kernels load at their first call.
@@ -58,7 +59,7 @@ if __name__ == "__main__":
     caches = counted_caches()
     for position, row in enumerate(picked):
         n_robots = row[4]
-        outcome = {}
+        outcome, line = {}, {}
         for on in (False, True) if position % 2 else (True, False):
             caches.clear()
             start = time.process_time()
@@ -67,11 +68,16 @@ if __name__ == "__main__":
             cpu[on] += elapsed
             by_robots[n_robots][on] += elapsed
             outcome[on] = result.outcome
+            simulated[on] += result.sim_time
+            line[on] = f"{result.outcome} {result.sim_time:.1f} s in {elapsed:.2f} s"
             calls[on] += sum(c.misses for c in caches)
             kept[on] += sum(getattr(c, "reused", 0) for c in caches)
         outcomes[(outcome[False], outcome[True])] += 1
+        print(f"{row[0]} ({n_robots} robots): off {line[False]}, on {line[True]}", file=sys.stderr)
     print(f"{len(picked)} trials ({key} {values[False]} vs {values[True]}): off {cpu[False]:.1f} s, "
           f"on {cpu[True]:.1f} s, ratio {cpu[True] / cpu[False]:.3f}")
+    print(f"simulated: off {simulated[False]:.0f} s, on {simulated[True]:.0f} s; processor time per simulated "
+          f"second, on / off: {cpu[True] / simulated[True] / (cpu[False] / simulated[False]):.3f}")
     print(f"planner calls: off {calls[False]}, on {calls[True]} ({kept[True]} plans kept from the round before)")
     print("by robots:", {k: f"{v[1] / v[0]:.3f} ({v[0]:.1f} s)" for k, v in sorted(by_robots.items())})
     print("outcomes (off, on):", dict(outcomes))

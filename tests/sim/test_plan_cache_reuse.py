@@ -15,7 +15,15 @@ from nodnav import load_scenario
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
 from nodnav.planning.prioritized import PrioritizedPlanner
 from nodnav.scenario.params import FastPlannerParams
-from nodnav.sim.plan_cache import PlanCache, on_plan, state_key, trajectory_states
+from nodnav.sim.plan_cache import (
+    PlanCache,
+    on_plan,
+    plan_offsets_plain,
+    state_key,
+    tail_arrays,
+    trajectory_states,
+    within_plan,
+)
 
 DT, TOL, ACCEL = 0.1, 0.05, 2.0
 WORLD = load_scenario("2r-case1").world
@@ -165,3 +173,23 @@ def test_the_fast_planner_s_plan_is_kept_where_the_robots_follow_it_and_equal_a_
             assert result.trajectory.times[0] == 1.0
             assert np.array_equal(result.trajectory.positions, on.positions[10:])
             assert result.cost == pytest.approx(sum(max(a - 1.0, 0.0) for a in old.info["arrival_times"]))
+
+
+def test_the_compiled_test_agrees_with_the_plain_offsets():
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        n = int(rng.integers(1, 6))
+        positions, planned = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+        velocities, planned_v = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+        accels = rng.uniform(0.5, 3.0, n)
+        tolerance = float(rng.uniform(0.0, 4.0))
+        for braking, held in ((True, False), (True, True), (False, False)):
+            reference = plan_offsets_plain(positions, velocities, accels if braking else None, planned,
+                                           np.zeros((n, 2)) if held else planned_v)
+            assert within_plan(positions, velocities, accels, planned, planned_v, held, braking,
+                               tolerance) == bool((reference <= tolerance).all())
+
+
+def test_the_tail_s_times_and_arrivals_are_counted_from_the_new_start():
+    times, left, cost = tail_arrays(4, 2.0, 0.1, np.array([0.5, 3.0, 1.0]), 1.0)
+    assert np.allclose(times, [2.0, 2.1, 2.2, 2.3]) and np.allclose(left, [0.0, 2.0, 0.0]) and cost == 2.0

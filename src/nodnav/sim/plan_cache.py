@@ -14,7 +14,6 @@ the state X(t) each period; a plan that X(t) follows to within the tolerance is 
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -273,17 +272,46 @@ def on_plan(trajectory: JointTrajectory, steps: int, positions: np.ndarray, velo
     """Whether every robot is within ``tolerance`` (m) of its state in ``trajectory`` at its sample
     ``steps`` (held after the last): its distance from the planned position plus, with
     acceleration limits ``accels``, how much farther its velocity error ``dv`` takes it while it
-    is braked away at that limit, ``|dv|^2 / 2a``. Within it, the planner, which places a robot
-    on its path to a cell of ``v_max dt / 2``, would start from nearly the same state."""
+    is braked away at that limit, ``|dv|^2 / 2a`` (:func:`plan_offsets_plain`, in one compiled
+    loop). Within it, the planner, which places a robot on its path to a cell of ``v_max dt / 2``,
+    would start from nearly the same state."""
     last = len(trajectory.times) - 1
     k = min(steps, last)
-    off = np.sqrt(((np.asarray(positions, dtype=float) - trajectory.positions[k]) ** 2).sum(axis=1))
+    braking = accels is not None
+    return bool(within_plan(positions, velocities, accels if braking else _NO_ACCELS, trajectory.positions[k],
+                            trajectory.velocities[k], steps >= last, braking, tolerance))
+
+
+_NO_ACCELS = np.zeros(0)
+
+
+def plan_offsets_plain(positions: np.ndarray, velocities: np.ndarray, accels: np.ndarray | None,
+                       planned_positions: np.ndarray, planned_velocities: np.ndarray) -> np.ndarray:
+    """How far each robot is from its planned state ``(n,)`` (m): its distance from the planned
+    position plus, with ``accels``, ``|dv|^2 / 2a`` of its velocity error (the reference
+    :func:`within_plan` is tested against)."""
+    off = np.linalg.norm(positions - planned_positions, axis=1)
     if accels is not None:
-        # The velocity of the segment the time falls in, zero from the last sample on (trajectory_states).
-        planned = trajectory.velocities[k] if steps < last else np.zeros_like(trajectory.positions[k])
-        dv2 = ((np.asarray(velocities, dtype=float) - planned) ** 2).sum(axis=1)
-        off = off + dv2 / (2.0 * np.asarray(accels, dtype=float))
-    return bool((off <= tolerance).all())
+        off = off + np.sum((velocities - planned_velocities) ** 2, axis=1) / (2.0 * accels)
+    return off
+
+
+@compiled
+def within_plan(positions, velocities, accels, planned_positions, planned_velocities, held, braking, tolerance):
+    """Whether every robot's :func:`plan_offsets_plain` is within ``tolerance``, the planned
+    velocity zero if ``held`` (after the plan's last sample), the velocity not read unless
+    ``braking``: one loop, stopping at the first robot off the plan."""
+    for r in range(positions.shape[0]):
+        dx = positions[r, 0] - planned_positions[r, 0]
+        dy = positions[r, 1] - planned_positions[r, 1]
+        off = np.sqrt(dx * dx + dy * dy)
+        if braking:
+            ux = velocities[r, 0] - (0.0 if held else planned_velocities[r, 0])
+            uy = velocities[r, 1] - (0.0 if held else planned_velocities[r, 1])
+            off += (ux * ux + uy * uy) / (2.0 * accels[r])
+        if off > tolerance:
+            return False
+    return True
 
 
 def plan_tail(result: PlanResult, steps: int, t0: float, dt: float) -> PlanResult:
@@ -295,18 +323,33 @@ def plan_tail(result: PlanResult, steps: int, t0: float, dt: float) -> PlanResul
     robot where it ends, as before."""
     traj = result.trajectory
     k = min(steps, len(traj.times) - 1)
-    times = t0 + dt * np.arange(len(traj.times) - k)
-    times.setflags(write=False)  # the planner's plans are shared read-only, and so is this one
     info = {**result.info, "kept_from": float(traj.times[0])}
-    cost = result.cost
     arrival = result.info.get("arrival_times")
-    if arrival is not None:
-        arrival = np.maximum(np.asarray(arrival, dtype=float) - steps * dt, 0.0)
+    times, arrival, cost = tail_arrays(len(traj.times) - k, t0, dt, _NO_ACCELS if arrival is None else arrival,
+                                       steps * dt)
+    times.setflags(write=False)  # the planner's plans are shared read-only, and so is this one
+    if "arrival_times" in info:
         arrival.setflags(write=False)
         info["arrival_times"] = arrival
-        cost = float(arrival.sum())
-    return replace(result, cost=cost, trajectory=JointTrajectory(times, traj.positions[k:], traj.velocities[k:]),
-                   compute_time=0.0, info=info)
+    else:
+        cost = result.cost
+    trajectory = JointTrajectory(times, traj.positions[k:], traj.velocities[k:])
+    return PlanResult(result.success, result.reason, cost, trajectory, result.order, result.order_planned, 0.0, info)
+
+
+@compiled
+def tail_arrays(count, t0, dt, arrival, elapsed):
+    """For :func:`plan_tail`, in one compiled call: the times ``t0 + dt j`` of ``count`` samples,
+    the arrival times ``arrival`` less ``elapsed`` (at least 0), and their sum."""
+    times = np.empty(count)
+    for j in range(count):
+        times[j] = t0 + dt * j
+    left = np.empty(arrival.shape[0])
+    cost = 0.0
+    for r in range(arrival.shape[0]):
+        left[r] = max(arrival[r] - elapsed, 0.0)
+        cost += left[r]
+    return times, left, cost
 
 
 def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
@@ -341,4 +384,5 @@ def hashable(value):
     return value
 
 
-__all__ = ["PlanCache", "crossed_state", "hashable", "kept_plan", "on_plan", "plan_tail", "stack_key", "state_key"]
+__all__ = ["PlanCache", "crossed_state", "hashable", "kept_plan", "on_plan", "plan_offsets_plain", "plan_tail",
+           "stack_key", "state_key", "tail_arrays", "within_plan"]

@@ -139,6 +139,13 @@ class PlannerParams:
     timing: Literal["feasible", "speed-only"] = "feasible"
     """Paths timed within each robot's speed and acceleration limits (``feasible``, issue 18), or
     by speed alone (``speed-only``, as before: 0, 1 or 2 cells a step, PRM* at full speed); docs/safety.md."""
+    reuse_tolerance: float = field(default=0.0, metadata=accepted(0.0, 1.0))
+    """Speed setting, 0 (off: every query planned anew each round) by default, for it changes
+    trajectories: a query asked again one round later keeps the round before's plan of it, carried
+    on to now, while every robot stands within this distance (m) of where that plan has it (plus
+    the drift its velocity error adds, braked away at its acceleration limit, ``|dv|^2 / 2a``).
+    Trades planning time for plans that start up to this far from the robots; the fast planner's
+    own resolution, a cell of ``v_max dt / 2`` (0.05 m at 1 m/s), is the natural value."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")

@@ -5,6 +5,11 @@ that play the same game pose the same joint planning problems, evaluate the same
 round before, and ask which parked robots join a plan with the same arguments. A
 :class:`PlanCache` answers each of these once per round, keyed by everything the answer reads,
 so a hit returns exactly what the agent would have computed alone.
+
+With ``planner.reuse_tolerance`` above 0 (off by default) a query the round before asked too is
+answered with that round's plan of it, carried on to now (:func:`plan_tail`), when the robots
+have moved as that plan said they would (:func:`on_plan`): Algorithm 1 plans every strategy from
+the state X(t) each period; a plan that X(t) follows to within the tolerance is kept instead.
 """
 
 from __future__ import annotations
@@ -34,9 +39,22 @@ class PlanCache:
     computed alone; the simulator clears the cache at every decision time.
     """
 
-    def __init__(self, planner: Planner):
+    def __init__(self, planner: Planner, reuse_tolerance: float | None = None):
         self.planner = planner
+        params = getattr(planner, "params", None)
+        self.reuse_tolerance = float(getattr(params, "reuse_tolerance", 0.0) if reuse_tolerance is None
+                                     else reuse_tolerance)
+        """How far (m) the robots may be from last round's plan of a query for it to be kept
+        (:func:`on_plan`); 0: every query planned anew each round. None: the planner's
+        ``params.reuse_tolerance``."""
+        self._step = float(getattr(params, "dt", 0.0))  # the planner's time step: a kept plan's samples
         self._plans: dict[tuple, PlanResult] = {}
+        # With reuse: this round's and the last round's answers by their key without the state.
+        self._fresh: dict[tuple, PlanResult] = {}
+        self._previous: dict[tuple, PlanResult] = {}
+        self.reused = 0
+        """Queries answered with the round before's plan (neither hits nor misses: the planner
+        was not asked)."""
         self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
         self.hits = 0
         self.misses = 0
@@ -52,7 +70,10 @@ class PlanCache:
         self._once: dict[tuple, tuple[object, Any]] = {}
 
     def clear(self) -> None:
-        """Forget every plan and evaluation (called when the state of the world has moved on)."""
+        """Forget every plan and evaluation (called when the state of the world has moved on); with
+        reuse, this round's plans become the round before's."""
+        if self.reuse_tolerance > 0:
+            self._previous, self._fresh = self._fresh, {}
         self._plans.clear()
         self._states.clear()
         self._crossed.clear()
@@ -84,12 +105,12 @@ class PlanCache:
     def plan(self, request: PlanRequest, state: tuple | None = None) -> PlanResult:
         """The planner's answer to ``request``, computed at most once per round; ``state`` is
         :func:`state_key` of the request if the caller has it already."""
-        key = (request.order, request.entered, request.t0, *(state_key(request) if state is None else state))
+        if state is None:
+            state = state_key(request)
+        key = (request.order, request.entered, request.t0, *state)
         result = self._plans.get(key)
         if result is None:
-            self.misses += 1
-            result = self.planner.plan(request)
-            self._plans[key] = result
+            result = self._plans[key] = self._answer(request, request.order, state)
         else:
             self.hits += 1
         return result
@@ -110,13 +131,31 @@ class PlanCache:
             key = (order, *rest)
             result = plans.get(key)
             if result is None:
-                self.misses += 1
                 request = template if template.order == order else _in_order(template, order)
-                result = plans[key] = self.planner.plan(request)
+                result = plans[key] = self._answer(request, order, state)
             else:
                 self.hits += 1
             out.append(result)
         return out
+
+    def _answer(self, request: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
+        """A query the round has not answered (``order``: its order, ``state``: its
+        :func:`state_key`): last round's plan of it carried on to now if the robots are on it
+        within :attr:`reuse_tolerance`, else the planner's."""
+        if self.reuse_tolerance <= 0:
+            self.misses += 1
+            return self.planner.plan(request)
+        # Everything the planner reads but the robots' positions and velocities (and the time).
+        unmoved = (order, request.entered, *state[2:])
+        last = self._previous.get(unmoved)
+        result = None if last is None else kept_plan(last, request, self.reuse_tolerance, self._step)
+        if result is None:
+            self.misses += 1
+            result = self.planner.plan(request)
+        else:
+            self.reused += 1
+        self._fresh[unmoved] = result
+        return result
 
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
@@ -208,6 +247,111 @@ def trajectory_states(times, positions, velocities, query):
     return out
 
 
+def kept_plan(last: PlanResult, request: PlanRequest, tolerance: float, dt: float) -> PlanResult | None:
+    """``last`` (a plan of the round before, of a query that differs from ``request`` in the
+    robots' positions, velocities and time only) carried on to ``request.t0`` (:func:`plan_tail`)
+    if it is still good: planned successfully, ``request.t0`` a whole number of the planner's
+    steps ``dt`` after its start, and every robot :func:`on_plan` within ``tolerance``. None otherwise.
+
+    Robots outside the query do not enter the planner, so they cannot make it wrong; robots that
+    entered the corridor or joined or left the query change the key it is found by."""
+    trajectory = last.trajectory
+    if not last.success or dt <= 0:
+        return None
+    elapsed = request.t0 - float(trajectory.times[0])
+    steps = int(round(elapsed / dt))
+    if steps < 1 or abs(elapsed - steps * dt) > 1e-6 * dt:
+        return None
+    if not on_plan(trajectory, steps, request.positions, request.velocities, request.max_accels, tolerance):
+        return None
+    return plan_tail(last, steps, request.t0, dt)
+
+
+def on_plan(trajectory: JointTrajectory, steps: int, positions: np.ndarray, velocities: np.ndarray,
+            accels: np.ndarray | None, tolerance: float) -> bool:
+    """Whether every robot is within ``tolerance`` (m) of its state in ``trajectory`` at its sample
+    ``steps`` (held after the last): its distance from the planned position plus, with
+    acceleration limits ``accels``, how much farther its velocity error ``dv`` takes it while it
+    is braked away at that limit, ``|dv|^2 / 2a`` (:func:`plan_offsets_plain`, in one compiled
+    loop). Within it, the planner, which places a robot on its path to a cell of ``v_max dt / 2``,
+    would start from nearly the same state."""
+    last = len(trajectory.times) - 1
+    k = min(steps, last)
+    braking = accels is not None
+    return bool(within_plan(positions, velocities, accels if braking else _NO_ACCELS, trajectory.positions[k],
+                            trajectory.velocities[k], steps >= last, braking, tolerance))
+
+
+_NO_ACCELS = np.zeros(0)
+
+
+def plan_offsets_plain(positions: np.ndarray, velocities: np.ndarray, accels: np.ndarray | None,
+                       planned_positions: np.ndarray, planned_velocities: np.ndarray) -> np.ndarray:
+    """How far each robot is from its planned state ``(n,)`` (m): its distance from the planned
+    position plus, with ``accels``, ``|dv|^2 / 2a`` of its velocity error (the reference
+    :func:`within_plan` is tested against)."""
+    off = np.linalg.norm(positions - planned_positions, axis=1)
+    if accels is not None:
+        off = off + np.sum((velocities - planned_velocities) ** 2, axis=1) / (2.0 * accels)
+    return off
+
+
+@compiled
+def within_plan(positions, velocities, accels, planned_positions, planned_velocities, held, braking, tolerance):
+    """Whether every robot's :func:`plan_offsets_plain` is within ``tolerance``, the planned
+    velocity zero if ``held`` (after the plan's last sample), the velocity not read unless
+    ``braking``: one loop, stopping at the first robot off the plan."""
+    for r in range(positions.shape[0]):
+        dx = positions[r, 0] - planned_positions[r, 0]
+        dy = positions[r, 1] - planned_positions[r, 1]
+        off = np.sqrt(dx * dx + dy * dy)
+        if braking:
+            ux = velocities[r, 0] - (0.0 if held else planned_velocities[r, 0])
+            uy = velocities[r, 1] - (0.0 if held else planned_velocities[r, 1])
+            off += (ux * ux + uy * uy) / (2.0 * accels[r])
+        if off > tolerance:
+            return False
+    return True
+
+
+def plan_tail(result: PlanResult, steps: int, t0: float, dt: float) -> PlanResult:
+    """``result`` from its sample ``steps`` on, started at ``t0``, as the planner would return a
+    plan asked at ``t0``: its times ``t0 + dt j`` (execution starts its clocks at the first
+    sample); with the fast planner's ``info["arrival_times"]``, those counted from ``t0`` (at
+    least 0) and the cost their sum, as the fast planner's (another planner's cost is kept);
+    ``info["kept_from"]`` the plan's first time. After its last sample the plan holds every
+    robot where it ends, as before."""
+    traj = result.trajectory
+    k = min(steps, len(traj.times) - 1)
+    info = {**result.info, "kept_from": float(traj.times[0])}
+    arrival = result.info.get("arrival_times")
+    times, arrival, cost = tail_arrays(len(traj.times) - k, t0, dt, _NO_ACCELS if arrival is None else arrival,
+                                       steps * dt)
+    times.setflags(write=False)  # the planner's plans are shared read-only, and so is this one
+    if "arrival_times" in info:
+        arrival.setflags(write=False)
+        info["arrival_times"] = arrival
+    else:
+        cost = result.cost
+    trajectory = JointTrajectory(times, traj.positions[k:], traj.velocities[k:])
+    return PlanResult(result.success, result.reason, cost, trajectory, result.order, result.order_planned, 0.0, info)
+
+
+@compiled
+def tail_arrays(count, t0, dt, arrival, elapsed):
+    """For :func:`plan_tail`, in one compiled call: the times ``t0 + dt j`` of ``count`` samples,
+    the arrival times ``arrival`` less ``elapsed`` (at least 0), and their sum."""
+    times = np.empty(count)
+    for j in range(count):
+        times[j] = t0 + dt * j
+    left = np.empty(arrival.shape[0])
+    cost = 0.0
+    for r in range(arrival.shape[0]):
+        left[r] = max(arrival[r] - elapsed, 0.0)
+        cost += left[r]
+    return times, left, cost
+
+
 def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
     """``dataclasses.replace(template, order=order)`` without its field-by-field rebuild (a
     :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class."""
@@ -240,4 +384,5 @@ def hashable(value):
     return value
 
 
-__all__ = ["PlanCache", "crossed_state", "hashable", "stack_key", "state_key"]
+__all__ = ["PlanCache", "crossed_state", "hashable", "kept_plan", "on_plan", "plan_offsets_plain", "plan_tail",
+           "stack_key", "state_key", "tail_arrays", "within_plan"]

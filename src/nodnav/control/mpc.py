@@ -45,6 +45,7 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_fused import step_setup
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
@@ -62,6 +63,10 @@ LOCAL_SLACK = 1.0
 """How far (m) a robot on a map may move before its controller takes its nearby walls again: the
 set holds every wall within its reach plus this, so it serves until the robot has moved this far
 (at 0.4 m/s, about every 25 control steps)."""
+
+NO_PLAN = np.zeros((0, 2))
+"""The fused set-up's warm start without a plan (read only; :meth:`BSplineMPC._fused_setup`)."""
+NO_PLAN.setflags(write=False)
 
 
 
@@ -152,9 +157,15 @@ class BSplineMPC:
         if self._grid is not None:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
-        data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
+        fused = self.settings.fused_step
+        if fused:  # the set-up up to the first QP's rows in one compiled call
+            committed = self._advance_committed(p0, v0)
+            data, lin, cold, first = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins, committed)
+        else:
+            data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
+            committed = self._advance_committed(p0, v0)
+            first = None
         effort = SolverEffort(starts=self._starts)
-        committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = data.clearance_now
         if clearance0 < r - self.settings.contact_tolerance:
@@ -166,9 +177,10 @@ class BSplineMPC:
             if hopeless:  # every plan would be refused below: skip solving for one
                 return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)
 
-        warm = self._warm_start(committed)
-        cold = warm is None
-        lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
+        if not fused:
+            warm = self._warm_start(committed)
+            cold = warm is None
+            lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
         if data.overlap:
             dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
             overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
@@ -176,7 +188,7 @@ class BSplineMPC:
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
         else:
-            best, post, why, conflict, checked = self._track(prob, data, lin, cold, effort, request.braking)
+            best, post, why, conflict, checked = self._track(prob, data, lin, cold, effort, request.braking, first)
             unsafe = "" if best is None else self._braking_conflict(request, post, best, prob, checked)
             if best is not None and not unsafe:
                 self._accept(best, prob, post)
@@ -302,16 +314,18 @@ class BSplineMPC:
                                    time.perf_counter() - start, post[3], info)
 
     def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort,
-               partners: BrakingPartners | None = None):
+               partners: BrakingPartners | None = None, first: tuple | None = None):
         """The tracking QP (re-linearised once more after a cold start if the solution moved far).
 
         Returns (control points or None, their values (:meth:`MPCProblem.evaluate`), why not, the
         other robots involved in the failure: those owning rows of an infeasibility certificate
         (:func:`infeasibility_certificate`), else all; the mutual braking check's straight part
-        towards ``partners``, made with the plan's check, or None without partners).
+        towards ``partners``, made with the plan's check, or None without partners). ``first``: the
+        first QP's gradient and bounds where the step's set-up made them (:meth:`_fused_setup`).
         """
         best, best_post, why, conflict, best_checked = None, None, "", prob.every_other, None
-        gradient, lower = prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write their rows
+        # The first QP's; later ones write their rows.
+        gradient, lower = prob.tracking_rows(data, lin, cold) if first is None else first
         for k in range(self.settings.sqp_iterations):
             if k:
                 lower = prob.write_separation(data, lin, cold, data.need)
@@ -439,6 +453,12 @@ class BSplineMPC:
         need_clear, clear_now, overlap, weight, reach = step_state(
             pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, prob.static_alpha @ v0, static,
             *prob.state_constants)
+        return self._data(prob, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
+
+    @staticmethod
+    def _data(prob: MPCProblem, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach
+              ) -> StepData:
+        """The step's :class:`StepData`: the arrays and values made, the problem's per-group state."""
         x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
         n_end = prob.n_end
         # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
@@ -446,6 +466,27 @@ class BSplineMPC:
             p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
             pred[:, -1], far, gap, need_box, static, prob.n_walls, weight, reach, box_low, box_high, need_clear,
             clear_now, overlap)
+
+    def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None
+                     ) -> tuple[StepData, np.ndarray, bool, tuple[np.ndarray, np.ndarray]]:
+        """:meth:`_step_data`, the linearisation points of :meth:`_warm_start` and the first QP's
+        :meth:`MPCProblem.tracking_rows` in one compiled call, the small products as loops
+        (:func:`~nodnav.control.mpc_fused.step_setup`, ``controller.fused_step``). Returns the step
+        data, the linearisation points, whether the start is cold, the first QP's gradient and bounds."""
+        if self._following and committed is not None:
+            warm, mode = self._fit(committed, 0.0), 2
+        elif self._previous is None:
+            warm, mode = NO_PLAN, 0
+        else:
+            warm, mode = self._previous, 1
+        pred = np.empty((len(others), len(prob.interp_all), 2))
+        static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
+        gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
+        need_clear, clear_now, overlap, weight, reach = step_setup(
+            others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
+            *prob.fused_constants)
+        data = self._data(prob, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
+        return data, lin, mode == 0, (gradient, lower)
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

@@ -256,6 +256,11 @@ class MPCProblem:
             a_max, self.eps[0], robot.radius + v_max * horizon + 0.1, s.contact_tolerance, self.eps_end,
             self.static_base, self.static_line, bool(s.braking_tail), horizon, v_max * horizon, a_max * horizon,
             a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
+        # What the fused set-up reads of the problem (controller.fused_step), in its arguments' order
+        # (:func:`~nodnav.control.mpc_fused.step_setup`; row_constants' walls and eps_end are state_constants').
+        self.fused_constants = (self.interp_all, self.static_alpha, setup.shift, self.b_ends, self.interp_ends,
+                                self.ref_weights, self.q_line, self.no_group_marked, *self.state_constants,
+                                *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:

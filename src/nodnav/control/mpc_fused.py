@@ -1,0 +1,80 @@
+"""A step's whole set-up before its first tracking QP in one compiled call (``controller.fused_step``).
+
+:meth:`~nodnav.control.mpc.BSplineMPC.control` otherwise makes it in Python: the predictions at
+the problem's times (``interp_all @ others``), ``static_alpha @ v0``, the compiled
+:func:`~nodnav.control.mpc_rows.step_state`, the warm start (``shift @ previous``) and its
+linearisation points (``b_ends @ warm``, or ``interp_ends @ ref`` cold), ``ref_weights @
+ref_local`` and the compiled :func:`~nodnav.control.mpc_rows.tracking_rows`: two compiled calls of
+some forty arguments each, six small BLAS products and their temporaries. Here the products are
+plain loops (:func:`product_into`) and the two kernels are called from within: one dispatch.
+
+The loops sum in index order; BLAS may use fused multiply-adds and another order, so each product
+agrees with NumPy's to a few units in the last place of the sum of the terms' magnitudes (a sum of
+``k`` products is exact to ``k`` roundings, ``k <= 9`` here), and the quantities derived from them
+(distances, square roots, minima) to about as many of their own scale. Whatever differs is that
+rounding: every constraint and check is the same, computed from values a few ulps apart, and the
+exact check of each plan (tolerance ``check_tolerance``, 1e-4 m) is unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from nodnav.compiled import compiled
+from nodnav.control.mpc_rows import step_state, tracking_rows
+
+
+@compiled
+def product_into(a, b, out):
+    """``out[i, d] = sum_k a[i, k] b[k, d]`` (``a @ b`` for ``b`` ``(k, 2)``), the sum in index order."""
+    for i in range(a.shape[0]):
+        for d in range(b.shape[1]):
+            s = 0.0
+            for k in range(a.shape[1]):
+                s += a[i, k] * b[k, d]
+            out[i, d] = s
+
+
+@compiled
+def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
+               interp_all, static_alpha, shift, b_ends, interp_ends, ref_weights, q_line, no_group_marked, n_end, ends,
+               intervals, boxes, pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end,
+               static_base, static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half,
+               double_decel, x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high,
+               group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows):
+    """A step's set-up up to its first tracking QP: the predictions ``interp_all @ others[j]`` into
+    ``pred`` ``(m, P, 2)``, :func:`~nodnav.control.mpc_rows.step_state` (with ``static_alpha @ v0``
+    and the speed ``|v0|``), the linearisation points into ``lin`` ``(N, 2)`` (``mode`` 0, cold:
+    ``interp_ends @ ref``; 1: ``b_ends @ (shift @ warm)``, the previous plan moved on a step; 2:
+    ``b_ends @ warm``) and :func:`~nodnav.control.mpc_rows.tracking_rows` (``ref_weights @
+    ref_local``; the gradient into ``gradient``, the bounds into ``lower``, the rows into ``rows``).
+    The products are loops (:func:`product_into`). Arguments from ``interp_all`` on are the
+    problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Returns
+    ``step_state``'s five values."""
+    for j in range(others.shape[0]):
+        product_into(interp_all, others[j], pred[j])
+    alpha_v0 = np.empty(static_alpha.shape[0])
+    for r in range(static_alpha.shape[0]):
+        alpha_v0[r] = static_alpha[r, 0] * v0[0] + static_alpha[r, 1] * v0[1]
+    need_clear, clear_now, overlap, weight, tail_reach = step_state(
+        pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, alpha_v0, static, n_end, ends,
+        intervals, boxes, pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end,
+        static_base, static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half, double_decel,
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high)
+    if mode == 0:
+        product_into(interp_ends, ref, lin)
+    elif mode == 1:
+        moved = np.empty((shift.shape[0], 2))
+        product_into(shift, warm, moved)
+        product_into(b_ends, moved, lin)
+    else:
+        product_into(b_ends, warm, lin)
+    weighted = np.empty((ref_weights.shape[0], 2))
+    product_into(ref_weights, ref_local, weighted)
+    tracking_rows(q_line, weighted, gradient, lin, mode == 0, need, no_group_marked, x_now, away, dist_now, contact,
+                  delta_sq, far, pred[:, pred.shape[1] - 1], p0, v0, static, weight, tail_reach, box_low, box_high,
+                  boxes, pieces, eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval,
+                  tail_phi, tail_line, tol, rows, lower)
+    return need_clear, clear_now, overlap, weight, tail_reach

@@ -25,7 +25,7 @@ import pytest
 
 from nodnav.control.base import ControlRequest
 from nodnav.control.mpc import BSplineMPC
-from nodnav.control.mpc_fused import product_into
+from nodnav.control.mpc_fused import product_into, sparse_product_into, sparse_rows
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
@@ -63,6 +63,21 @@ def test_product_into_is_the_matmul_to_rounding():
         ai, bi = np.round(a), np.round(b)  # small integers: every sum exact both ways
         product_into(ai, bi, out)
         assert np.array_equal(out, ai @ bi)
+
+
+def test_sparse_product_is_the_dense_loop_bit_for_bit():
+    """Leaving out the zero entries changes no sum (the problem's interpolation and basis, and random
+    sparse matrices with empty rows)."""
+    rng = np.random.default_rng(2)
+    ctl = BSplineMPC(WORLD, ROBOT, MPCParams())
+    prob = ctl._problem(3, TIMES)
+    mats = [prob.interp_all, prob.b_ends] + [rng.normal(size=(7, 6)) * (rng.random((7, 6)) < 0.3) for _ in range(20)]
+    for a in mats:
+        b = rng.normal(0.0, 4.0, (a.shape[1], 2))
+        dense, sparse = np.empty((a.shape[0], 2)), np.empty((a.shape[0], 2))
+        product_into(a, b, dense)
+        sparse_product_into(*sparse_rows(a), b, sparse)
+        assert np.array_equal(dense, sparse)
 
 
 def _plain(ctl, prob, args, committed):

@@ -37,9 +37,29 @@ def product_into(a, b, out):
             out[i, d] = s
 
 
+def sparse_rows(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``a``'s non-zero entries row by row, in column order (compressed sparse rows: each row's
+    start in the others, their columns and values), for :func:`sparse_product_into`."""
+    rows, cols = np.nonzero(a)  # row-major: each row's columns in increasing order
+    starts = np.searchsorted(rows, np.arange(a.shape[0] + 1))
+    return starts, cols, np.ascontiguousarray(a[rows, cols])
+
+
+@compiled
+def sparse_product_into(starts, cols, values, b, out):
+    """:func:`product_into` of the matrix :func:`sparse_rows` made, over its non-zero entries only:
+    the same sums bit for bit (the terms left out are exact zeros, ``b`` being finite)."""
+    for i in range(starts.shape[0] - 1):
+        for d in range(b.shape[1]):
+            s = 0.0
+            for n in range(starts[i], starts[i + 1]):
+                s += values[n] * b[cols[n], d]
+            out[i, d] = s
+
+
 @compiled
 def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
-               interp_all, static_alpha, shift, b_ends, interp_ends, ref_weights, q_line, no_group_marked, n_end, ends,
+               all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values, interp_ends, ref_weights, q_line, no_group_marked, n_end, ends,
                intervals, boxes, pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end,
                static_base, static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half,
                double_decel, x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high,
@@ -50,11 +70,12 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     ``interp_ends @ ref``; 1: ``b_ends @ (shift @ warm)``, the previous plan moved on a step; 2:
     ``b_ends @ warm``) and :func:`~nodnav.control.mpc_rows.tracking_rows` (``ref_weights @
     ref_local``; the gradient into ``gradient``, the bounds into ``lower``, the rows into ``rows``).
-    The products are loops (:func:`product_into`). Arguments from ``interp_all`` on are the
+    The products are loops (:func:`product_into`; the interpolation ``interp_all`` and the basis
+    ``b_ends``, two to four entries a row, as :func:`sparse_rows`). Arguments from ``interp_all`` on are the
     problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Returns
     ``step_state``'s five values."""
     for j in range(others.shape[0]):
-        product_into(interp_all, others[j], pred[j])
+        sparse_product_into(all_starts, all_cols, all_values, others[j], pred[j])
     alpha_v0 = np.empty(static_alpha.shape[0])
     for r in range(static_alpha.shape[0]):
         alpha_v0[r] = static_alpha[r, 0] * v0[0] + static_alpha[r, 1] * v0[1]
@@ -68,9 +89,9 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     elif mode == 1:
         moved = np.empty((shift.shape[0], 2))
         product_into(shift, warm, moved)
-        product_into(b_ends, moved, lin)
+        sparse_product_into(ends_starts, ends_cols, ends_values, moved, lin)
     else:
-        product_into(b_ends, warm, lin)
+        sparse_product_into(ends_starts, ends_cols, ends_values, warm, lin)
     weighted = np.empty((ref_weights.shape[0], 2))
     product_into(ref_weights, ref_local, weighted)
     tracking_rows(q_line, weighted, gradient, lin, mode == 0, need, no_group_marked, x_now, away, dist_now, contact,

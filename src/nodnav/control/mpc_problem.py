@@ -32,6 +32,7 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
 from nodnav.control.mpc_braking import WallsAround
+from nodnav.control.mpc_fused import sparse_rows
 from nodnav.control.mpc_plan import plan_after_qp, plan_after_qp_braking
 from nodnav.control.mpc_rows import (
     chord_inflation,
@@ -258,7 +259,8 @@ class MPCProblem:
             a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
         # What the fused set-up reads of the problem (controller.fused_step), in its arguments' order
         # (:func:`~nodnav.control.mpc_fused.step_setup`; row_constants' walls and eps_end are state_constants').
-        self.fused_constants = (self.interp_all, self.static_alpha, setup.shift, self.b_ends, self.interp_ends,
+        self.fused_constants = (*sparse_rows(self.interp_all), self.static_alpha, setup.shift, *sparse_rows(self.b_ends),
+                                self.interp_ends,
                                 self.ref_weights, self.q_line, self.no_group_marked, *self.state_constants,
                                 *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots

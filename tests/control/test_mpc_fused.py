@@ -26,6 +26,7 @@ import pytest
 from nodnav.control.base import ControlRequest
 from nodnav.control.mpc import BSplineMPC
 from nodnav.control.mpc_fused import product_into, sparse_product_into, sparse_rows
+from nodnav.control.mutual_braking import passing_bound
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
 from nodnav.scenario.world import paper_world
@@ -99,10 +100,12 @@ def _close(a, b, what="", tol=TOL):
     assert np.all(same), (what, np.flatnonzero(~same), a[~same], b[~same])
 
 
-def _compare(ctl, prob, args, committed):
-    """The fused set-up against the plain one on the same controller state."""
+def _compare(ctl, prob, args, committed, partners=None):
+    """The fused set-up against the plain one on the same controller state (and the passing bound
+    towards ``partners``, the same kernel: bit for bit)."""
     plain, lin, cold, gradient, lower, rows = _plain(ctl, prob, args, committed)
-    data, f_lin, f_cold, (f_gradient, f_lower) = ctl._fused_setup(prob, *args, committed)
+    data, f_lin, f_cold, (f_gradient, f_lower), bound = ctl._fused_setup(prob, *args, committed, partners)
+    assert bound == (np.inf if partners is None else passing_bound(args[0], args[1], partners)[0])
     assert f_cold == cold
     for f in FIELDS + SCALARS:
         _close(getattr(data, f), plain[f], f)
@@ -135,7 +138,7 @@ def test_fused_setup_is_the_plain_one_on_random_states(n_others, warm):
 def test_fused_setup_is_the_plain_one_on_recorded_steps():
     """Every step of a trial of the paper's 3r-case4 (the plain path's trial, warm starts from
     previous plans and committed trajectories): the fused set-up from the same state and request."""
-    seen = {"steps": 0, "modes": set()}
+    seen = {"steps": 0, "modes": set(), "partners": 0}
     plain_control = BSplineMPC.control
 
     def control(self, request: ControlRequest):
@@ -145,7 +148,8 @@ def test_fused_setup_is_the_plain_one_on_recorded_steps():
         if committed is not None:  # as _advance_committed will have it, without moving it on
             committed.elapsed += self.dt
         args = (p0, v0, ref, others, radii, margins)
-        _compare(self, prob, args, committed if self._following else None)
+        _compare(self, prob, args, committed if self._following else None, request.braking)
+        seen["partners"] += request.braking is not None
         if committed is not None:
             committed.elapsed -= self.dt
         seen["steps"] += 1
@@ -162,4 +166,4 @@ def test_fused_setup_is_the_plain_one_on_recorded_steps():
                 break
     finally:
         BSplineMPC.control = plain_control
-    assert seen["steps"] > 100 and (True, False) in seen["modes"] and (False, False) in seen["modes"]
+    assert seen["steps"] > 100 and seen["partners"] > 100 and (True, False) in seen["modes"] and (False, False) in seen["modes"]

@@ -44,12 +44,12 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
-from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_braking import BOUND_TOLERANCE, WallsAround, fallback_conflict, no_plan_passes
 from nodnav.control.mpc_fused import step_setup
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
-from nodnav.control.mutual_braking import BrakingPartners
+from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.shared_setups import SharedSetups
 from nodnav.registry import register_controller
@@ -67,6 +67,11 @@ set holds every wall within its reach plus this, so it serves until the robot ha
 NO_PLAN = np.zeros((0, 2))
 """The fused set-up's warm start without a plan (read only; :meth:`BSplineMPC._fused_setup`)."""
 NO_PLAN.setflags(write=False)
+NO_PARTNERS = BrakingPartners(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
+                              np.zeros(0, dtype=bool), 0, 0, 0.1)
+"""No braking partners, as the fused set-up's arguments (robot -1: no bound made)."""
+for _empty in NO_PARTNERS[1:7]:
+    _empty.setflags(write=False)
 
 
 
@@ -160,7 +165,9 @@ class BSplineMPC:
         fused = self.settings.fused_step
         if fused:  # the set-up up to the first QP's rows in one compiled call
             committed = self._advance_committed(p0, v0)
-            data, lin, cold, first = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins, committed)
+            partners = request.braking if self.settings.skip_unpassable else None
+            data, lin, cold, first, bound = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins, committed,
+                                                              partners)
         else:
             data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
             committed = self._advance_committed(p0, v0)
@@ -173,7 +180,9 @@ class BSplineMPC:
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
         if request.braking is not None and self.settings.skip_unpassable:
-            hopeless = no_plan_passes(request.braking, self._walls, p0, v0, self.dt)
+            # The fused set-up made passing_bound's bound: where it cannot say "hopeless", nor can this.
+            hopeless = "" if fused and bound >= -BOUND_TOLERANCE else no_plan_passes(
+                request.braking, self._walls, p0, v0, self.dt)
             if hopeless:  # every plan would be refused below: skip solving for one
                 return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)
 
@@ -467,12 +476,15 @@ class BSplineMPC:
             pred[:, -1], far, gap, need_box, static, prob.n_walls, weight, reach, box_low, box_high, need_clear,
             clear_now, overlap)
 
-    def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None
-                     ) -> tuple[StepData, np.ndarray, bool, tuple[np.ndarray, np.ndarray]]:
+    def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None,
+                     partners: BrakingPartners | None = None
+                     ) -> tuple[StepData, np.ndarray, bool, tuple[np.ndarray, np.ndarray], float]:
         """:meth:`_step_data`, the linearisation points of :meth:`_warm_start` and the first QP's
         :meth:`MPCProblem.tracking_rows` in one compiled call, the small products as loops
         (:func:`~nodnav.control.mpc_fused.step_setup`, ``controller.fused_step``). Returns the step
-        data, the linearisation points, whether the start is cold, the first QP's gradient and bounds."""
+        data, the linearisation points, whether the start is cold, the first QP's gradient and bounds,
+        and :func:`~nodnav.control.mutual_braking.passing_bound`'s bound towards ``partners`` (``inf``
+        without them)."""
         if self._following and committed is not None:
             warm, mode = self._fit(committed, 0.0), 2
         elif self._previous is None:
@@ -482,11 +494,11 @@ class BSplineMPC:
         pred = np.empty((len(others), len(prob.interp_all), 2))
         static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
         gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
-        need_clear, clear_now, overlap, weight, reach = step_setup(
+        bound, need_clear, clear_now, overlap, weight, reach = step_setup(
             others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
-            *prob.fused_constants)
+            *(NO_PARTNERS if partners is None else partners), SAMPLE_STEP, MAX_SAMPLES, *prob.fused_constants)
         data = self._data(prob, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
-        return data, lin, mode == 0, (gradient, lower)
+        return data, lin, mode == 0, (gradient, lower), bound
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

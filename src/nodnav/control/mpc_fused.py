@@ -24,6 +24,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control.mpc_rows import step_state, tracking_rows
+from nodnav.control.mutual_braking import _bound_kernel
 
 
 @compiled
@@ -59,6 +60,8 @@ def sparse_product_into(starts, cols, values, b, out):
 
 @compiled
 def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
+               robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, step,
+               max_samples,
                all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values, interp_ends, ref_weights, q_line, no_group_marked, n_end, ends,
                intervals, boxes, pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end,
                static_base, static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half,
@@ -72,8 +75,11 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     ref_local``; the gradient into ``gradient``, the bounds into ``lower``, the rows into ``rows``).
     The products are loops (:func:`product_into`; the interpolation ``interp_all`` and the basis
     ``b_ends``, two to four entries a row, as :func:`sparse_rows`). Arguments from ``interp_all`` on are the
-    problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Returns
-    ``step_state``'s five values."""
+    problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Before them, from
+    ``robot`` to ``max_samples``: the braking partners (:class:`~nodnav.control.mutual_braking.BrakingPartners`'
+    fields) and the sampling of :func:`~nodnav.control.mutual_braking.passing_bound`, whose bound
+    (the same kernel, ``inf`` where ``robot < 0``: no partners) comes first in the returned values,
+    then ``step_state``'s five."""
     for j in range(others.shape[0]):
         sparse_product_into(all_starts, all_cols, all_values, others[j], pred[j])
     alpha_v0 = np.empty(static_alpha.shape[0])
@@ -98,4 +104,8 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
                   delta_sq, far, pred[:, pred.shape[1] - 1], p0, v0, static, weight, tail_reach, box_low, box_high,
                   boxes, pieces, eps_end, group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval,
                   tail_phi, tail_line, tol, rows, lower)
-    return need_clear, clear_now, overlap, weight, tail_reach
+    bound = np.inf
+    if robot >= 0:
+        bound = _bound_kernel(robot, p0, v0, positions, velocities, decels, radii, keeps, seen, turn, convention,
+                              partners_dt, step, max_samples)[0]
+    return bound, need_clear, clear_now, overlap, weight, tail_reach

@@ -166,4 +166,5 @@ def test_fused_setup_is_the_plain_one_on_recorded_steps():
                 break
     finally:
         BSplineMPC.control = plain_control
-    assert seen["steps"] > 100 and seen["partners"] > 100 and (True, False) in seen["modes"] and (False, False) in seen["modes"]
+    assert seen["steps"] > 100 and seen["partners"] > 100
+    assert (True, False) in seen["modes"] and (False, False) in seen["modes"]  # cold, and warm from a plan

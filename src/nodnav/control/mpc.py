@@ -45,11 +45,11 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_braking import BOUND_TOLERANCE, WallsAround, fallback_conflict, no_plan_passes
-from nodnav.control.mpc_fused import step_setup
+from nodnav.control.mpc_fused import NO_PLAN, fused_setup
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
-from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners
+from nodnav.control.mutual_braking import BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.shared_setups import SharedSetups
 from nodnav.registry import register_controller
@@ -64,14 +64,6 @@ LOCAL_SLACK = 1.0
 set holds every wall within its reach plus this, so it serves until the robot has moved this far
 (at 0.4 m/s, about every 25 control steps)."""
 
-NO_PLAN = np.zeros((0, 2))
-"""The fused set-up's warm start without a plan (read only; :meth:`BSplineMPC._fused_setup`)."""
-NO_PLAN.setflags(write=False)
-NO_PARTNERS = BrakingPartners(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
-                              np.zeros(0, dtype=bool), 0, 0, 0.1)
-"""No braking partners, as the fused set-up's arguments (robot -1: no bound made)."""
-for _empty in NO_PARTNERS[1:7]:
-    _empty.setflags(write=False)
 
 
 
@@ -166,8 +158,8 @@ class BSplineMPC:
         if fused:  # the set-up up to the first QP's rows in one compiled call
             committed = self._advance_committed(p0, v0)
             partners = request.braking if self.settings.skip_unpassable else None
-            data, lin, cold, first, bound = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins, committed,
-                                                              partners)
+            data, lin, cold, first, bound = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins,
+                                                              committed, partners)
         else:
             data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
             committed = self._advance_committed(p0, v0)
@@ -462,19 +454,7 @@ class BSplineMPC:
         need_clear, clear_now, overlap, weight, reach = step_state(
             pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, prob.static_alpha @ v0, static,
             *prob.state_constants)
-        return self._data(prob, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
-
-    @staticmethod
-    def _data(prob: MPCProblem, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach
-              ) -> StepData:
-        """The step's :class:`StepData`: the arrays and values made, the problem's per-group state."""
-        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
-        n_end = prob.n_end
-        # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
-        return StepData(
-            p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
-            pred[:, -1], far, gap, need_box, static, prob.n_walls, weight, reach, box_low, box_high, need_clear,
-            clear_now, overlap)
+        return prob.step_data(p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
 
     def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None,
                      partners: BrakingPartners | None = None
@@ -487,18 +467,11 @@ class BSplineMPC:
         without them)."""
         if self._following and committed is not None:
             warm, mode = self._fit(committed, 0.0), 2
-        elif self._previous is None:
-            warm, mode = NO_PLAN, 0
         else:
-            warm, mode = self._previous, 1
-        pred = np.empty((len(others), len(prob.interp_all), 2))
-        static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
-        gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
-        bound, need_clear, clear_now, overlap, weight, reach = step_setup(
-            others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
-            *(NO_PARTNERS if partners is None else partners), SAMPLE_STEP, MAX_SAMPLES, *prob.fused_constants)
-        data = self._data(prob, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
-        return data, lin, mode == 0, (gradient, lower), bound
+            warm, mode = (NO_PLAN, 0) if self._previous is None else (self._previous, 1)
+        pred, static, ref_local, lin, gradient, lower, bound, *values = fused_setup(
+            prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners)
+        return prob.step_data(p0, v0, ref_local, pred, static, *values), lin, mode == 0, (gradient, lower), bound
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

@@ -24,7 +24,16 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control.mpc_rows import step_state, tracking_rows
-from nodnav.control.mutual_braking import _bound_kernel
+from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners, _bound_kernel
+
+NO_PLAN = np.zeros((0, 2))
+"""The fused set-up's warm start without a plan (read only)."""
+NO_PLAN.setflags(write=False)
+NO_PARTNERS = BrakingPartners(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
+                              np.zeros(0, dtype=bool), 0, 0, 0.1)
+"""No braking partners, as :func:`step_setup`'s arguments (robot -1: no bound made)."""
+for _empty in NO_PARTNERS[1:7]:
+    _empty.setflags(write=False)
 
 
 @compiled
@@ -61,12 +70,12 @@ def sparse_product_into(starts, cols, values, b, out):
 @compiled
 def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
                robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, step,
-               max_samples,
-               all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values, interp_ends, ref_weights, q_line, no_group_marked, n_end, ends,
-               intervals, boxes, pieces, bounds, radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end,
-               static_base, static_line, tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half,
-               double_decel, x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high,
-               group_point, group_wv, term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows):
+               max_samples, all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values,
+               interp_ends, ref_weights, q_line, no_group_marked, n_end, ends, intervals, boxes, pieces, bounds,
+               radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end, static_base, static_line,
+               tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half, double_decel, x_now, away,
+               dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, group_point, group_wv,
+               term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows):
     """A step's set-up up to its first tracking QP: the predictions ``interp_all @ others[j]`` into
     ``pred`` ``(m, P, 2)``, :func:`~nodnav.control.mpc_rows.step_state` (with ``static_alpha @ v0``
     and the speed ``|v0|``), the linearisation points into ``lin`` ``(N, 2)`` (``mode`` 0, cold:
@@ -109,3 +118,16 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
         bound = _bound_kernel(robot, p0, v0, positions, velocities, decels, radii, keeps, seen, turn, convention,
                               partners_dt, step, max_samples)[0]
     return bound, need_clear, clear_now, overlap, weight, tail_reach
+
+
+def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners: BrakingPartners | None):
+    """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`)
+    into new arrays: returns the predictions, the static rows' bounds, the reference relative to
+    ``p0``, the linearisation points, the first QP's gradient and bounds, then the kernel's six values."""
+    pred = np.empty((len(others), len(prob.interp_all), 2))
+    static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
+    gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
+    values = step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient,
+                        lower, *(NO_PARTNERS if partners is None else partners), SAMPLE_STEP, MAX_SAMPLES,
+                        *prob.fused_constants)
+    return (pred, static, ref_local, lin, gradient, lower, *values)

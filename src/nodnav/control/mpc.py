@@ -45,7 +45,7 @@ from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
 from nodnav.control.mpc_braking import BOUND_TOLERANCE, WallsAround, fallback_conflict, no_plan_passes
-from nodnav.control.mpc_fused import NO_PLAN, fused_setup
+from nodnav.control.mpc_fused import fused_setup, no_partners
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
@@ -107,6 +107,8 @@ class BSplineMPC:
         # DAQP's warm starts: the constraints active at the last solution of each kind of QP
         # (:class:`~nodnav.control.qp.SolverEffort`); the same problem has the same rows.
         self._starts: dict = {}
+        # The fused set-up's arguments without a plan or partners (controller.fused_step; never written).
+        self._no_plan, self._no_partners = np.zeros((0, 2)), no_partners()
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
@@ -154,7 +156,7 @@ class BSplineMPC:
         if self._grid is not None:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
-        fused = self.settings.fused_step
+        fused, first = self.settings.fused_step, None
         if fused:  # the set-up up to the first QP's rows in one compiled call
             committed = self._advance_committed(p0, v0)
             partners = request.braking if self.settings.skip_unpassable else None
@@ -163,7 +165,6 @@ class BSplineMPC:
         else:
             data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
             committed = self._advance_committed(p0, v0)
-            first = None
         effort = SolverEffort(starts=self._starts)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = data.clearance_now
@@ -325,8 +326,7 @@ class BSplineMPC:
         first QP's gradient and bounds where the step's set-up made them (:meth:`_fused_setup`).
         """
         best, best_post, why, conflict, best_checked = None, None, "", prob.every_other, None
-        # The first QP's; later ones write their rows.
-        gradient, lower = prob.tracking_rows(data, lin, cold) if first is None else first
+        gradient, lower = first or prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write theirs
         for k in range(self.settings.sqp_iterations):
             if k:
                 lower = prob.write_separation(data, lin, cold, data.need)
@@ -457,8 +457,7 @@ class BSplineMPC:
         return prob.step_data(p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
 
     def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None,
-                     partners: BrakingPartners | None = None
-                     ) -> tuple[StepData, np.ndarray, bool, tuple[np.ndarray, np.ndarray], float]:
+                     partners: BrakingPartners | None = None) -> tuple[StepData, np.ndarray, bool, tuple, float]:
         """:meth:`_step_data`, the linearisation points of :meth:`_warm_start` and the first QP's
         :meth:`MPCProblem.tracking_rows` in one compiled call, the small products as loops
         (:func:`~nodnav.control.mpc_fused.step_setup`, ``controller.fused_step``). Returns the step
@@ -468,9 +467,10 @@ class BSplineMPC:
         if self._following and committed is not None:
             warm, mode = self._fit(committed, 0.0), 2
         else:
-            warm, mode = (NO_PLAN, 0) if self._previous is None else (self._previous, 1)
+            warm, mode = (self._no_plan, 0) if self._previous is None else (self._previous, 1)
         pred, static, ref_local, lin, gradient, lower, bound, *values = fused_setup(
-            prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners)
+            prob, p0, v0, ref, others, other_radii, margins, warm, mode,
+            self._no_partners if partners is None else partners)
         return prob.step_data(p0, v0, ref_local, pred, static, *values), lin, mode == 0, (gradient, lower), bound
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:

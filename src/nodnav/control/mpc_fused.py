@@ -26,14 +26,12 @@ from nodnav.compiled import compiled
 from nodnav.control.mpc_rows import step_state, tracking_rows
 from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners, _bound_kernel
 
-NO_PLAN = np.zeros((0, 2))
-"""The fused set-up's warm start without a plan (read only)."""
-NO_PLAN.setflags(write=False)
-NO_PARTNERS = BrakingPartners(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
-                              np.zeros(0, dtype=bool), 0, 0, 0.1)
-"""No braking partners, as :func:`step_setup`'s arguments (robot -1: no bound made)."""
-for _empty in NO_PARTNERS[1:7]:
-    _empty.setflags(write=False)
+
+def no_partners() -> BrakingPartners:
+    """No braking partners, as :func:`step_setup`'s arguments (robot -1: no bound made). Its arrays
+    are writable, as a request's are, so that the kernel has no specialisation for read-only ones."""
+    return BrakingPartners(-1, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool),
+                           np.zeros(0, dtype=bool), 0, 0, 0.1)
 
 
 @compiled
@@ -120,7 +118,7 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     return bound, need_clear, clear_now, overlap, weight, tail_reach
 
 
-def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners: BrakingPartners | None):
+def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners: BrakingPartners):
     """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`)
     into new arrays: returns the predictions, the static rows' bounds, the reference relative to
     ``p0``, the linearisation points, the first QP's gradient and bounds, then the kernel's six values."""
@@ -128,6 +126,6 @@ def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, par
     static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
     gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
     values = step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient,
-                        lower, *(NO_PARTNERS if partners is None else partners), SAMPLE_STEP, MAX_SAMPLES,
+                        lower, *partners, SAMPLE_STEP, MAX_SAMPLES,
                         *prob.fused_constants)
     return (pred, static, ref_local, lin, gradient, lower, *values)

@@ -44,7 +44,8 @@ from nodnav.control import bspline
 from nodnav.control.base import STEP_FRACTIONS, ControlRequest, ControlResult
 from nodnav.control.braking import Committed, braking_profile, tail_clearance, tail_decel
 from nodnav.control.evasive import evasive_plan
-from nodnav.control.mpc_braking import WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_braking import BOUND_TOLERANCE, WallsAround, fallback_conflict, no_plan_passes
+from nodnav.control.mpc_fused import fused_setup, no_partners
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
 from nodnav.control.mpc_rows import all_finite, step_state
@@ -62,6 +63,7 @@ LOCAL_SLACK = 1.0
 """How far (m) a robot on a map may move before its controller takes its nearby walls again: the
 set holds every wall within its reach plus this, so it serves until the robot has moved this far
 (at 0.4 m/s, about every 25 control steps)."""
+
 
 
 
@@ -105,6 +107,8 @@ class BSplineMPC:
         # DAQP's warm starts: the constraints active at the last solution of each kind of QP
         # (:class:`~nodnav.control.qp.SolverEffort`); the same problem has the same rows.
         self._starts: dict = {}
+        # The fused set-up's arguments without a plan or partners (controller.fused_step; never written).
+        self._no_plan, self._no_partners = np.zeros((0, 2)), no_partners()
 
     def reset(self) -> None:
         """Forget the previous solution (the next step starts cold)."""
@@ -152,9 +156,16 @@ class BSplineMPC:
         if self._grid is not None:
             self._local_walls(self._grid, p0, v0)
         prob = self._problem(len(others), times)
-        data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
+        fused, first = self.settings.fused_step, None
+        if fused:  # the set-up up to the first QP's rows in one compiled call
+            committed = self._advance_committed(p0, v0)
+            partners = request.braking if self.settings.skip_unpassable else None
+            data, lin, cold, first, bound = self._fused_setup(prob, p0, v0, ref, others, other_radii, margins,
+                                                              committed, partners)
+        else:
+            data = self._step_data(prob, p0, v0, ref, others, other_radii, margins)
+            committed = self._advance_committed(p0, v0)
         effort = SolverEffort(starts=self._starts)
-        committed = self._advance_committed(p0, v0)
         r, m_w = self.robot.radius, prob.n_walls
         clearance0 = data.clearance_now
         if clearance0 < r - self.settings.contact_tolerance:
@@ -162,13 +173,16 @@ class BSplineMPC:
                                f"in contact with a wall (clearance {clearance0:.3f} m, radius {r:.3f} m)")
 
         if request.braking is not None and self.settings.skip_unpassable:
-            hopeless = no_plan_passes(request.braking, self._walls, p0, v0, self.dt)
+            # The fused set-up made passing_bound's bound: where it cannot say "hopeless", nor can this.
+            hopeless = "" if fused and bound >= -BOUND_TOLERANCE else no_plan_passes(
+                request.braking, self._walls, p0, v0, self.dt)
             if hopeless:  # every plan would be refused below: skip solving for one
                 return self._fallback(request, prob, committed, start, effort, p0, v0, hopeless)
 
-        warm = self._warm_start(committed)
-        cold = warm is None
-        lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
+        if not fused:
+            warm = self._warm_start(committed)
+            cold = warm is None
+            lin = prob.interp_ends @ ref if cold else prob.b_ends @ warm
         if data.overlap:
             dist0, contact = data.dist_now[m_w:], data.contact[m_w:]
             overlapping = np.flatnonzero(dist0 < contact - self.settings.contact_tolerance)
@@ -176,7 +190,7 @@ class BSplineMPC:
             why = f"overlapping robot {j} ({dist0[j]:.3f} m apart, contact at {contact[j]:.3f} m)"
             conflict = overlapping
         else:
-            best, post, why, conflict, checked = self._track(prob, data, lin, cold, effort, request.braking)
+            best, post, why, conflict, checked = self._track(prob, data, lin, cold, effort, request.braking, first)
             unsafe = "" if best is None else self._braking_conflict(request, post, best, prob, checked)
             if best is not None and not unsafe:
                 self._accept(best, prob, post)
@@ -302,16 +316,17 @@ class BSplineMPC:
                                    time.perf_counter() - start, post[3], info)
 
     def _track(self, prob: MPCProblem, data: StepData, lin: np.ndarray, cold: bool, effort: SolverEffort,
-               partners: BrakingPartners | None = None):
+               partners: BrakingPartners | None = None, first: tuple | None = None):
         """The tracking QP (re-linearised once more after a cold start if the solution moved far).
 
         Returns (control points or None, their values (:meth:`MPCProblem.evaluate`), why not, the
         other robots involved in the failure: those owning rows of an infeasibility certificate
         (:func:`infeasibility_certificate`), else all; the mutual braking check's straight part
-        towards ``partners``, made with the plan's check, or None without partners).
+        towards ``partners``, made with the plan's check, or None without partners). ``first``: the
+        first QP's gradient and bounds where the step's set-up made them (:meth:`_fused_setup`).
         """
         best, best_post, why, conflict, best_checked = None, None, "", prob.every_other, None
-        gradient, lower = prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write their rows
+        gradient, lower = first or prob.tracking_rows(data, lin, cold)  # the first QP's; later ones write theirs
         for k in range(self.settings.sqp_iterations):
             if k:
                 lower = prob.write_separation(data, lin, cold, data.need)
@@ -439,13 +454,24 @@ class BSplineMPC:
         need_clear, clear_now, overlap, weight, reach = step_state(
             pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, prob.static_alpha @ v0, static,
             *prob.state_constants)
-        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = prob.state
-        n_end = prob.n_end
-        # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
-        return StepData(
-            p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
-            pred[:, -1], far, gap, need_box, static, prob.n_walls, weight, reach, box_low, box_high, need_clear,
-            clear_now, overlap)
+        return prob.step_data(p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
+
+    def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None,
+                     partners: BrakingPartners | None = None) -> tuple[StepData, np.ndarray, bool, tuple, float]:
+        """:meth:`_step_data`, the linearisation points of :meth:`_warm_start` and the first QP's
+        :meth:`MPCProblem.tracking_rows` in one compiled call, the small products as loops
+        (:func:`~nodnav.control.mpc_fused.step_setup`, ``controller.fused_step``). Returns the step
+        data, the linearisation points, whether the start is cold, the first QP's gradient and bounds,
+        and :func:`~nodnav.control.mutual_braking.passing_bound`'s bound towards ``partners`` (``inf``
+        without them)."""
+        if self._following and committed is not None:
+            warm, mode = self._fit(committed, 0.0), 2
+        else:
+            warm, mode = (self._no_plan, 0) if self._previous is None else (self._previous, 1)
+        pred, static, ref_local, lin, gradient, lower, bound, *values = fused_setup(
+            prob, p0, v0, ref, others, other_radii, margins, warm, mode,
+            self._no_partners if partners is None else partners)
+        return prob.step_data(p0, v0, ref_local, pred, static, *values), lin, mode == 0, (gradient, lower), bound
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

@@ -32,6 +32,7 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
 from nodnav.control.mpc_braking import WallsAround
+from nodnav.control.mpc_fused import sparse_rows
 from nodnav.control.mpc_plan import plan_after_qp, plan_after_qp_braking
 from nodnav.control.mpc_rows import (
     chord_inflation,
@@ -256,7 +257,23 @@ class MPCProblem:
             a_max, self.eps[0], robot.radius + v_max * horizon + 0.1, s.contact_tolerance, self.eps_end,
             self.static_base, self.static_line, bool(s.braking_tail), horizon, v_max * horizon, a_max * horizon,
             a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
+        # What the fused set-up reads of the problem (controller.fused_step), in its arguments' order
+        # (:func:`~nodnav.control.mpc_fused.step_setup`; row_constants' walls and eps_end are state_constants').
+        self.fused_constants = (*sparse_rows(self.interp_all), self.static_alpha, setup.shift,
+                                *sparse_rows(self.b_ends), self.interp_ends, self.ref_weights, self.q_line,
+                                self.no_group_marked, *self.state_constants, *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
+
+    def step_data(self, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach) -> StepData:
+        """A step's :class:`StepData`: the arrays and values its set-up made (``pred``: the
+        predictions at :attr:`interp_all`'s times), with the per-group state in :attr:`state`."""
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = self.state
+        n_end = self.n_end
+        # StepData's fields in their order, positionally (a third of the keywords' cost, every step).
+        return StepData(
+            p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
+            pred[:, -1], far, gap, need_box, static, self.n_walls, weight, reach, box_low, box_high, need_clear,
+            clear_now, overlap)
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
         """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);

@@ -267,6 +267,10 @@ class MPCParams(ControllerParams):
     contact_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """Penetration of the current state into a wall (the robot then brakes at once) or into another
     robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
+    fused_step: bool = False
+    """Whether a step's set-up (predictions, requirements, warm start, first QP's rows and gradient)
+    runs as one compiled call with its small matrix products as loops: fewer Python steps, sums
+    agreeing with BLAS's to the last bits only (so trajectories differ there); off: bitwise as before."""
 
 
 @dataclass(frozen=True)

@@ -157,7 +157,8 @@ def test_fused_setup_is_the_plain_one_on_recorded_steps():
         self._step_data(prob, *args)  # the plain path's scratch state back, for the trial itself
         return plain_control(self, request)
 
-    scenario = load_scenario("3r-case4")
+    # The plain path drives the trial, and every step solves its MPC (no skip at rest).
+    scenario = load_scenario("3r-case4", {"controller.fused_step": False, "execution.skip_at_rest": False})
     sim = Simulation(scenario, "nod", 1)
     try:
         BSplineMPC.control = control

@@ -57,11 +57,13 @@ def test_parquet_round_trip_and_plans_start_where_the_robot_stands(saved, tmp_pa
     frame = pd.read_parquet(tmp_path / "t.parquet")
     positions = np.asarray(h.positions)
     assert np.array_equal(frame[["x", "y"]].to_numpy().reshape(positions.shape), positions)
-    # A plan is made from where the robot stands: at its decision time it is the robot's position.
+    # A plan is made from where the robot stands, or kept from the decision before while every robot
+    # is within planner.reuse_tolerance of it: at its decision time it is at most that far from the robot.
     at_decision = frame[np.isclose(frame["time"], frame["decision_time"])]
     assert len(at_decision) == 3 * len(h.decision_times)
-    np.testing.assert_allclose(at_decision[["plan_x", "plan_y"]].to_numpy(), at_decision[["x", "y"]].to_numpy(),
-                               atol=1e-9)
+    off = np.linalg.norm(at_decision[["plan_x", "plan_y"]].to_numpy() - at_decision[["x", "y"]].to_numpy(), axis=1)
+    assert off.max() <= load_scenario("3r-case4").planner.reuse_tolerance + 1e-9
+    assert np.sum(off < 1e-9) >= 3  # the first decision plans from where the robots stand
 
 
 def test_bag_read_back(saved, tmp_path):

@@ -6,7 +6,6 @@ times 1 s shorter. The tolerance test is checked on each side of its edge in pos
 velocity (|dv|^2 / 2a), and every way the key or the plan can rule a plan out. With the setting
 at 0 every round asks the planner, as before."""
 
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ import pytest
 from nodnav import load_scenario
 from nodnav.planning.base import JointTrajectory, PlanRequest, PlanResult
 from nodnav.planning.prioritized import PrioritizedPlanner
-from nodnav.scenario.params import FastPlannerParams
+from nodnav.scenario.params import FastPlannerParams, plan_reuse
 from nodnav.sim.plan_cache import (
     PlanCache,
     on_plan,
@@ -36,7 +35,7 @@ class StubPlanner:
     name = "stub"
 
     def __init__(self, tolerance: float = TOL, fail: bool = False):
-        self.params = SimpleNamespace(reuse_tolerance=tolerance, dt=DT)
+        self.tolerance = tolerance
         self.calls = 0
         self.fail = fail
 
@@ -69,7 +68,7 @@ def on_it(t0: float = 1.0, **changes) -> PlanRequest:
 def two_rounds(second: PlanRequest, planner: StubPlanner | None = None) -> tuple[StubPlanner, PlanCache, PlanResult]:
     """The first round plans ``request(0)``; the second asks ``second`` through ``plan_orders``."""
     planner = planner or StubPlanner()
-    cache = PlanCache(planner)
+    cache = PlanCache(planner, planner.tolerance, DT)
     cache.plan(request(0.0))
     cache.clear()
     result = cache.plan_orders(second, [second.order], state_key(second))[0]
@@ -156,8 +155,8 @@ def test_the_fast_planner_s_plan_is_kept_where_the_robots_follow_it_and_equal_a_
     s = load_scenario("2r-case1")
     first = scenario_request(0.0, s.origins, np.zeros((2, 2)))
     for tolerance, fresh in ((0.05, False), (0.0, True)):
-        planner = PrioritizedPlanner(s.world, FastPlannerParams(reuse_tolerance=tolerance))
-        cache = PlanCache(planner)
+        params = FastPlannerParams(reuse_tolerance=tolerance)
+        cache = PlanCache(PrioritizedPlanner(s.world, params), *plan_reuse(params))
         old = cache.plan(first)
         cache.clear()
         on = old.trajectory
@@ -193,3 +192,11 @@ def test_the_compiled_test_agrees_with_the_plain_offsets():
 def test_the_tail_s_times_and_arrivals_are_counted_from_the_new_start():
     times, left, cost = tail_arrays(4, 2.0, 0.1, np.array([0.5, 3.0, 1.0]), 1.0)
     assert np.allclose(times, [2.0, 2.1, 2.2, 2.3]) and np.allclose(left, [0.0, 2.0, 0.0]) and cost == 2.0
+
+
+def test_only_the_fast_planner_keeps_plans_however_prm_is_chosen():
+    """PRM*'s plans are planned anew each round (a kept one would keep its old path cost), whether
+    the scenario names it or a sweep switches a fast-planner scenario to it."""
+    assert plan_reuse(load_scenario("2r-case1").planner) == (0.05, 0.1)
+    assert plan_reuse(load_scenario("2r-case1", {"planner.name": "prm"}).planner)[0] == 0.0
+    assert plan_reuse(load_scenario("2r-case1").with_overrides(**{"planner.name": "prm"}).planner)[0] == 0.0

@@ -139,19 +139,21 @@ class PlannerParams:
     timing: Literal["feasible", "speed-only"] = "feasible"
     """Paths timed within each robot's speed and acceleration limits (``feasible``, issue 18), or
     by speed alone (``speed-only``, as before: 0, 1 or 2 cells a step, PRM* at full speed); docs/safety.md."""
-    reuse_tolerance: float = field(default=0.0, metadata=accepted(0.0, 1.0))
-    """Speed setting, 0 (off: every query planned anew each round) by default, for it changes
-    trajectories: a query asked again one round later keeps the round before's plan of it, carried
-    on to now, while every robot stands within this distance (m) of where that plan has it (plus
-    the drift its velocity error adds, braked away at its acceleration limit, ``|dv|^2 / 2a``).
-    Trades planning time for plans that start up to this far from the robots; the fast planner's
-    own resolution, a cell of ``v_max dt / 2`` (0.05 m at 1 m/s), is the natural value."""
 
 
 @PLANNERS.declare("fast", help="prioritised planning in space-time, no precomputation (default)")
 @dataclass(frozen=True)
 class FastPlannerParams(PlannerParams):
     """The fast planner's settings (:mod:`nodnav.planning.prioritized`)."""
+
+    reuse_tolerance: float = field(default=0.05, metadata=accepted(0.0, 1.0))
+    """Speed setting (m), 0.05 by default since the thirteenth round (docs/performance-15.md): a query
+    asked again one round later keeps the round before's plan of it, carried on to now, while every
+    robot stands within this distance of where that plan has it (plus the drift its velocity error
+    adds, braked away at its acceleration limit, ``|dv|^2 / 2a``). 0.05 m is ``execution.tolerance``,
+    within which a robot counts as at its planned sample, and a cell of this planner at 1 m/s
+    (``v_max dt / 2``); 0: Algorithm 1 as written, every strategy planned from X(t) each period.
+    Fast planner only: a kept PRM* plan would keep its old path cost."""
 
     waiting: Literal["early", "late"] = "early"
     """A yielding robot holds back ``early`` (legible) or drives up and waits ``late``."""
@@ -165,6 +167,14 @@ class FastPlannerParams(PlannerParams):
     """How many of the nearest candidate spots are tried before giving up."""
     cascade: int = field(default=2, metadata=accepted(0, 6))
     """How many robots deep a robot that must get out of the way may first move others out of its way."""
+
+
+def plan_reuse(planner: PlannerParams) -> tuple[float, float]:
+    """How far (m) the robots may be from a query's plan of the round before for the plan cache to
+    keep it, and the planned trajectory's time step (s): the fast planner's ``reuse_tolerance``;
+    0 (every query planned anew each round) for any other planner, whose plans' costs the cache
+    could not carry on to a later start."""
+    return (planner.reuse_tolerance if isinstance(planner, FastPlannerParams) else 0.0), planner.dt
 
 
 @PLANNERS.declare("prm", help="PRM* roadmaps in the joint space, the paper's planner (roadmaps cached on disk)")
@@ -267,10 +277,11 @@ class MPCParams(ControllerParams):
     contact_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """Penetration of the current state into a wall (the robot then brakes at once) or into another
     robot's predicted position (it then goes straight to the evasive plan) that counts as contact (m)."""
-    fused_step: bool = False
+    fused_step: bool = True
     """Whether a step's set-up (predictions, requirements, warm start, first QP's rows and gradient)
-    runs as one compiled call with its small matrix products as loops: fewer Python steps, sums
-    agreeing with BLAS's to the last bits only (so trajectories differ there); off: bitwise as before."""
+    runs as one compiled call with its small matrix products as loops (default since the thirteenth
+    round, docs/performance-15.md): fewer Python steps, sums agreeing with BLAS's to the last bits
+    only (so trajectories differ there); off: BLAS's products, as before."""
 
 
 @dataclass(frozen=True)
@@ -319,10 +330,11 @@ class ExecutionParams:
     reaction_slack: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """How much of the present gap to another robot the reaction margin leaves free (m), so that
     switching the margin on never puts a robot inside the other's braking disc at once."""
-    skip_at_rest: bool = False
-    """Speed setting, off by default (it changes trajectories, by at most ``rest_tolerance``): a robot
-    at rest, whose reference stays where it stands and whom every prediction keeps ``rest_clearance``
-    beyond the full separation, stays exactly put without solving its MPC (docs/performance.md)."""
+    skip_at_rest: bool = True
+    """Speed setting, on by default since the thirteenth round (it changes trajectories, by at most
+    ``rest_tolerance``; off: as before, docs/performance-15.md): a robot at rest, whose reference
+    stays where it stands and whom every prediction keeps ``rest_clearance`` beyond the full
+    separation, stays exactly put without solving its MPC (docs/performance.md)."""
     rest_tolerance: float = field(default=1e-3, metadata=accepted(0.0, 0.1))
     """How far from its reference, and how fast, a robot may be to count as at rest (m, m/s)."""
     rest_clearance: float = field(default=0.5, metadata=accepted(0.0, 100.0))

@@ -18,6 +18,7 @@ from nodnav.control.mutual_braking import CONVENTIONS, RESTART_HEADROOM, Braking
 from nodnav.errors import NodnavError
 from nodnav.planning import make_planner
 from nodnav.registry import METHODS, register_method
+from nodnav.scenario.params import plan_reuse
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
 from nodnav.sim.agent import Decision, NODAgent, RobotView
@@ -52,7 +53,8 @@ class PlannedMethod:
     def __init__(self, scenario: Scenario, rngs: list[np.random.Generator], planner=None):
         self.scenario = scenario
         self.rngs = rngs
-        self.plans = PlanCache(planner if planner is not None else make_planner(scenario.planner, scenario.world))
+        self.plans = PlanCache(planner if planner is not None else make_planner(scenario.planner, scenario.world),
+                               *plan_reuse(scenario.planner))
         shared = SharedSetups()
         self.controllers = [make_controller(scenario.controller, scenario.world, r, shared) for r in scenario.robots]
         self.decisions: dict[int, Decision] = {}

@@ -6,7 +6,8 @@ round before, and ask which parked robots join a plan with the same arguments. A
 :class:`PlanCache` answers each of these once per round, keyed by everything the answer reads,
 so a hit returns exactly what the agent would have computed alone.
 
-With ``planner.reuse_tolerance`` above 0 (off by default) a query the round before asked too is
+With ``planner.reuse_tolerance`` above 0 (the fast planner's, 0.05 m by default; a planner
+without the setting plans every query anew) a query the round before asked too is
 answered with that round's plan of it, carried on to now (:func:`plan_tail`), when the robots
 have moved as that plan said they would (:func:`on_plan`): Algorithm 1 plans every strategy from
 the state X(t) each period; a plan that X(t) follows to within the tolerance is kept instead.
@@ -39,15 +40,13 @@ class PlanCache:
     computed alone; the simulator clears the cache at every decision time.
     """
 
-    def __init__(self, planner: Planner, reuse_tolerance: float | None = None):
+    def __init__(self, planner: Planner, reuse_tolerance: float = 0.0, plan_step: float = 0.0):
         self.planner = planner
-        params = getattr(planner, "params", None)
-        self.reuse_tolerance = float(getattr(params, "reuse_tolerance", 0.0) if reuse_tolerance is None
-                                     else reuse_tolerance)
+        self.reuse_tolerance = float(reuse_tolerance)
         """How far (m) the robots may be from last round's plan of a query for it to be kept
-        (:func:`on_plan`); 0: every query planned anew each round. None: the planner's
-        ``params.reuse_tolerance``."""
-        self._step = float(getattr(params, "dt", 0.0))  # the planner's time step: a kept plan's samples
+        (:func:`on_plan`); 0: every query planned anew each round
+        (:func:`~nodnav.scenario.params.plan_reuse` gives a scenario's)."""
+        self._step = float(plan_step)  # the planner's time step: a kept plan's samples
         self._plans: dict[tuple, PlanResult] = {}
         # With reuse: this round's and the last round's answers by their key without the state.
         self._fresh: dict[tuple, PlanResult] = {}

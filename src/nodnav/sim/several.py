@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 from nodnav.errors import NodnavError
 from nodnav.planning.base import Planner, PlanRequest
 from nodnav.planning.visibility import VisibilityGraph
+from nodnav.scenario.params import plan_reuse
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World
 from nodnav.sim.agent import Decision, RobotView, approach_sides
@@ -196,9 +197,10 @@ class PassageViews:
             self.scenarios.append(one)
             self.sides.append(passage_sides(scenario, self.routes, k))
         planners = [planner_for(one.world) for one in self.scenarios]
-        self.plans = [PlanCache(planner) for planner in planners]
+        reuse = plan_reuse(scenario.planner)
+        self.plans = [PlanCache(planner, *reuse) for planner in planners]
         """One planner and plan cache per passage (its queries are in that passage's view)."""
-        self.free_plans = [PlanCache(planner) for planner in planners]
+        self.free_plans = [PlanCache(planner, *reuse) for planner in planners]
         """Plan caches for robots driving alone to their destinations (no passage left)."""
         self.exits = [tuple(-s for s in route.entry_sides) for route in self.routes]
         self._first = np.zeros(n, dtype=int)

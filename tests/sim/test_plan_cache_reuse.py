@@ -200,3 +200,15 @@ def test_only_the_fast_planner_keeps_plans_however_prm_is_chosen():
     assert plan_reuse(load_scenario("2r-case1").planner) == (0.05, 0.1)
     assert plan_reuse(load_scenario("2r-case1", {"planner.name": "prm"}).planner)[0] == 0.0
     assert plan_reuse(load_scenario("2r-case1").with_overrides(**{"planner.name": "prm"}).planner)[0] == 0.0
+
+
+def test_every_query_is_counted_once_as_asked():
+    """A query answered by the planner, again from the round's answers, then kept a round later:
+    three queries asked, one of each kind."""
+    planner = StubPlanner()
+    cache = PlanCache(planner, planner.tolerance, DT)
+    cache.plan(request(0.0))
+    cache.plan(request(0.0))
+    cache.clear()
+    cache.plan(on_it())
+    assert (cache.misses, cache.hits, cache.reused, cache.asked) == (1, 1, 1, 3)

@@ -61,7 +61,8 @@ class TrialCost:
     planner_calls: np.ndarray
     """Plans the planner computed in each round."""
     plan_requests: np.ndarray
-    """Plans the robots asked for in each round (cache hits included)."""
+    """Plans the robots asked for in each round (answers from the round and plans kept from the one
+    before included)."""
     sim_time: float
     """Simulated time of the trial (s)."""
     wall_time: float
@@ -84,9 +85,9 @@ class _TimedDecisions:
 
     def decide(self, views: dict[int, RobotView]) -> dict[int, Decision]:
         plans = self.inner.plans
-        calls, asked, cpu = plans.misses, plans.hits + plans.misses, time.process_time()
+        calls, asked, cpu = plans.misses, plans.asked, time.process_time()
         out = self.inner.decide(views)
-        self.rounds.append((time.process_time() - cpu, plans.misses - calls, plans.hits + plans.misses - asked))
+        self.rounds.append((time.process_time() - cpu, plans.misses - calls, plans.asked - asked))
         return out
 
     def act(self, t: float, views: dict[int, RobotView]) -> dict[int, ControlResult]:

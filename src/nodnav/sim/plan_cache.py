@@ -68,6 +68,12 @@ class PlanCache:
         self._shared: dict[tuple, tuple[object, np.ndarray]] = {}
         self._once: dict[tuple, tuple[object, Any]] = {}
 
+    @property
+    def asked(self) -> int:
+        """Queries answered so far: from this round's answers (:attr:`hits`), by the planner
+        (:attr:`misses`) or with a plan of the round before (:attr:`reused`)."""
+        return self.hits + self.misses + self.reused
+
     def clear(self) -> None:
         """Forget every plan and evaluation (called when the state of the world has moved on); with
         reuse, this round's plans become the round before's."""

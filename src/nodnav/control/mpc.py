@@ -48,7 +48,7 @@ from nodnav.control.mpc_braking import BOUND_TOLERANCE, WallsAround, fallback_co
 from nodnav.control.mpc_fused import fused_setup, no_partners
 from nodnav.control.mpc_problem import DEGREE, MPCProblem, StepData
 from nodnav.control.mpc_request import apart, floats
-from nodnav.control.mpc_rows import all_finite, step_state
+from nodnav.control.mpc_rows import all_finite
 from nodnav.control.mutual_braking import BrakingPartners
 from nodnav.control.qp import SolverEffort
 from nodnav.control.shared_setups import SharedSetups
@@ -437,24 +437,10 @@ class BSplineMPC:
         return prob
 
     def _step_data(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins=None) -> StepData:
-        """Predictions at the interval ends and what must be kept from every robot and wall.
-
-        Between two interval ends where the distance is at least ``R'`` the chord stays at least
-        ``sqrt(R'^2 - delta^2 / 4)`` from a point (or a convex wall) when it moves by ``delta``,
-        and the curve leaves its chord by at most ``eps``; so requiring
-        ``R' = sqrt((need + eps)^2 + delta^2 / 4)`` at the ends keeps ``need`` at every instant.
-        At ``tau = 0`` the distance is what it is: ``need`` is lowered to what the current state
-        allows when it is already inside the margin, for each prediction separately.
-        """
+        """:meth:`MPCProblem.plain_step_data`, with this robot's safety margins unless given."""
         if margins is None:
             margins = self._safety_margins(len(other_radii))
-        pred = prob.interp_all @ others                       # (m, 1 + N + C + 1, 2)
-        # step_state writes prob.static_lower_base(v0) plus the box into static, ref - p0 into ref_local.
-        static, ref_local = np.empty(prob.n_static), np.empty(ref.shape)
-        need_clear, clear_now, overlap, weight, reach = step_state(
-            pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, prob.static_alpha @ v0, static,
-            *prob.state_constants)
-        return prob.step_data(p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
+        return prob.plain_step_data(p0, v0, ref, others, other_radii, margins)
 
     def _fused_setup(self, prob: MPCProblem, p0, v0, ref, others, other_radii, margins, committed: Committed | None,
                      partners: BrakingPartners | None = None) -> tuple[StepData, np.ndarray, bool, tuple, float]:

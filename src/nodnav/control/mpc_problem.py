@@ -25,6 +25,8 @@ the cost's gradient. A step (:class:`StepData`) only writes the new half-planes 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from nodnav.control import bspline
@@ -41,6 +43,7 @@ from nodnav.control.mpc_rows import (
     plan_check,
     polygon_normals,
     step_rows,
+    step_state,
     stopping_rows,
     tracking_rows,
 )
@@ -263,6 +266,25 @@ class MPCProblem:
                                 *sparse_rows(self.b_ends), self.interp_ends, self.ref_weights, self.q_line,
                                 self.no_group_marked, *self.state_constants, *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
+
+    def plain_step_data(self, p0, v0, ref, others, other_radii, margins) -> StepData:
+        """Predictions at the interval ends and what must be kept from every robot and wall.
+
+        Between two interval ends where the distance is at least ``R'`` the chord stays at least
+        ``sqrt(R'^2 - delta^2 / 4)`` from a point (or a convex wall) when it moves by ``delta``,
+        and the curve leaves its chord by at most ``eps``; so requiring
+        ``R' = sqrt((need + eps)^2 + delta^2 / 4)`` at the ends keeps ``need`` at every instant.
+        At ``tau = 0`` the distance is what it is: ``need`` is lowered to what the current state
+        allows when it is already inside the margin, for each prediction separately.
+        (``controller.fused_step`` off: the products by BLAS, :func:`~nodnav.control.mpc_rows.step_state` compiled.)
+        """
+        pred = self.interp_all @ others                       # (m, 1 + N + C + 1, 2)
+        # step_state writes static_lower_base(v0) plus the box into static, ref - p0 into ref_local.
+        static, ref_local = np.empty(self.n_static), np.empty(ref.shape)
+        need_clear, clear_now, overlap, weight, reach = step_state(
+            pred, p0, math.hypot(v0[0], v0[1]), other_radii, margins, ref, ref_local, self.static_alpha @ v0, static,
+            *self.state_constants)
+        return self.step_data(p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach)
 
     def step_data(self, p0, v0, ref_local, pred, static, need_clear, clear_now, overlap, weight, reach) -> StepData:
         """A step's :class:`StepData`: the arrays and values its set-up made (``pred``: the

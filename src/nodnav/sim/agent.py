@@ -167,10 +167,10 @@ class NODAgent:
         self.standoff_periods = 0
         """For how many periods in a row the robot has been in a standoff (:mod:`nodnav.decision.standoff`)."""
         self._to_go_seen: list[np.ndarray] = []
-        # Periods the standoff patience spans (opinion.standoff_progress: best): how many of them are kept.
-        self._span = max(1, int(np.ceil(self.params.standoff_patience / self.params.T - 1e-9)))
         """Every robot's distance to go as this robot saw it at its last decisions (newest last),
         over the standoff patience (``opinion.standoff_progress: best``)."""
+        # How many of those are kept: the periods the standoff patience spans, worked out once.
+        self._span = max(1, int(np.ceil(self.params.standoff_patience / self.params.T - 1e-9)))
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}

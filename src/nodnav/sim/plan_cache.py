@@ -368,8 +368,8 @@ def arrivals(info: dict) -> np.ndarray | None:
 def tail_of(traj: JointTrajectory, arrival: np.ndarray | None, steps: int, t0: float,
             dt: float) -> tuple[JointTrajectory, np.ndarray | None, float]:
     """What :func:`plan_tail` makes of a plan's trajectory and arrival times (:func:`arrivals`;
-    None: the planner gives none): the trajectory's tail and, with arrival times, those left and their sum (the
-    cost), all read-only. Every plan sharing the trajectory and the arrival times shares these."""
+    None: the planner gives none): the trajectory's tail and, with arrival times, those left and
+    their sum (the cost), all read-only. Plans sharing the trajectory and arrival times share these."""
     k = min(steps, len(traj.times) - 1)
     times, left, cost = tail_arrays(len(traj.times) - k, t0, dt, _NO_ACCELS if arrival is None else arrival,
                                     steps * dt)  # (the arrival times' part unread without them)

@@ -25,7 +25,7 @@ robot in entry order, as before.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -184,10 +184,14 @@ def relabel(result: PlanResult, robots: list[int]) -> PlanResult:
     """
     new_of = {old: new for new, old in enumerate(robots)}
     query = result.info.get("query_robots", tuple(range(result.trajectory.n_robots)))
-    return replace(result, trajectory=result.trajectory.subset(robots),
-                   order=tuple(new_of[k] for k in result.order),
-                   order_planned=tuple(new_of[k] for k in result.order_planned),
-                   info={**result.info, "query_robots": tuple(query[k] for k in robots)})
+    # dataclasses.replace's result, without its field-by-field rebuild (no __post_init__): every
+    # agent relabels its selected plan every period.
+    out = object.__new__(PlanResult)
+    out.__dict__.update(result.__dict__, trajectory=result.trajectory.subset(robots),
+                        order=tuple(new_of[k] for k in result.order),
+                        order_planned=tuple(new_of[k] for k in result.order_planned),
+                        info={**result.info, "query_robots": tuple(query[k] for k in robots)})
+    return out
 
 
 @runtime_checkable

@@ -149,6 +149,7 @@ class NODAgent:
         """The scenario's destinations, radii, speed and acceleration limits (:func:`robot_arrays`)."""
         self.destinations, self.radii = self.arrays[0], self.arrays[1]
         self.accel = self.arrays[3]
+        self._accel_key = self.accel.tobytes()  # part of the plan cache's keys, taken once
         self._arrays_keys = (hashable(self.destinations), hashable(self.radii))
         """:func:`hashable` of the (read-only) destinations and radii, for the plan cache's keys."""
         self._everyone = np.ones(scenario.n_robots, dtype=bool)
@@ -168,6 +169,8 @@ class NODAgent:
         self._to_go_seen: list[np.ndarray] = []
         """Every robot's distance to go as this robot saw it at its last decisions (newest last),
         over the standoff patience (``opinion.standoff_progress: best``)."""
+        # How many of those are kept: the periods the standoff patience spans, worked out once.
+        self._span = max(1, int(np.ceil(self.params.standoff_patience / self.params.T - 1e-9)))
         # Pure functions of a game (and of the robots planned with it), asked again every period.
         self._games: dict[tuple[int, ...], tuple[np.ndarray, np.ndarray]] = {}
         self._local: dict[tuple[tuple[int, ...], tuple[int, ...]], list[tuple[int, ...]]] = {}
@@ -236,30 +239,47 @@ class NODAgent:
         social = np.zeros(len(plans))
         if players and self.social:
             columns = [planning.index(k) for k in players]
-            stacked_key = stack_key(plans, view.window_times)  # its key, part of eq. (4a)'s below
-            stacked = self.plans.stacked_states(plans, view.window_times, stacked_key)  # (G, n, M, 4), for the round
-            dt = float(view.window_times[1] - view.window_times[0])
-            if stacked.ndim == 4:
-                # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
-                # same and planned alike (each element reads its own robot's row only); this
-                # robot's players' columns of it, laid out as eq. (4a) of its players alone.
-                rows = list(planning)
-                key = ("eq4", *stacked_key, planning,
-                       self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
-                       self.accel[rows].tobytes())
-                everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
-                                             list(plans))
+            # The game's players share the list of plans (plan_all): what follows up to their own
+            # columns, once per round for every agent that read the same window with the same plans.
+            window = view.window_states
+            key = ("eq4 of plans", id(plans), id(window), view.window_times.tobytes(), planning,
+                   self.params.estimation, self.params.K1, self._accel_key)
+            everyone, planned_ok, dt = self.plans.once(key, lambda: self._eq4_of_plans(view, planning, plans),
+                                                       (plans, window))
+            if everyone is not None:
                 z_prime = np.ascontiguousarray(everyone[:, columns]).T  # the layout decides mean's summation order
             else:
                 planned = np.stack([self.plans.states_at(p, view.window_times)[columns] for p in plans])
                 z_prime = self._estimated(view.window_states[list(players)], planned, list(players), dt).T
-            r = estimate_social_term(z_prime, np.array([p.success for p in plans]))
+            r = estimate_social_term(z_prime, planned_ok)
             # Eq. (5): A^{jl} = 1 for the strategies l that order the game as j does, each order
             # of the game standing for class_size of the N_r! strategies.
             social = class_size(self.scenario.n_robots, len(game)) * np.add.reduce(r, axis=0)  # r.sum's reduction
         u = self.params.u if self.social else 0.0
         alpha = step_size(view.t, self.params.alpha_min)
         self.z = opinion_update(self.z, social, u, self.params.d, self._tables(game)[1], alpha)
+
+    def _eq4_of_plans(self, view: RobotView, planning: tuple[int, ...],
+                      plans: list[PlanResult]) -> tuple[np.ndarray | None, np.ndarray, float]:
+        """What :meth:`_update_opinion` reads of the last decision's ``plans`` of the robots
+        ``planning``: eq. (4a) of every robot of the plans against ``view``'s window, ``(G, n)``
+        (None if the plans' robot counts differ: each agent stacks its players' columns), which
+        plans succeeded ``(G,)``, and the window's time step."""
+        stacked_key = stack_key(plans, view.window_times)  # its key, part of eq. (4a)'s below
+        stacked = self.plans.stacked_states(plans, view.window_times, stacked_key)  # (G, n, M, 4), for the round
+        dt = float(view.window_times[1] - view.window_times[0])
+        planned_ok = np.array([p.success for p in plans])
+        if stacked.ndim != 4:
+            return None, planned_ok, dt
+        # Eq. (4a) of every robot of the plan, once per round for every agent that saw the
+        # same and planned alike (each element reads its own robot's row only).
+        rows = list(planning)
+        key = ("eq4", *stacked_key, planning,
+               self.params.estimation, self.params.K1, view.window_states[rows].tobytes(),
+               self.accel[rows].tobytes())
+        everyone = self.plans.shared(key, lambda: self._estimated(view.window_states[rows], stacked, rows, dt),
+                                     list(plans))
+        return everyone, planned_ok, dt
 
     def _estimated(self, observed: np.ndarray, planned: np.ndarray, robots: list[int], dt: float) -> np.ndarray:
         """Eq. (4a) (:func:`estimated_opinions`) of the robots ``robots`` observed as ``observed``
@@ -400,9 +420,10 @@ class NODAgent:
                                      self._arrays_keys[0]),
                                     lambda: self._shared_to_go(window[:, [0, -1], :2]), window)
             to_go_now = to_go[:, 1].copy()  # where every robot is now, as below
-            progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if self.params.standoff_progress == "best":  # beyond the best over the patience
                 progress = progress_beyond_best(to_go[:, 1], [to_go[:, 0], *self._to_go_seen])
+            else:
+                progress = -(to_go[:, 1] - to_go[:, 0])  # -np.diff(to_go, axis=1)[:, 0], the same operations
             if progress[self.index] < STALL_DISTANCE:
                 rows = list(players)
                 now = view.positions[rows]
@@ -422,7 +443,7 @@ class NODAgent:
                                              players_arrived=arrived)
                     partner = players[found] if found >= 0 else -1
         if patience > 0 and self.params.standoff_progress == "best":
-            span = max(1, int(np.ceil(patience / self.params.T - 1e-9)))  # periods the patience spans
+            span = self._span
             if to_go_now is None:
                 to_go_now = self._to_go(view.positions[:, None])[:, 0]
             self._to_go_seen = [*self._to_go_seen, to_go_now][-span:]

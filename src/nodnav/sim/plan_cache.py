@@ -55,6 +55,7 @@ class PlanCache:
         """Queries answered with the round before's plan (neither hits nor misses: the planner
         was not asked)."""
         self._states: dict[tuple, tuple[JointTrajectory, np.ndarray]] = {}
+        self._tails: dict[tuple, tuple[PlanResult, tuple | None]] = {}
         self.hits = 0
         self.misses = 0
         self.graphs: dict = {}
@@ -81,6 +82,7 @@ class PlanCache:
             self._previous, self._fresh = self._fresh, {}
         self._plans.clear()
         self._states.clear()
+        self._tails.clear()
         self._crossed.clear()
         self._packed.clear()
         self._stacks.clear()
@@ -136,31 +138,47 @@ class PlanCache:
             key = (order, *rest)
             result = plans.get(key)
             if result is None:
-                request = template if template.order == order else _in_order(template, order)
-                result = plans[key] = self._answer(request, order, state)
+                result = plans[key] = self._answer(template, order, state)
             else:
                 self.hits += 1
             out.append(result)
         return out
 
-    def _answer(self, request: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
-        """A query the round has not answered (``order``: its order, ``state``: its
+    def _answer(self, template: PlanRequest, order: tuple[int, ...], state: tuple) -> PlanResult:
+        """A query the round has not answered, ``template`` asked in ``order`` (``state``: its
         :func:`state_key`): last round's plan of it carried on to now if the robots are on it
-        within :attr:`reuse_tolerance`, else the planner's."""
+        within :attr:`reuse_tolerance`, else the planner's. The request in ``order`` is built
+        only for the planner: the keeping test reads what every order of the template shares."""
         if self.reuse_tolerance <= 0:
             self.misses += 1
-            return self.planner.plan(request)
+            return self.planner.plan(_in_order(template, order))
         # Everything the planner reads but the robots' positions and velocities (and the time).
-        unmoved = (order, request.entered, *state[2:])
+        unmoved = (order, template.entered, *state[2:])
         last = self._previous.get(unmoved)
-        result = None if last is None else kept_plan(last, request, self.reuse_tolerance, self._step)
+        result = None if last is None else self._kept(last, template, state)
         if result is None:
             self.misses += 1
-            result = self.planner.plan(request)
+            result = self.planner.plan(_in_order(template, order))
         else:
             self.reused += 1
         self._fresh[unmoved] = result
         return result
+
+    def _kept(self, last: PlanResult, template: PlanRequest, state: tuple) -> PlanResult | None:
+        """:func:`kept_plan` of ``last`` for ``template`` (``state``: its :func:`state_key`), the
+        test and the tail's arrays once per round for each trajectory and arrival times: orders
+        a planner repaired to the same one shared them, and their kept plans share them again
+        (a kept plan's tail is read-only, as the planner's plans are)."""
+        traj, arrival = last.trajectory, arrivals(last.info)
+        key = (id(traj), id(arrival), last.success, template.t0, *state)
+        hit = self._tails.get(key)
+        if hit is None:
+            steps = kept_steps(last, template.t0, template.positions, template.velocities, template.max_accels,
+                               self.reuse_tolerance, self._step)
+            tail = tail_of(traj, arrival, steps, template.t0, self._step) if steps else None
+            hit = self._tails[key] = (last, tail)  # holding the plan keeps the ids unique
+        tail = hit[1]
+        return None if tail is None else tailed_result(last, *tail)
 
     def packed_crossed(self, world: World, positions: np.ndarray, destinations: np.ndarray, radii: np.ndarray,
                        known: np.ndarray, planning: list[int], goal_tolerance: float,
@@ -255,21 +273,30 @@ def trajectory_states(times, positions, velocities, query):
 def kept_plan(last: PlanResult, request: PlanRequest, tolerance: float, dt: float) -> PlanResult | None:
     """``last`` (a plan of the round before, of a query that differs from ``request`` in the
     robots' positions, velocities and time only) carried on to ``request.t0`` (:func:`plan_tail`)
-    if it is still good: planned successfully, ``request.t0`` a whole number of the planner's
-    steps ``dt`` after its start, and every robot :func:`on_plan` within ``tolerance``. None otherwise.
+    if it is still good (:func:`kept_steps`), None otherwise.
 
     Robots outside the query do not enter the planner, so they cannot make it wrong; robots that
     entered the corridor or joined or left the query change the key it is found by."""
+    steps = kept_steps(last, request.t0, request.positions, request.velocities, request.max_accels, tolerance, dt)
+    return plan_tail(last, steps, request.t0, dt) if steps else None
+
+
+def kept_steps(last: PlanResult, t0: float, positions: np.ndarray, velocities: np.ndarray,
+               accels: np.ndarray | None, tolerance: float, dt: float) -> int:
+    """How many of the planner's steps ``dt`` ``last`` is to be carried on to be kept at ``t0``
+    (the robots at ``positions``, ``velocities``, with acceleration limits ``accels``), or 0 if it
+    is not good: it must have planned successfully, ``t0`` must be a whole number (at least 1)
+    of steps after its start, and every robot :func:`on_plan` within ``tolerance``."""
     trajectory = last.trajectory
     if not last.success or dt <= 0:
-        return None
-    elapsed = request.t0 - float(trajectory.times[0])
+        return 0
+    elapsed = t0 - float(trajectory.times[0])
     steps = int(round(elapsed / dt))
     if steps < 1 or abs(elapsed - steps * dt) > 1e-6 * dt:
-        return None
-    if not on_plan(trajectory, steps, request.positions, request.velocities, request.max_accels, tolerance):
-        return None
-    return plan_tail(last, steps, request.t0, dt)
+        return 0
+    if not on_plan(trajectory, steps, positions, velocities, accels, tolerance):
+        return 0
+    return steps
 
 
 def on_plan(trajectory: JointTrajectory, steps: int, positions: np.ndarray, velocities: np.ndarray,
@@ -326,20 +353,56 @@ def plan_tail(result: PlanResult, steps: int, t0: float, dt: float) -> PlanResul
     least 0) and the cost their sum, as the fast planner's (another planner's cost is kept);
     ``info["kept_from"]`` the plan's first time. After its last sample the plan holds every
     robot where it ends, as before."""
-    traj = result.trajectory
+    return tailed_result(result, *tail_of(result.trajectory, arrivals(result.info), steps, t0, dt))
+
+
+def arrivals(info: dict) -> np.ndarray | None:
+    """A plan's ``info["arrival_times"]`` as :func:`tail_of` takes them: None without the entry,
+    none (an empty array) if it is None."""
+    if "arrival_times" not in info:
+        return None
+    arrival = info["arrival_times"]
+    return _NO_ACCELS if arrival is None else arrival
+
+
+def tail_of(traj: JointTrajectory, arrival: np.ndarray | None, steps: int, t0: float,
+            dt: float) -> tuple[JointTrajectory, np.ndarray | None, float]:
+    """What :func:`plan_tail` makes of a plan's trajectory and arrival times (:func:`arrivals`;
+    None: the planner gives none): the trajectory's tail and, with arrival times, those left and
+    their sum (the cost), all read-only. Plans sharing the trajectory and arrival times share these."""
     k = min(steps, len(traj.times) - 1)
-    info = {**result.info, "kept_from": float(traj.times[0])}
-    arrival = result.info.get("arrival_times")
-    times, arrival, cost = tail_arrays(len(traj.times) - k, t0, dt, _NO_ACCELS if arrival is None else arrival,
-                                       steps * dt)
+    times, left, cost = tail_arrays(len(traj.times) - k, t0, dt, _NO_ACCELS if arrival is None else arrival,
+                                    steps * dt)  # (the arrival times' part unread without them)
     times.setflags(write=False)  # the planner's plans are shared read-only, and so is this one
-    if "arrival_times" in info:
-        arrival.setflags(write=False)
+    if arrival is None:
+        return _trajectory(times, traj.positions[k:], traj.velocities[k:]), None, 0.0
+    left.setflags(write=False)
+    return _trajectory(times, traj.positions[k:], traj.velocities[k:]), left, cost
+
+
+def tailed_result(result: PlanResult, trajectory: JointTrajectory, arrival: np.ndarray | None,
+                  cost: float) -> PlanResult:
+    """``result`` on the tail :func:`tail_of` made of it: its ``info`` with ``kept_from`` (the
+    plan's first time) and, if ``arrival`` is not None, the arrival times left, whose sum
+    ``cost`` replaces the result's; built as the constructor builds it, without the frozen
+    dataclass's assignment of one field at a time."""
+    info = {**result.info, "kept_from": float(result.trajectory.times[0])}
+    if arrival is not None:
         info["arrival_times"] = arrival
     else:
         cost = result.cost
-    trajectory = JointTrajectory(times, traj.positions[k:], traj.velocities[k:])
-    return PlanResult(result.success, result.reason, cost, trajectory, result.order, result.order_planned, 0.0, info)
+    kept = object.__new__(PlanResult)
+    kept.__dict__.update(success=result.success, reason=result.reason, cost=cost, trajectory=trajectory,
+                         order=result.order, order_planned=result.order_planned, compute_time=0.0, info=info)
+    return kept
+
+
+def _trajectory(times: np.ndarray, positions: np.ndarray, velocities: np.ndarray) -> JointTrajectory:
+    """``JointTrajectory(times, positions, velocities)`` without the frozen dataclass's
+    assignment of one field at a time (it has no ``__post_init__``)."""
+    trajectory = object.__new__(JointTrajectory)
+    trajectory.__dict__.update(times=times, positions=positions, velocities=velocities)
+    return trajectory
 
 
 @compiled
@@ -359,7 +422,10 @@ def tail_arrays(count, t0, dt, arrival, elapsed):
 
 def _in_order(template: PlanRequest, order: tuple[int, ...]) -> PlanRequest:
     """``dataclasses.replace(template, order=order)`` without its field-by-field rebuild (a
-    :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class."""
+    :class:`PlanRequest` has no ``__post_init__``): the same fields, the same class; ``template``
+    itself if it is asked in ``order``."""
+    if template.order == order:
+        return template
     request = object.__new__(PlanRequest)
     request.__dict__.update(template.__dict__)
     object.__setattr__(request, "order", order)
@@ -389,5 +455,6 @@ def hashable(value):
     return value
 
 
-__all__ = ["PlanCache", "crossed_state", "hashable", "kept_plan", "on_plan", "plan_offsets_plain", "plan_tail",
-           "stack_key", "state_key", "tail_arrays", "within_plan"]
+__all__ = ["PlanCache", "arrivals", "crossed_state", "hashable", "kept_plan", "kept_steps", "on_plan",
+           "plan_offsets_plain", "plan_tail", "stack_key", "state_key", "tail_arrays", "tail_of", "tailed_result",
+           "within_plan"]

@@ -10,7 +10,16 @@ import numpy as np
 import pytest
 
 from nodnav.geometry import TOL
-from nodnav.planning.disc_search import FOUND, NEEDS_EXITS, OCTAGON_REACH, disc_search, without_repeats
+from nodnav.planning.disc_checks import disc_violations_plain
+from nodnav.planning.disc_search import (
+    FOUND,
+    NEEDS_EXITS,
+    OCTAGON_REACH,
+    add_crossed,
+    disc_search,
+    discs_met,
+    without_repeats,
+)
 from nodnav.planning.visibility import VisibilityGraph, _without_repeats
 from nodnav.scenario.world import Passage, World, paper_world
 
@@ -90,3 +99,30 @@ def test_without_repeats_is_the_numpy_steps():
     # by hand: a goal repeating the vertex before it takes that vertex's place
     nodes = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 0.0]])
     assert without_repeats(nodes, np.array([0, 1, 2])).tolist() == [[0.0, 0.0], [1.0, 0.0]]
+
+
+def test_discs_met_and_add_crossed_are_the_numpy_lines():
+    """``shortest_path``'s NumPy lines: the discs above TOL with ``np.hypot`` of their centres'
+    offsets from the start and the goal, then ``~active & disc_violations(...)`` added to the
+    active ones, bit for bit (radii at and below TOL, discs holding the start among them)."""
+    rng = np.random.default_rng(17)
+    for _ in range(400):
+        poly = rng.uniform(-3, 3, (int(rng.integers(1, 6)), 2))
+        m = int(rng.integers(0, 6))
+        centres = rng.uniform(-3, 3, (m, 2)) * rng.choice([1e-3, 1.0, 1e3])
+        if m and rng.random() < 0.3:
+            centres[0] = poly[0] + rng.normal(0, 0.05, 2)
+        radii = rng.choice([0.0, TOL / 2, TOL, 0.3, 0.8, 1.5], m)
+        start, goal = poly[0], poly[-1]
+        keep = radii > TOL
+        want_c, want_r = centres[keep], radii[keep]
+        want_s = np.hypot(want_c[:, 0] - start[0], want_c[:, 1] - start[1])
+        want_g = np.hypot(want_c[:, 0] - goal[0], want_c[:, 1] - goal[1])
+        got = discs_met(centres, radii, start, goal)
+        for a, b in zip(got, (want_c, want_r, want_s, want_g)):
+            assert a.shape == b.shape and np.array_equal(a, b)
+        active = rng.random(len(want_r)) < 0.4
+        crossed = ~active & disc_violations_plain(poly, want_c, want_r, want_s, want_g)
+        grown = active.copy()
+        assert add_crossed(np.ascontiguousarray(poly), *got, grown) == bool(crossed.any())
+        assert np.array_equal(grown, active | crossed)

@@ -26,6 +26,7 @@ import numpy as np
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, _segment_point_d2_one, clearance_of, piece_clearance, segment_clearance_one
+from nodnav.planning.disc_checks import _violations_kernel
 from nodnav.planning.graph_search import _dijkstra_chain
 
 #: Outcomes of :func:`disc_search`.
@@ -189,3 +190,37 @@ def without_repeats(nodes, chain):
             out[k, 0], out[k, 1] = nodes[chain[q], 0], nodes[chain[q], 1]
             k += 1
     return out
+
+
+@_compiled
+def discs_met(centres, radii, start, goal):
+    """The discs of radius above :data:`TOL` and their centres' distances from ``start`` and
+    ``goal``: ``(centres, radii, d_start, d_goal)``, as ``VisibilityGraph.shortest_path``
+    computed them with NumPy (``np.hypot`` of the differences is the C library's ``hypot``)."""
+    m = 0
+    for j in range(radii.shape[0]):
+        m += radii[j] > TOL
+    kept_c, kept_r = np.empty((m, 2)), np.empty(m)
+    d_start, d_goal = np.empty(m), np.empty(m)
+    k = 0
+    for j in range(radii.shape[0]):
+        if radii[j] > TOL:
+            cx, cy = centres[j, 0], centres[j, 1]
+            kept_c[k, 0], kept_c[k, 1], kept_r[k] = cx, cy, radii[j]
+            d_start[k] = math.hypot(cx - start[0], cy - start[1])
+            d_goal[k] = math.hypot(cx - goal[0], cy - goal[1])
+            k += 1
+    return kept_c, kept_r, d_start, d_goal
+
+
+@_compiled
+def add_crossed(poly, centres, radii, d_start, d_goal, active):
+    """Mark in ``active`` the discs not yet in it that ``poly`` violates (``disc_violations``);
+    whether there was one."""
+    crossed = _violations_kernel(poly, centres, radii, d_start, d_goal)
+    added = False
+    for j in range(active.shape[0]):
+        if crossed[j] and not active[j]:
+            active[j] = True
+            added = True
+    return added

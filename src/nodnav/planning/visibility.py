@@ -32,8 +32,8 @@ from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear
-from nodnav.planning.disc_checks import _crosses_any, disc_violations
-from nodnav.planning.disc_search import FOUND, NEEDS_EXITS, disc_search
+from nodnav.planning.disc_checks import _crosses_any, disc_violations  # noqa: F401 (imported from here)
+from nodnav.planning.disc_search import FOUND, NEEDS_EXITS, add_crossed, disc_search, discs_met
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember, remembered_property
 from nodnav.planning.polylines import polyline_length
@@ -214,17 +214,13 @@ class VisibilityGraph:
         radii = np.asarray(disc_radii, dtype=float).reshape(-1)
         if not _crosses_any(path.points, centres, radii, start, goal):
             return path  # the common case, in one compiled call: the path among the walls will do
-        keep = radii > TOL
-        centres, radii = centres[keep], radii[keep]
-        d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
-        d_goal = np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1])
+        # The discs of radius above TOL, their distances from the start and the goal.
+        centres, radii, d_start, d_goal = discs_met(centres, radii, start, goal)
         active = np.zeros(len(centres), dtype=bool)
         limits = None  # how close to the walls the path may start and end, once a disc is met
         while True:
-            crossed = ~active & disc_violations(path.points, centres, radii, d_start, d_goal)
-            if not crossed.any():
+            if not add_crossed(_contiguous(path.points), centres, radii, d_start, d_goal, active):
                 return path
-            active |= crossed
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
             known = self._around.get(key)
             if known is None:
@@ -444,6 +440,13 @@ def _without_repeats(points: np.ndarray) -> np.ndarray:
         before = np.flatnonzero(keep[:-1])[-1]
         keep[-1], keep[before] = True, before == 0
     return points[keep]
+
+
+def _contiguous(points: np.ndarray) -> np.ndarray:
+    """``points`` as a contiguous float array ``(V, 2)`` (itself when it is one: a path's points are)."""
+    if points.flags.c_contiguous and points.dtype == np.float64 and points.ndim == 2:
+        return points
+    return np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
 
 
 def _path(points: np.ndarray) -> GeometricPath:

@@ -32,7 +32,8 @@ from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
 from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear
-from nodnav.planning.disc_checks import _crosses_any, disc_violations
+from nodnav.planning.disc_checks import _crosses_any, disc_violations  # noqa: F401 (imported from here)
+from nodnav.planning.disc_search import FOUND, NEEDS_EXITS, add_crossed, disc_search, discs_met
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember, remembered_property
 from nodnav.planning.polylines import polyline_length
@@ -41,6 +42,9 @@ from nodnav.scenario.world import World
 
 #: tan(pi/8): where the chamfer of a circumscribing octagon meets the rectangle's sides.
 _TAN_EIGHTH = math.sqrt(2.0) - 1.0
+
+#: No octagon exits given to :func:`~nodnav.planning.disc_search.disc_search` (it computes them).
+_NO_EXITS = np.zeros((0, 2))
 
 
 def chamfered_vertices(boxes: np.ndarray, inflation: np.ndarray | float) -> np.ndarray:
@@ -210,17 +214,13 @@ class VisibilityGraph:
         radii = np.asarray(disc_radii, dtype=float).reshape(-1)
         if not _crosses_any(path.points, centres, radii, start, goal):
             return path  # the common case, in one compiled call: the path among the walls will do
-        keep = radii > TOL
-        centres, radii = centres[keep], radii[keep]
-        d_start = np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1])
-        d_goal = np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1])
+        # The discs of radius above TOL, their distances from the start and the goal.
+        centres, radii, d_start, d_goal = discs_met(centres, radii, start, goal)
         active = np.zeros(len(centres), dtype=bool)
         limits = None  # how close to the walls the path may start and end, once a disc is met
         while True:
-            crossed = ~active & disc_violations(path.points, centres, radii, d_start, d_goal)
-            if not crossed.any():
+            if not add_crossed(_contiguous(path.points), centres, radii, d_start, d_goal, active):
                 return path
-            active |= crossed
             key = (start.tobytes(), goal.tobytes(), centres[active].tobytes(), radii[active].tobytes())
             known = self._around.get(key)
             if known is None:
@@ -286,6 +286,30 @@ class VisibilityGraph:
         return paths
 
     def _search_with_discs(self, start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal) -> GeometricPath:
+        """The shortest path from ``start`` to ``goal`` around the discs, in one compiled call
+        (:func:`~nodnav.planning.disc_search.disc_search`) where the world is not turned and has
+        no wall index, else :meth:`_search_with_discs_plain` (the same path)."""
+        world = self.world
+        if world.passage.angle or world.wall_grid is not None:
+            return self._search_with_discs_plain(start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal)
+        centres = np.ascontiguousarray(centres, dtype=float)
+        radii = np.ascontiguousarray(radii, dtype=float)
+        args = (start, goal, float(thr_start), float(thr_goal), centres, radii,
+                np.ascontiguousarray(d_start, dtype=float), np.ascontiguousarray(d_goal, dtype=float), self.vertices,
+                self._visible, self.clearance, world.bounds_array, world.obstacle_array, world.piece_array)
+        outcome, points = disc_search(*args, _NO_EXITS)
+        if outcome == NEEDS_EXITS:  # a start or goal inside an octagon: NumPy's exits (its rounding)
+            exits = np.vstack([octagon_exits(start, centres, radii), octagon_exits(goal, centres, radii)])
+            outcome, points = disc_search(*args, exits)
+        if outcome != FOUND:
+            return self._fail(start, f"no collision-free path from {_fmt(start)} to {_fmt(goal)} "
+                                     f"around {len(centres)} standing robot(s)")
+        return _path(points)
+
+    def _search_with_discs_plain(self, start, goal, thr_start, thr_goal, centres, radii, d_start,
+                                 d_goal) -> GeometricPath:
+        """:meth:`_search_with_discs` step by step with NumPy (any world; the reference of
+        :func:`~nodnav.planning.disc_search.disc_search`)."""
         centres = np.ascontiguousarray(centres, dtype=float)
         radii = np.ascontiguousarray(radii, dtype=float)
         base = _outside_all(self.vertices, centres, radii)
@@ -416,6 +440,13 @@ def _without_repeats(points: np.ndarray) -> np.ndarray:
         before = np.flatnonzero(keep[:-1])[-1]
         keep[-1], keep[before] = True, before == 0
     return points[keep]
+
+
+def _contiguous(points: np.ndarray) -> np.ndarray:
+    """``points`` as a contiguous float array ``(V, 2)`` (itself when it is one: a path's points are)."""
+    if points.flags.c_contiguous and points.dtype == np.float64 and points.ndim == 2:
+        return points
+    return np.ascontiguousarray(np.asarray(points, dtype=float).reshape(-1, 2))
 
 
 def _path(points: np.ndarray) -> GeometricPath:

@@ -186,7 +186,7 @@ def relabel(result: PlanResult, robots: list[int]) -> PlanResult:
     query = result.info.get("query_robots", tuple(range(result.trajectory.n_robots)))
     # dataclasses.replace's result, without its field-by-field rebuild (no __post_init__): every
     # agent relabels its selected plan every period.
-    out = object.__new__(PlanResult)
+    out = object.__new__(type(result))  # a subclass stays one, as with replace
     out.__dict__.update(result.__dict__, trajectory=result.trajectory.subset(robots),
                         order=tuple(new_of[k] for k in result.order),
                         order_planned=tuple(new_of[k] for k in result.order_planned),

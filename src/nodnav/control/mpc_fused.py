@@ -24,7 +24,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control.mpc_rows import step_state, tracking_rows
-from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners, _bound_kernel
+from nodnav.control.mutual_braking import BrakingPartners, _bound_kernel
 
 
 def no_partners() -> BrakingPartners:
@@ -66,9 +66,9 @@ def sparse_product_into(starts, cols, values, b, out):
 
 
 @compiled
-def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
-               robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, step,
-               max_samples, all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values,
+def step_setup(robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, others, p0,
+               v0, ref, other_radii, margins, warm, mode, step, max_samples, pred, static, ref_local, lin, gradient,
+               lower, all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values,
                interp_ends, ref_weights, q_line, no_group_marked, n_end, ends, intervals, boxes, pieces, bounds,
                radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end, static_base, static_line,
                tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half, double_decel, x_now, away,
@@ -81,12 +81,13 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     ``b_ends @ warm``) and :func:`~nodnav.control.mpc_rows.tracking_rows` (``ref_weights @
     ref_local``; the gradient into ``gradient``, the bounds into ``lower``, the rows into ``rows``).
     The products are loops (:func:`product_into`; the interpolation ``interp_all`` and the basis
-    ``b_ends``, two to four entries a row, as :func:`sparse_rows`). Arguments from ``interp_all`` on are the
-    problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Before them, from
-    ``robot`` to ``max_samples``: the braking partners (:class:`~nodnav.control.mutual_braking.BrakingPartners`'
-    fields) and the sampling of :func:`~nodnav.control.mutual_braking.passing_bound`, whose bound
-    (the same kernel, ``inf`` where ``robot < 0``: no partners) comes first in the returned values,
-    then ``step_state``'s five."""
+    ``b_ends``, two to four entries a row, as :func:`sparse_rows`). From ``robot`` to ``partners_dt``:
+    the braking partners (:class:`~nodnav.control.mutual_braking.BrakingPartners`' fields), whose
+    :func:`~nodnav.control.mutual_braking.passing_bound` (the same kernel, ``inf`` where ``robot < 0``:
+    no partners) comes first in the returned values, then ``step_state``'s five. Arguments from
+    ``step`` on are the problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`):
+    the bound's sampling, the outputs (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_outputs`),
+    then what the products and kernels read."""
     for j in range(others.shape[0]):
         sparse_product_into(all_starts, all_cols, all_values, others[j], pred[j])
     alpha_v0 = np.empty(static_alpha.shape[0])
@@ -119,13 +120,8 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
 
 
 def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners: BrakingPartners):
-    """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`)
-    into new arrays: returns the predictions, the static rows' bounds, the reference relative to
-    ``p0``, the linearisation points, the first QP's gradient and bounds, then the kernel's six values."""
-    pred = np.empty((len(others), len(prob.interp_all), 2))
-    static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
-    gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
-    values = step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient,
-                        lower, *partners, SAMPLE_STEP, MAX_SAMPLES,
-                        *prob.fused_constants)
-    return (pred, static, ref_local, lin, gradient, lower, *values)
+    """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`),
+    into the problem's :attr:`~nodnav.control.mpc_problem.MPCProblem.fused_outputs` (scratch space
+    like its rows and per-group state, written again at the next step): returns the kernel's six
+    values. One tuple of the problem's arguments, made once: the call builds no other."""
+    return step_setup(*partners, others, p0, v0, ref, other_radii, margins, warm, mode, *prob.fused_constants)

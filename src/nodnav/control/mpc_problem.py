@@ -262,7 +262,16 @@ class MPCProblem:
             a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
         # What the fused set-up reads of the problem (controller.fused_step), in its arguments' order
         # (:func:`~nodnav.control.mpc_fused.step_setup`; row_constants' walls and eps_end are state_constants').
-        self.fused_constants = (*sparse_rows(self.interp_all), self.static_alpha, setup.shift,
+        # A step's outputs (scratch space like the state, written again at every step): the predictions
+        # at interp_all's times, the static rows' bounds, the reference relative to p0, the
+        # linearisation points, the first QP's gradient and bounds; then StepData's views of them.
+        self.fused_outputs = (np.empty((n_others, len(self.interp_all), 2)), np.empty(self.n_static),
+                              np.empty((len(sample_times), 2)), np.empty((n_end, 2)), np.empty(2 * self.nz),
+                              np.empty(self.n_rows))
+        pred = self.fused_outputs[0]
+        self.fused_views = (self.fused_outputs[2], pred[:, n_end + 1:-1], pred[:, -1], self.fused_outputs[1])
+        self.fused_constants = (SAMPLE_STEP, MAX_SAMPLES, *self.fused_outputs, *sparse_rows(self.interp_all),
+                                self.static_alpha, setup.shift,
                                 *sparse_rows(self.b_ends), self.interp_ends, self.ref_weights, self.q_line,
                                 self.no_group_marked, *self.state_constants, *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
@@ -296,6 +305,15 @@ class MPCProblem:
             p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
             pred[:, -1], far, gap, need_box, static, self.n_walls, weight, reach, box_low, box_high, need_clear,
             clear_now, overlap)
+
+    def fused_step_data(self, p0, v0, need_clear, clear_now, overlap, weight, reach) -> StepData:
+        """:meth:`step_data` of a fused set-up (:func:`~nodnav.control.mpc_fused.fused_setup`): its
+        arrays are :attr:`fused_outputs`, whose views :attr:`fused_views` are made once."""
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = self.state
+        ref_local, pred_check, velocities, static = self.fused_views
+        return StepData(
+            p0, v0, ref_local, pred_check, x_now, away, dist_now, contact, full, need, delta_sq, velocities, far, gap,
+            need_box, static, self.n_walls, weight, reach, box_low, box_high, need_clear, clear_now, overlap)
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
         """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);

@@ -25,7 +25,14 @@ import pytest
 
 from nodnav.control.base import ControlRequest
 from nodnav.control.mpc import BSplineMPC
-from nodnav.control.mpc_fused import product_into, sparse_product_into, sparse_rows
+from nodnav.control.mpc_fused import (
+    product_into,
+    scratch_arrays,
+    scratch_shapes,
+    scratch_space,
+    sparse_product_into,
+    sparse_rows,
+)
 from nodnav.control.mutual_braking import passing_bound
 from nodnav.scenario.loading import load_scenario
 from nodnav.scenario.params import MPCParams, RobotSpec
@@ -169,3 +176,37 @@ def test_fused_setup_is_the_plain_one_on_recorded_steps():
         BSplineMPC.control = plain_control
     assert seen["steps"] > 100 and seen["partners"] > 100
     assert (True, False) in seen["modes"] and (False, False) in seen["modes"]  # cold, and warm from a plan
+
+
+@pytest.mark.parametrize("n_others", [0, 3])
+def test_scratch_arrays_read_back_the_layout_of_scratch_space(n_others):
+    """The compiled read-back of a step's scratch space gives the arrays laid out in Python: each
+    the next ``prod(shape)`` numbers of the buffer, in C order (a hand-made layout: consecutive
+    ranges of ``arange``), views of the buffer itself."""
+    n_end, n_pred, n_samples = 7, 11, 4
+    shapes = scratch_shapes(5 + n_others, n_end, n_others, n_pred, 13, n_samples, 6, 17)
+    buffer, starts, views = scratch_space(shapes)
+    buffer[:] = np.arange(buffer.size)
+    read = scratch_arrays(buffer, starts, n_others, n_pred, n_samples, n_end)
+    first = 0
+    for shape, view, got in zip(shapes, views, read, strict=True):
+        expected = np.arange(first, first + int(np.prod(shape)), dtype=float).reshape(shape)
+        first += expected.size
+        assert got.shape == view.shape == shape
+        assert np.array_equal(got, expected) and np.array_equal(view, expected)
+        assert got.flags.c_contiguous and (got.size == 0 or np.shares_memory(got, buffer))
+    assert first == buffer.size
+
+
+def test_a_problems_scratch_space_holds_its_state_and_outputs_apart():
+    """The per-group state and the fused set-up's outputs of a problem are views of its one buffer,
+    none overlapping another (writing one leaves the others as they were)."""
+    prob = BSplineMPC(WORLD, ROBOT, MPCParams(fused_step=True))._problem(3, TIMES)
+    arrays = [a for a in (*prob.state, *prob.fused_outputs) if a.dtype == float]
+    assert len(arrays) == 17 and prob.state[5].dtype == bool  # far, apart
+    assert sum(a.size for a in arrays) == prob.scratch.size
+    prob.scratch[:] = 0.0
+    for k, a in enumerate(arrays):
+        a[...] = k + 1.0
+    for k, a in enumerate(arrays):
+        assert np.all(a == k + 1.0)

@@ -454,10 +454,10 @@ class BSplineMPC:
             warm, mode = self._fit(committed, 0.0), 2
         else:
             warm, mode = (self._no_plan, 0) if self._previous is None else (self._previous, 1)
-        pred, static, ref_local, lin, gradient, lower, bound, *values = fused_setup(
-            prob, p0, v0, ref, others, other_radii, margins, warm, mode,
-            self._no_partners if partners is None else partners)
-        return prob.step_data(p0, v0, ref_local, pred, static, *values), lin, mode == 0, (gradient, lower), bound
+        bound, *values = fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode,
+                                     self._no_partners if partners is None else partners)
+        *_, lin, gradient, lower = prob.fused_outputs
+        return prob.fused_step_data(p0, v0, *values), lin, mode == 0, (gradient, lower), bound
 
     def _warm_start(self, committed: Committed | None) -> np.ndarray | None:
         """The previous plan moved on by one step (control points), if there is one; after a

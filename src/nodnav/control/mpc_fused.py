@@ -24,7 +24,7 @@ import numpy as np
 
 from nodnav.compiled import compiled
 from nodnav.control.mpc_rows import step_state, tracking_rows
-from nodnav.control.mutual_braking import MAX_SAMPLES, SAMPLE_STEP, BrakingPartners, _bound_kernel
+from nodnav.control.mutual_braking import BrakingPartners, _bound_kernel
 
 
 def no_partners() -> BrakingPartners:
@@ -65,15 +65,50 @@ def sparse_product_into(starts, cols, values, b, out):
             out[i, d] = s
 
 
+def scratch_space(shapes: tuple[tuple[int, ...], ...]) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """One float64 buffer holding arrays of the given ``shapes`` one after another: the buffer, each
+    array's start in it (and the end: ``len(shapes) + 1`` entries) and the arrays (C-contiguous
+    views). A compiled call takes the buffer and the starts as two arguments, not one per array
+    (numba's dispatch costs about 80 ns per array argument); :func:`scratch_arrays` reads them back."""
+    sizes = [math.prod(shape) for shape in shapes]
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    buffer = np.empty(int(starts[-1]))
+    return buffer, starts, [buffer[a:b].reshape(shape) for a, b, shape in zip(starts[:-1], starts[1:], shapes)]
+
+
+def scratch_shapes(n_groups: int, n_end: int, n_others: int, n_pred: int, n_static: int, n_samples: int, n_free: int,
+                   n_rows: int) -> tuple[tuple[int, ...], ...]:
+    """The shapes of a step's scratch space, in :func:`scratch_arrays`' order: ``step_state``'s
+    per-group state but ``far`` (boolean), then the fused set-up's outputs (``n_pred``: the
+    predictions' times, ``n_free``: the QP's variables)."""
+    g = n_groups
+    return ((g, n_end, 2), (g, 2), (g,), (g,), (g, n_end), (g,), (g,), (4,), (4,), (2,), (2,),
+            (n_others, n_pred, 2), (n_static,), (n_samples, 2), (n_end, 2), (n_free,), (n_rows,))
+
+
 @compiled
-def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient, lower,
-               robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, step,
-               max_samples, all_starts, all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values,
-               interp_ends, ref_weights, q_line, no_group_marked, n_end, ends, intervals, boxes, pieces, bounds,
-               radius, max_speed, max_accel, eps0, reach, contact_tolerance, eps_end, static_base, static_line,
-               tail_on, horizon, speed_horizon, accel_horizon, accel_horizon_sq_half, double_decel, x_now, away,
-               dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high, group_point, group_wv,
-               term_offset, dyn_phi, dyn_line, last_interval, tail_phi, tail_line, tol, rows):
+def scratch_arrays(buffer, starts, n_others, n_pred, n_samples, n_end):
+    """The arrays :func:`scratch_space` laid out with :func:`scratch_shapes` (views of ``buffer``; the
+    number of groups is ``dist_now``'s length): x_now, away, dist_now, need, delta_sq, full, contact,
+    gap, need_box, box_low, box_high, then pred, static, ref_local, lin, gradient, lower."""
+    o = starts
+    g = o[3] - o[2]
+    return (buffer[o[0]:o[1]].reshape((g, n_end, 2)), buffer[o[1]:o[2]].reshape((g, 2)), buffer[o[2]:o[3]],
+            buffer[o[3]:o[4]], buffer[o[4]:o[5]].reshape((g, n_end)), buffer[o[5]:o[6]], buffer[o[6]:o[7]],
+            buffer[o[7]:o[8]], buffer[o[8]:o[9]], buffer[o[9]:o[10]], buffer[o[10]:o[11]],
+            buffer[o[11]:o[12]].reshape((n_others, n_pred, 2)), buffer[o[12]:o[13]],
+            buffer[o[13]:o[14]].reshape((n_samples, 2)), buffer[o[14]:o[15]].reshape((n_end, 2)), buffer[o[15]:o[16]],
+            buffer[o[16]:o[17]])
+
+
+@compiled
+def step_setup(robot, positions, velocities, decels, radii, keeps, seen, turn, convention, partners_dt, others, p0,
+               v0, ref, other_radii, margins, warm, mode, step, max_samples, scratch, scratch_starts, far, all_starts,
+               all_cols, all_values, static_alpha, shift, ends_starts, ends_cols, ends_values, interp_ends, ref_weights,
+               q_line, no_group_marked, n_end, ends, intervals, boxes, pieces, bounds, radius, max_speed, max_accel,
+               eps0, reach, contact_tolerance, eps_end, static_base, static_line, tail_on, horizon, speed_horizon,
+               accel_horizon, accel_horizon_sq_half, double_decel, group_point, group_wv, term_offset, dyn_phi,
+               dyn_line, last_interval, tail_phi, tail_line, tol, rows):
     """A step's set-up up to its first tracking QP: the predictions ``interp_all @ others[j]`` into
     ``pred`` ``(m, P, 2)``, :func:`~nodnav.control.mpc_rows.step_state` (with ``static_alpha @ v0``
     and the speed ``|v0|``), the linearisation points into ``lin`` ``(N, 2)`` (``mode`` 0, cold:
@@ -81,12 +116,17 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
     ``b_ends @ warm``) and :func:`~nodnav.control.mpc_rows.tracking_rows` (``ref_weights @
     ref_local``; the gradient into ``gradient``, the bounds into ``lower``, the rows into ``rows``).
     The products are loops (:func:`product_into`; the interpolation ``interp_all`` and the basis
-    ``b_ends``, two to four entries a row, as :func:`sparse_rows`). Arguments from ``interp_all`` on are the
-    problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`). Before them, from
-    ``robot`` to ``max_samples``: the braking partners (:class:`~nodnav.control.mutual_braking.BrakingPartners`'
-    fields) and the sampling of :func:`~nodnav.control.mutual_braking.passing_bound`, whose bound
-    (the same kernel, ``inf`` where ``robot < 0``: no partners) comes first in the returned values,
-    then ``step_state``'s five."""
+    ``b_ends``, two to four entries a row, as :func:`sparse_rows`). From ``robot`` to ``partners_dt``:
+    the braking partners (:class:`~nodnav.control.mutual_braking.BrakingPartners`' fields), whose
+    :func:`~nodnav.control.mutual_braking.passing_bound` (the same kernel, ``inf`` where ``robot < 0``:
+    no partners) comes first in the returned values, then ``step_state``'s five. Arguments from
+    ``step`` on are the problem's (:attr:`~nodnav.control.mpc_problem.MPCProblem.fused_constants`):
+    the bound's sampling, the step's scratch space (the per-group state, then the outputs
+    :attr:`~nodnav.control.mpc_problem.MPCProblem.fused_outputs`: views of one buffer, read back by
+    :func:`scratch_arrays`), then what the products and kernels read."""
+    (x_now, away, dist_now, need, delta_sq, full, contact, gap, need_box, box_low, box_high, pred, static, ref_local,
+     lin, gradient, lower) = scratch_arrays(scratch, scratch_starts, others.shape[0], all_starts.shape[0] - 1,
+                                            ref.shape[0], n_end)
     for j in range(others.shape[0]):
         sparse_product_into(all_starts, all_cols, all_values, others[j], pred[j])
     alpha_v0 = np.empty(static_alpha.shape[0])
@@ -119,13 +159,8 @@ def step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, stat
 
 
 def fused_setup(prob, p0, v0, ref, others, other_radii, margins, warm, mode, partners: BrakingPartners):
-    """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`)
-    into new arrays: returns the predictions, the static rows' bounds, the reference relative to
-    ``p0``, the linearisation points, the first QP's gradient and bounds, then the kernel's six values."""
-    pred = np.empty((len(others), len(prob.interp_all), 2))
-    static, ref_local, lin = np.empty(prob.n_static), np.empty(ref.shape), np.empty((prob.n_end, 2))
-    gradient, lower = np.empty(2 * prob.nz), np.empty(prob.n_rows)
-    values = step_setup(others, p0, v0, ref, other_radii, margins, warm, mode, pred, static, ref_local, lin, gradient,
-                        lower, *partners, SAMPLE_STEP, MAX_SAMPLES,
-                        *prob.fused_constants)
-    return (pred, static, ref_local, lin, gradient, lower, *values)
+    """:func:`step_setup` on the problem ``prob`` (an :class:`~nodnav.control.mpc_problem.MPCProblem`),
+    into the problem's :attr:`~nodnav.control.mpc_problem.MPCProblem.fused_outputs` (scratch space
+    like its rows and per-group state, written again at the next step): returns the kernel's six
+    values. One tuple of the problem's arguments, made once: the call builds no other."""
+    return step_setup(*partners, others, p0, v0, ref, other_radii, margins, warm, mode, *prob.fused_constants)

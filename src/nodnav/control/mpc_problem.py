@@ -34,7 +34,7 @@ from nodnav.control.base import STEP_FRACTIONS
 from nodnav.control.braking import tail_clearance, tail_decel
 from nodnav.control.interpolation import interpolation_matrix, slope_matrix
 from nodnav.control.mpc_braking import WallsAround
-from nodnav.control.mpc_fused import sparse_rows
+from nodnav.control.mpc_fused import scratch_shapes, scratch_space, sparse_rows
 from nodnav.control.mpc_plan import plan_after_qp, plan_after_qp_braking
 from nodnav.control.mpc_rows import (
     chord_inflation,
@@ -244,10 +244,18 @@ class MPCProblem:
         # A step's per-group state (:func:`~nodnav.control.mpc_rows.step_state` writes it; scratch
         # space like :attr:`rows`): x_now, away, dist_now, need, delta_sq, far, full, contact, then
         # the box's gap, need_box, box_low, box_high.
-        g = self.n_groups
-        self.state = (np.empty((g, n_end, 2)), np.empty((g, 2)), np.empty(g), np.empty(g), np.empty((g, n_end)),
-                      np.zeros(g, dtype=bool), np.empty(g), np.empty(g), np.empty(4), np.empty(4), np.empty(2),
-                      np.empty(2))
+        # The state's float arrays and the fused set-up's outputs (:attr:`fused_outputs`) are views of
+        # one buffer, :attr:`scratch` (the fused set-up's kernel takes it as one argument).
+        self.scratch, self.scratch_starts, arrays = scratch_space(scratch_shapes(
+            self.n_groups, n_end, n_others, len(self.interp_all), self.n_static, len(sample_times), 2 * self.nz,
+            self.n_rows))
+        x_now, away, dist_now, need, delta_sq, full, contact, gap, need_box, box_low, box_high = arrays[:11]
+        self.state = (x_now, away, dist_now, need, delta_sq, np.zeros(self.n_groups, dtype=bool), full, contact, gap,
+                      need_box, box_low, box_high)
+        # A step's outputs (scratch space like the state, written again at every step): the predictions
+        # at interp_all's times, the static rows' bounds, the reference relative to p0, the
+        # linearisation points, the first QP's gradient and bounds; then StepData's views of them.
+        self.fused_outputs = tuple(arrays[11:])
         # What step_state reads of the problem, in its arguments' order (as plan_constants): the
         # robot's limits, the wall reach (its radius plus the farthest it can move in the horizon,
         # plus 0.1 m) and the braking tail's products of constants, then the scratch state.
@@ -262,9 +270,13 @@ class MPCProblem:
             a_max * horizon**2 / 2, 2.0 * self.tail_decel, *self.state)
         # What the fused set-up reads of the problem (controller.fused_step), in its arguments' order
         # (:func:`~nodnav.control.mpc_fused.step_setup`; row_constants' walls and eps_end are state_constants').
-        self.fused_constants = (*sparse_rows(self.interp_all), self.static_alpha, setup.shift,
+        pred = self.fused_outputs[0]
+        self.fused_views = (self.fused_outputs[2], pred[:, n_end + 1:-1], pred[:, -1], self.fused_outputs[1])
+        self.fused_constants = (SAMPLE_STEP, MAX_SAMPLES, self.scratch, self.scratch_starts, self.state[5],
+                                *sparse_rows(self.interp_all), self.static_alpha, setup.shift,
                                 *sparse_rows(self.b_ends), self.interp_ends, self.ref_weights, self.q_line,
-                                self.no_group_marked, *self.state_constants, *self.row_constants[3:])
+                                self.no_group_marked, *self.state_constants[:-len(self.state)],
+                                *self.row_constants[3:])
         self.evasive_memo: dict[bytes, tuple] = {}  # (nodnav.control.evasive), by softened robots
 
     def plain_step_data(self, p0, v0, ref, others, other_radii, margins) -> StepData:
@@ -296,6 +308,15 @@ class MPCProblem:
             p0, v0, ref_local, pred[:, n_end + 1:-1], x_now, away, dist_now, contact, full, need, delta_sq,
             pred[:, -1], far, gap, need_box, static, self.n_walls, weight, reach, box_low, box_high, need_clear,
             clear_now, overlap)
+
+    def fused_step_data(self, p0, v0, need_clear, clear_now, overlap, weight, reach) -> StepData:
+        """:meth:`step_data` of a fused set-up (:func:`~nodnav.control.mpc_fused.fused_setup`): its
+        arrays are :attr:`fused_outputs`, whose views :attr:`fused_views` are made once."""
+        x_now, away, dist_now, need, delta_sq, far, full, contact, gap, need_box, box_low, box_high = self.state
+        ref_local, pred_check, velocities, static = self.fused_views
+        return StepData(
+            p0, v0, ref_local, pred_check, x_now, away, dist_now, contact, full, need, delta_sq, velocities, far, gap,
+            need_box, static, self.n_walls, weight, reach, box_low, box_high, need_clear, clear_now, overlap)
 
     def softened_rows(self, soft: np.ndarray) -> np.ndarray:
         """Mask of the rows belonging to the ``soft`` groups (a mask over walls then robots);

@@ -76,6 +76,25 @@ def _exits_of(point, centres, radii, out, first):
 
 
 @_compiled
+def octagons_into(centres, radii, out):
+    """Rows ``0 .. 8 m - 1`` of ``out``: ``chamfered_vertices`` of the zero-size boxes ``(x, y, x, y)``
+    at ``centres`` grown by ``radii`` (the circumscribing octagons of the discs), the same sums,
+    vertex by vertex in the same order."""
+    for j in range(centres.shape[0]):
+        x, y, r = centres[j, 0], centres[j, 1], radii[j]
+        t = _TAN_EIGHTH * r
+        o = 8 * j
+        out[o, 0], out[o, 1] = x + r, y - t
+        out[o + 1, 0], out[o + 1, 1] = x + r, y + t
+        out[o + 2, 0], out[o + 2, 1] = x + t, y + r
+        out[o + 3, 0], out[o + 3, 1] = x - t, y + r
+        out[o + 4, 0], out[o + 4, 1] = x - r, y + t
+        out[o + 5, 0], out[o + 5, 1] = x - r, y - t
+        out[o + 6, 0], out[o + 6, 1] = x - t, y - r
+        out[o + 7, 0], out[o + 7, 1] = x + t, y - r
+
+
+@_compiled
 def disc_search(start, goal, thr_start, thr_goal, centres, radii, d_start, d_goal, vertices, visible, clearance,
                 bounds, obstacles, pieces, exits):
     """``_search_with_discs`` of an unturned world without a wall index: ``(outcome, points)``,
@@ -85,19 +104,7 @@ def disc_search(start, goal, thr_start, thr_goal, centres, radii, d_start, d_goa
     m = centres.shape[0]
     none = np.zeros((0, 2))
     ring = np.empty((10 * m, 2))
-    # chamfered_vertices of the zero-size boxes at the centres (_disc_octagons), vertex by vertex.
-    for j in range(m):
-        x, y, r = centres[j, 0], centres[j, 1], radii[j]
-        t = _TAN_EIGHTH * r
-        o = 8 * j
-        ring[o, 0], ring[o, 1] = x + r, y - t
-        ring[o + 1, 0], ring[o + 1, 1] = x + r, y + t
-        ring[o + 2, 0], ring[o + 2, 1] = x + t, y + r
-        ring[o + 3, 0], ring[o + 3, 1] = x - t, y + r
-        ring[o + 4, 0], ring[o + 4, 1] = x - r, y + t
-        ring[o + 5, 0], ring[o + 5, 1] = x - r, y - t
-        ring[o + 6, 0], ring[o + 6, 1] = x - t, y - r
-        ring[o + 7, 0], ring[o + 7, 1] = x + t, y - r
+    octagons_into(centres, radii, ring)  # the first 8 m rows
     if exits.shape[0]:
         for q in range(2 * m):
             ring[8 * m + q, 0], ring[8 * m + q, 1] = exits[q, 0], exits[q, 1]

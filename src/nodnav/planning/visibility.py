@@ -31,9 +31,17 @@ import numpy as np
 from scipy.sparse.csgraph import shortest_path
 
 from nodnav.compiled import compiled as _compiled
-from nodnav.geometry import TOL, _segment_point_d2_one, segment_is_clear
+from nodnav.geometry import TOL, segment_is_clear
 from nodnav.planning.disc_checks import _crosses_any, disc_violations  # noqa: F401 (imported from here)
-from nodnav.planning.disc_search import FOUND, NEEDS_EXITS, add_crossed, disc_search, discs_met
+from nodnav.planning.disc_search import (
+    FOUND,
+    NEEDS_EXITS,
+    add_crossed,
+    disc_search,
+    discs_met,
+    edge_keeps_clear,
+    octagons_into,
+)
 from nodnav.planning.graph_search import shortest_chain
 from nodnav.planning.memo import remember, remembered_property
 from nodnav.planning.polylines import polyline_length
@@ -364,20 +372,8 @@ def _keep_clear_of_discs(nodes, i, j, ok, centres, radii, d_start, d_goal):
     an edge to the goal (either end 1), as ``_search_with_discs`` computed it with NumPy (the
     distance by :func:`~nodnav.geometry.segment_point_distance`'s operations)."""
     for e in range(i.shape[0]):
-        if not ok[e]:
-            continue
-        a, b = i[e], j[e]
-        ax, ay = nodes[a, 0], nodes[a, 1]
-        dx, dy = nodes[b, 0] - ax, nodes[b, 1] - ay
-        for c in range(centres.shape[0]):
-            limit = radii[c]
-            if a == 0:
-                limit = min(limit, d_start[c])
-            if a == 1 or b == 1:
-                limit = min(limit, d_goal[c])
-            if not math.sqrt(_segment_point_d2_one(ax, ay, dx, dy, centres[c, 0], centres[c, 1])) >= limit - TOL:
-                ok[e] = False
-                break
+        if ok[e] and not edge_keeps_clear(nodes, i[e], j[e], centres, radii, d_start, d_goal):
+            ok[e] = False
 
 
 @_compiled
@@ -403,20 +399,9 @@ def _outside_all(vertices, centres, radii):
 @_compiled
 def _disc_octagons(centres, radii):
     """:func:`chamfered_vertices` of the zero-size boxes ``(x, y, x, y)`` at ``centres`` grown by
-    ``radii``, ``(m * 8, 2)``: the same sums, vertex by vertex in the same order."""
+    ``radii``, ``(m * 8, 2)`` (:func:`~nodnav.planning.disc_search.octagons_into`)."""
     out = np.empty((centres.shape[0] * 8, 2))
-    for j in range(centres.shape[0]):
-        x, y, r = centres[j, 0], centres[j, 1], radii[j]
-        t = _TAN_EIGHTH * r
-        o = 8 * j
-        out[o, 0], out[o, 1] = x + r, y - t
-        out[o + 1, 0], out[o + 1, 1] = x + r, y + t
-        out[o + 2, 0], out[o + 2, 1] = x + t, y + r
-        out[o + 3, 0], out[o + 3, 1] = x - t, y + r
-        out[o + 4, 0], out[o + 4, 1] = x - r, y + t
-        out[o + 5, 0], out[o + 5, 1] = x - r, y - t
-        out[o + 6, 0], out[o + 6, 1] = x - t, y - r
-        out[o + 7, 0], out[o + 7, 1] = x + t, y - r
+    octagons_into(centres, radii, out)
     return out
 
 

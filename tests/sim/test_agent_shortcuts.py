@@ -13,7 +13,7 @@ import pytest
 from nodnav.decision.opinion import relative_opinions, strategy_probabilities
 from nodnav.decision.players import conflict_likelihood, select_game_players
 from nodnav.scenario.loading import load_scenario
-from nodnav.sim.agent import local_order
+from nodnav.sim.agent_queries import local_order
 from nodnav.sim.parked import _packed_round, crossed_and_arriving, packed_crossed
 
 WORLD = load_scenario(Path(__file__).parent / "regression" / "destination-behind-parked-robots.yaml").world
@@ -129,7 +129,8 @@ def test_the_agents_known_robots_are_the_views():
 
 
 def test_the_sides_key_follows_the_sides_an_agent_is_given():
-    from nodnav.sim.agent import NODAgent, approach_sides
+    from nodnav.sim.agent import NODAgent
+    from nodnav.sim.agent_queries import approach_sides
     from nodnav.sim.plan_cache import PlanCache
 
     scenario = load_scenario("4r-case1")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nodnav.planning.base import Planner
-from nodnav.sim.agent import weighted_choice
+from nodnav.sim.agent_queries import weighted_choice
 
 
 def _cases():

@@ -70,7 +70,7 @@ def test_plan_cache_tells_requests_with_other_accelerations_apart():
     view = RobotView(t=0.0, window_times=np.array([0.0]),
                      window_states=np.concatenate([scenario.origins[:, None], np.zeros((2, 1, 2))], axis=2),
                      entered=())
-    from nodnav.sim.agent import joint_requests
+    from nodnav.sim.agent_queries import joint_requests
     request = joint_requests(scenario, view, (0, 1), [(0, 1)])[0]
     slow = joint_requests(scenario.with_overrides(**{"robots[1].max_accel": 0.2}), view, (0, 1), [(0, 1)])[0]
     assert slow.max_accels == pytest.approx([2.0, 0.2])

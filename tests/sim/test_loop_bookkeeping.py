@@ -8,7 +8,8 @@ import numpy as np
 from nodnav.planning.base import JointTrajectory
 from nodnav.planning.prioritized import PrioritizedPlanner
 from nodnav.scenario.loading import load_scenario
-from nodnav.sim.agent import RobotView, joint_requests
+from nodnav.sim.agent import RobotView
+from nodnav.sim.agent_queries import joint_requests
 from nodnav.sim.execution import ExecutionSettings, PlanExecution, WaitRelease, moved_beyond_plain
 from nodnav.sim.methods import gated_horizon, horizon_predictions
 from nodnav.sim.plan_cache import PlanCache, state_key

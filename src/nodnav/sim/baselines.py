@@ -50,14 +50,8 @@ from nodnav.registry import register_method
 from nodnav.scenario.limits import MAX_GAME, MAX_STRATEGIES
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import World
-from nodnav.sim.agent import (
-    Decision,
-    NODAgent,
-    RobotView,
-    approach_sides,
-    clearing_plan,
-    players_in_sight,
-)
+from nodnav.sim.agent import Decision, NODAgent, RobotView
+from nodnav.sim.agent_queries import approach_sides, clearing_plan, players_in_sight
 from nodnav.sim.methods import PlannedMethod, passage_nod_agent
 from nodnav.sim.metrics import arrival_times
 from nodnav.sim.order_plans import NO_OPINION, closest_first_order, plan_for_order

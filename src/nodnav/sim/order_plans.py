@@ -7,8 +7,9 @@ import numpy as np
 
 from nodnav.planning.base import PlanResult, relabel
 from nodnav.scenario.schema import Scenario
-from nodnav.sim.agent import RobotView, joint_requests, local_order
+from nodnav.sim.agent_queries import joint_requests, local_order
 from nodnav.sim.plan_cache import PlanCache
+from nodnav.sim.views import RobotView
 
 #: Opinions or probabilities of a method that has none: nothing.
 NO_OPINION = np.zeros(0)

@@ -10,9 +10,10 @@ from nodnav.decision.players import conflict_likelihood
 from nodnav.decision.strategies import strategy_index
 from nodnav.planning.base import relabel
 from nodnav.scenario.schema import Scenario
-from nodnav.sim.agent import Decision, RobotView, clearing_plan, players_in_sight
+from nodnav.sim.agent_queries import clearing_plan, players_in_sight
 from nodnav.sim.order_plans import NO_OPINION, closest_first_order, plan_for_order
 from nodnav.sim.plan_cache import PlanCache
+from nodnav.sim.views import Decision, RobotView
 
 
 class ClosestFirstPassage:

@@ -74,7 +74,7 @@ from nodnav.planning.visibility import VisibilityGraph
 from nodnav.registry import register_method
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE
-from nodnav.sim.agent import Decision, RobotView, approach_sides
+from nodnav.sim.agent_queries import approach_sides
 from nodnav.sim.baselines import NO_OPINION, next_waypoint, route_trajectory
 from nodnav.sim.person_steering import arrival_speed, away_from, bend_rooms, turn_speed
 from nodnav.sim.social_force import (
@@ -94,6 +94,7 @@ from nodnav.sim.social_force import (
     wall_forces,
     wall_social,
 )
+from nodnav.sim.views import Decision, RobotView
 
 # ---------------------------------------------------------------------------------------------
 # The methods

@@ -27,7 +27,7 @@ from nodnav.sim.parked import crossed_and_arriving, packed_crossed
 
 def state_key(request: PlanRequest) -> tuple[bytes | None, ...]:
     """The part of a plan cache's key that requests sharing their state arrays share
-    (:func:`~nodnav.sim.agent.joint_requests`): the bytes of those arrays."""
+    (:func:`~nodnav.sim.agent_queries.joint_requests`): the bytes of those arrays."""
     return (request.positions.tobytes(), request.velocities.tobytes(), request.destinations.tobytes(),
             request.radii.tobytes(), request.max_speeds.tobytes(),
             None if request.max_accels is None else request.max_accels.tobytes())

@@ -32,8 +32,9 @@ from nodnav.planning.visibility import VisibilityGraph
 from nodnav.scenario.params import plan_reuse
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, LEFT, RIGHT, World
-from nodnav.sim.agent import Decision, RobotView, approach_sides
+from nodnav.sim.agent_queries import approach_sides
 from nodnav.sim.plan_cache import PlanCache
+from nodnav.sim.views import Decision, RobotView
 
 #: Spacing of the samples along a route at which passages are looked for (m).
 ROUTE_STEP = 0.02

@@ -19,7 +19,7 @@ from nodnav.decision.games import selections_agree
 from nodnav.decision.strategies import strategy_index
 from nodnav.scenario.schema import Scenario
 from nodnav.scenario.world import INSIDE, RIGHT, _distance_to_go_kernel
-from nodnav.sim.agent import RobotView, approach_sides, robot_arrays
+from nodnav.sim.agent_queries import approach_sides, robot_arrays
 from nodnav.sim.contact_checks import contact_counts, contact_tally, straight_substeps
 from nodnav.sim.failure import collision_kind
 from nodnav.sim.history import History
@@ -30,6 +30,7 @@ from nodnav.sim.sensing import Sight, Tracker, within_sight
 from nodnav.sim.several import passage_sides, several, team_routes
 from nodnav.sim.team_contacts import PeopleContacts, team_metrics
 from nodnav.sim.trial_result import TrialResult  # defined there; imported from here by callers
+from nodnav.sim.views import RobotView
 
 log = logging.getLogger(__name__)
 

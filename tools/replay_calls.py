@@ -34,11 +34,12 @@ replay that gives it answered exactly as the trial did (exit code 1 if not).
 cache of its own and the checkout's ``.venv/bin/python`` if it has one, both pinned to core
 ``--core``. They take turns, the first of each pair alternating, ``--pairs`` pairs, and
 ``--launches`` times with new worker processes (a process's memory layout alone moves its times
-by about 1 %). It prints both digests ("same" or "different", exit code 1) and, over all pairs,
-B's time over A's: the median with the quartiles, the best B over the best A, and the median of
-each launch. Two copies of one commit show the tool's own noise: on this shared machine the
-median of a launch lands within about 1.5 % of 1 and that of three launches within about 1 %, so
-a change of 2 % or more shows in one run; a smaller one wants several runs agreeing.
+by a per cent or two). It prints both digests ("same" or "different", exit code 1) and, over all
+pairs, B's time over A's: the median with the quartiles, the best B over the best A, and the
+median of each launch. Two copies of one commit show the tool's own noise: on this shared
+machine, 4r-case1 seeds 1-3, the median of one launch came out 0.965-1.016 and that of all the
+pairs of 3-5 launches 0.994-0.999 (planner and control calls), so a change of 3 % shows in one
+run; for 1-2 % take more launches and see that the launches' medians agree.
 
 What it cannot say: a recording is the calls of one checkout's trials. A change that changes a
 trajectory changes the calls that follow, which the recording does not; its replay answers
@@ -317,7 +318,10 @@ def _paired_times(workers: list, pairs: int) -> list[list[float]]:
             proc = workers[w][0]
             proc.stdin.write("go\n")
             proc.stdin.flush()
-            times[w].append(float(proc.stdout.readline()))
+            line = proc.stdout.readline()
+            if not line:
+                raise RuntimeError(f"a worker stopped after {i} pairs (its error is above)")
+            times[w].append(float(line))
     for proc, _, _ in workers:
         proc.stdin.close()
         proc.wait()

@@ -1,6 +1,6 @@
-"""tools/replay_calls.py: a short trial's plan requests, recorded and replayed into new planners,
-get the trial's own answers every time; the digest notices one changed number; bad input is
-one line and exit code 2."""
+"""tools/replay_calls.py: a short trial's plan requests and control() calls, recorded and replayed
+into new planners and controllers, get the trial's own answers every time; the digest notices one
+changed number and not a wall time; bad input is one line and exit code 2."""
 
 import pickle
 from dataclasses import replace

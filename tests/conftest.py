@@ -1,9 +1,11 @@
 """What several test modules share: a stand-in for a trial's result, for tests of what is done
 with results (sweeps, the results database, reports) rather than of the trials themselves."""
 
+import importlib.util
 import os
 import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import cloudpickle
 import pytest
@@ -44,3 +46,16 @@ def trial_result():
     """The factory of stand-in trial results: ``trial_result(outcome, summary, metrics)``
     (:class:`FakeTrialResult`), for a stand-in trial function ``(scenario, method, seed) -> result``."""
     return FakeTrialResult
+
+
+@pytest.fixture(scope="session")
+def tool_script():
+    """The loader of a script of tools/ (not a package) as a module: ``tool_script("paired_outcomes")``."""
+    tools = Path(__file__).resolve().parents[1] / "tools"
+
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(name, tools / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+    return load

@@ -100,17 +100,11 @@ def test_the_mpc_skips_solving_only_where_solving_would_be_refused(monkeypatch):
     assert np.array_equal(solved.next_velocity, skipped.next_velocity)
 
 
-def test_in_closed_loop_skipped_steps_are_steps_the_full_solve_refuses(capsys):
+def test_in_closed_loop_skipped_steps_are_steps_the_full_solve_refuses(capsys, tool_script):
     """tools/check_passing_bound.py on the mirror start that once collided (5r-mixed, one game
     player, seed 20): the full solve decides, and at every step where the bound says no plan can
     pass, it refused every plan."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[2] / "tools" / "check_passing_bound.py"
-    spec = importlib.util.spec_from_file_location("check_passing_bound", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = tool_script("check_passing_bound")
     assert module.main(["5r-mixed/1/20"]) == 0
     out = capsys.readouterr().out
     assert "skippable" in out and "ACCEPTED" not in out

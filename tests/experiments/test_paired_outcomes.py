@@ -1,22 +1,15 @@
 """tools/paired_outcomes.py: McNemar's exact test by hand, and trials paired across two results
 databases by configuration and seed, an ignored setting left out."""
 
-import importlib.util
 import json
 import sqlite3
-from pathlib import Path
 
 import pytest
 
-TOOL = Path(__file__).resolve().parents[2] / "tools" / "paired_outcomes.py"
-
 
 @pytest.fixture(scope="module")
-def tool():
-    spec = importlib.util.spec_from_file_location("paired_outcomes", TOOL)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def tool(tool_script):
+    return tool_script("paired_outcomes")
 
 
 def test_mcnemar_exact_by_hand(tool):

@@ -23,6 +23,8 @@ may wait (rings, the fine grid, bays, door zones) is :mod:`nodnav.planning.waiti
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable, Iterator
+from itertools import islice
 
 import numpy as np
 
@@ -32,10 +34,25 @@ from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route,
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.polylines import polyline_point_distance
 from nodnav.planning.timing import dash_clashes
-from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, ring_spots
+from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, nearest_ways, ring_spots
 from nodnav.scenario.world import World
 
 logger = logging.getLogger(__name__)
+
+
+def clear_first(clashes: Iterable[bool]) -> Iterator[int]:
+    """The indices of ``clashes``, those that are false first, then the others, each in order (a
+    stable sort by clash), reading each only when it is needed: the ways a robot can dash along
+    without meeting anyone, nearest first, then the others, and the first one tried is taken
+    most of the time, so the later ways' dashes are never checked."""
+    clashing = []
+    for q, clash in enumerate(clashes):
+        if clash:
+            clashing.append(q)
+        else:
+            yield q
+    yield from clashing
+
 
 class MakingWay(FastPlannerHooks):
     """The fast planner's ways of making room (a mixin of
@@ -172,9 +189,8 @@ class MakingWay(FastPlannerHooks):
         spots = spots[ok]
         if not len(spots):
             return spots, []
-        ways = graph.shortest_paths(np.repeat(pos[None], len(spots), 0), spots)
-        near = np.argsort([w.length for w in ways], kind="stable")[:3 * self.params.retreat_tries]
-        return spots[near], [ways[q] for q in near]
+        near, ways = nearest_ways(graph, pos, spots, 3 * self.params.retreat_tries)
+        return spots[near], ways
 
     def _escape_motions(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,
                         door: bool):
@@ -203,10 +219,10 @@ class MakingWay(FastPlannerHooks):
         others_at = (np.stack([motion.samples[np.minimum(np.arange(horizon + 1), motion.last_step)]
                                for _, motion in fixed], axis=1) if fixed else np.zeros((horizon + 1, 0, 2)))
         need = req[[before for before, _ in fixed], mover]
-        clash = np.array([dash_clashes(w.points, step, others_at, need) if w.success else True for w in ways])
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)
         starts_inside = bool(world.in_corridor(pos))
-        for q in np.argsort(clash, kind="stable")[:self.params.retreat_tries]:
+        clashes = (not w.success or dash_clashes(w.points, step, others_at, need) for w in ways)
+        for q in islice(clear_first(clashes), self.params.retreat_tries):
             way = graph.shortest_path(pos, spots[q], stand, req[mover, others])
             if not way.success:
                 continue

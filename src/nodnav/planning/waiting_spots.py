@@ -11,7 +11,9 @@ them with its own rules (clear of the walls, of the passage, of the others and t
 * :func:`bay_spots`: one spot per bay beside the passage (below);
 * :func:`in_door_zone`: the door zone of an entrance, the disc of the planner's
   ``door_clearance`` around it (open: a point at exactly that distance is out of it). Robots
-  waiting for their turn wait out of it, so that the robot coming out has room.
+  waiting for their turn wait out of it, so that the robot coming out has room;
+* :func:`nearest_ways`: the ways to the spots that are shortest, found without computing the
+  ways to the spots far off.
 
 Bays (issue 19) are places beside a single-file passage where one robot fits off the line.
 
@@ -34,11 +36,15 @@ robot waits in a bay at a time.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodnav.geometry import TOL
 from nodnav.scenario.world import World
+
+if TYPE_CHECKING:
+    from nodnav.planning.visibility import GeometricPath, VisibilityGraph
 
 #: Spacing of the fine grid of waiting spots tried when no spot of the rings will do (m).
 FINE_GRID = 0.25
@@ -46,6 +52,9 @@ FINE_GRID = 0.25
 BAY_STEP = 0.05
 #: How far beside the line a bay spot may lie (m): deeper than this is a room, not a bay.
 BAY_DEPTH = 1.5
+#: How much shorter than the straight line a way's length may read from rounding, relative and
+#: absolute (m): far more than the few units in the last place a sum of a few segments can lose.
+ROUNDING = 1e-9
 
 
 def ring_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, turn: float = 0.0) -> np.ndarray:
@@ -103,3 +112,44 @@ def bay_spots(world: World, radius: float, clearance: float) -> np.ndarray:
     out = np.array(spots).reshape(-1, 2)
     out.setflags(write=False)  # remembered: shared by every caller
     return out
+
+
+def nearest_ways(graph: VisibilityGraph, start: np.ndarray, spots: np.ndarray,
+                 count: int) -> tuple[np.ndarray, list[GeometricPath]]:
+    """The ``count`` shortest of ``graph``'s ways among the walls from ``start`` to ``spots``
+    ``(M, 2)``, shortest first, equal ones (and the failed ways, of infinite length) in the spots'
+    order, with the indices of their spots: what a stable sort of all ``M`` ways by length gives.
+
+    No way is shorter than the straight line to its spot, so the ways are computed nearest spot
+    (in a straight line) first, in batches: first the ``count`` nearest spots and any as near as
+    the last of them, then every spot whose straight line is no longer than the ``count``-th
+    shortest way so far (less :data:`ROUNDING`), until there is none. A spot never computed is
+    strictly farther by way than ``count`` ways computed. A way does not depend on the batch it is
+    computed in (:meth:`~nodnav.planning.visibility.VisibilityGraph.shortest_paths` answers each
+    query on its own, and remembers the answers)."""
+    start = np.asarray(start, dtype=float)
+    n = len(spots)
+    if n <= count:  # every way is kept: nothing to leave out
+        every = graph.shortest_paths(np.repeat(start[None], n, 0), spots)
+        near = np.argsort([w.length for w in every], kind="stable")
+        return near, [every[q] for q in near]
+    dx, dy = spots[:, 0] - start[0], spots[:, 1] - start[1]
+    straight = np.sqrt(dx * dx + dy * dy)  # a straight way's length, exactly
+    by_line = np.argsort(straight, kind="stable")
+    line = straight[by_line]
+    lengths = np.empty(n)
+    ways: dict[int, GeometricPath] = {}
+    done, limit = 0, float(line[count - 1])
+    while True:
+        upto = int(np.searchsorted(line, limit * (1.0 + ROUNDING) + ROUNDING, side="right"))
+        if upto <= done:
+            break
+        batch = by_line[done:upto]
+        for q, way in zip(batch.tolist(), graph.shortest_paths(np.repeat(start[None], len(batch), 0), spots[batch])):
+            ways[q] = way
+            lengths[q] = way.length
+        done = upto
+        limit = float(np.partition(lengths[by_line[:done]], count - 1)[count - 1])
+    computed = np.sort(by_line[:done])
+    near = computed[np.argsort(lengths[computed], kind="stable")[:count]]
+    return near, [ways[q] for q in near]

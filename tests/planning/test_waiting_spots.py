@@ -1,0 +1,91 @@
+"""Choosing among waiting spots: the shortest ways found lazily against computing every way and
+sorting them all, bit for bit; the dash-first order against a stable sort by clash."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from nodnav.planning.making_way import clear_first
+from nodnav.planning.visibility import VisibilityGraph
+from nodnav.planning.waiting_spots import nearest_ways, ring_spots
+from nodnav.scenario.world import paper_world
+
+WORLD = paper_world()
+GRAPH = VisibilityGraph(WORLD, 0.18, 0.02)
+
+
+def every_way(graph, start, spots, count):
+    """The reference: every way in one batch, a stable sort of all their lengths, the first ``count``."""
+    ways = graph.with_own_memos().shortest_paths(np.repeat(np.asarray(start, dtype=float)[None], len(spots), 0), spots)
+    near = np.argsort([w.length for w in ways], kind="stable")[:count]
+    return near, [ways[q] for q in near]
+
+
+def same(got, want):
+    """Indices, success, points (bitwise) and lengths (bitwise) of two answers."""
+    (gi, gw), (wi, ww) = got, want
+    assert gi.tolist() == wi.tolist()
+    for g, w in zip(gw, ww):
+        assert g.success == w.success
+        assert g.points.tobytes() == w.points.tobytes()
+        assert np.float64(g.length).tobytes() == np.float64(w.length).tobytes()
+
+
+def spot_sets(seed):
+    """Starts and spots of every kind the planner offers: rings around the start (a ring's spots
+    equally far in a straight line, to rounding), spots repeated (exactly equal ways), spots
+    behind the walls (ways around them, longer than the straight line) and in walls or out of the
+    world (failed ways)."""
+    rng = np.random.default_rng(seed)
+    x0, y0, x1, y1 = WORLD.bounds
+    for _ in range(12):
+        start = rng.uniform([x0 + 0.3, y0 + 0.3], [x1 - 0.3, y1 - 0.3])
+        while WORLD.clearance(start[None])[0] < 0.2:
+            start = rng.uniform([x0 + 0.3, y0 + 0.3], [x1 - 0.3, y1 - 0.3])
+        rings = ring_spots(start, (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 5.0, 7.0), 16)
+        scattered = rng.uniform([x0 - 0.5, y0 - 0.5], [x1 + 0.5, y1 + 0.5], size=(int(rng.integers(1, 200)), 2))
+        spots = np.vstack([rings, scattered])
+        spots = np.vstack([spots, spots[rng.integers(0, len(spots), size=20)]])  # exact ties
+        yield start, spots[rng.permutation(len(spots))]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_nearest_ways_are_those_of_sorting_every_way(seed):
+    for start, spots in spot_sets(seed):
+        for count in (1, 3, 24, len(spots) - 1, len(spots), len(spots) + 5):
+            for keep in (len(spots), 30, 5):  # many spots, a few (all kept), fewer than count
+                got = nearest_ways(GRAPH.with_own_memos(), start, spots[:keep], count)
+                same(got, every_way(GRAPH, start, spots[:keep], count))
+
+
+def test_nearest_ways_skip_the_far_spots():
+    # A ring's spots near the start, then a hundred far off: the far ones' ways are never computed.
+    start = np.array([-4.5, 0.0])
+    spots = np.vstack([ring_spots(start, (0.5,), 16), ring_spots(start, (3.0,), 100)])
+    graph = GRAPH.with_own_memos()
+    got = nearest_ways(graph, start, spots, 8)
+    same(got, every_way(GRAPH, start, spots, 8))
+    assert len(graph._plain) == 16
+
+
+def test_a_way_is_the_same_in_any_batch():
+    # What nearest_ways relies on: a query's answer does not depend on the others asked with it.
+    for start, spots in itertools.islice(spot_sets(7), 3):
+        starts = np.repeat(start[None], len(spots), 0)
+        together = GRAPH.with_own_memos().shortest_paths(starts, spots)
+        for q in range(0, len(spots), 7):
+            alone = GRAPH.with_own_memos().shortest_paths(starts[q:q + 1], spots[q:q + 1])[0]
+            assert alone.points.tobytes() == together[q].points.tobytes()
+            assert np.float64(alone.length).tobytes() == np.float64(together[q].length).tobytes()
+
+
+def test_clear_first_is_a_stable_sort_by_clash_read_lazily():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        clash = rng.random(int(rng.integers(0, 30))) < rng.random()
+        assert list(clear_first(iter(clash.tolist()))) == np.argsort(clash, kind="stable").tolist()
+    read = []
+    clashes = (read.append(q) or c for q, c in enumerate([True, False, True, False]))
+    assert next(clear_first(clashes)) == 1
+    assert read == [0, 1]  # the ways after the first clear one are not checked

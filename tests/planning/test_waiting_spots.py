@@ -1,7 +1,9 @@
-"""Choosing among waiting spots: the shortest ways found lazily against computing every way and
-sorting them all, bit for bit; the dash-first order against a stable sort by clash."""
+"""Waiting spots: the rings against a hand computation and the rings computed afresh; the
+shortest ways found lazily against computing every way and sorting them all, bit for bit; the
+dash-first order against a stable sort by clash."""
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -89,3 +91,19 @@ def test_clear_first_is_a_stable_sort_by_clash_read_lazily():
     clashes = (read.append(q) or c for q, c in enumerate([True, False, True, False]))
     assert next(clear_first(clashes)) == 1
     assert read == [0, 1]  # the ways after the first clear one are not checked
+
+
+@pytest.mark.parametrize("turn", [0.0, 0.3, -1.2])
+def test_ring_spots_around_a_centre(turn):
+    centre, radii = np.array([0.3, -1.7]), (0.5, 1.0, 2.5)
+    spots = ring_spots(centre, radii, 16, turn)
+    # Spot j of ring i at radius radii[i], angle turn + 2 pi j / 16.
+    angle = [turn + 2 * math.pi * j / 16 for j in range(16)]
+    want = [[centre[0] + r * math.cos(a), centre[1] + r * math.sin(a)] for r in radii for a in angle]
+    assert spots == pytest.approx(np.array(want), abs=1e-12)
+    # Bit for bit the rings computed afresh every call (the unit ring is remembered).
+    angles = 2.0 * np.pi * np.arange(16) / 16
+    ring = np.stack([np.cos(angles + turn if turn else angles), np.sin(angles + turn if turn else angles)], axis=1)
+    fresh = (centre[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+    assert spots.tobytes() == fresh.tobytes()
+    assert spots.flags.writeable  # the caller's own array

@@ -220,7 +220,7 @@ class MakingWay(FastPlannerHooks):
                                for _, motion in fixed], axis=1) if fixed else np.zeros((horizon + 1, 0, 2)))
         need = req[[before for before, _ in fixed], mover]
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)
-        starts_inside = bool(world.in_corridor(pos))
+        starts_inside = mover in state.inside_robots  # world.in_corridor(pos), computed with the state
         clashes = (not w.success or dash_clashes(w.points, step, others_at, need) for w in ways)
         for q in islice(clear_first(clashes), self.params.retreat_tries):
             way = graph.shortest_path(pos, spots[q], stand, req[mover, others])

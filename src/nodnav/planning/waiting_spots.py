@@ -61,11 +61,20 @@ def ring_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, tu
     """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
     nearest ring first, the first of each ring at angle ``turn`` (rad; the passage's,
     :attr:`Passage.angle`), ``(M, 2)``."""
+    ring = unit_ring(directions, turn)
+    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+
+
+@lru_cache(maxsize=16)
+def unit_ring(directions: int, turn: float = 0.0) -> np.ndarray:
+    """``directions`` unit vectors evenly around the circle, the first at angle ``turn`` (rad),
+    ``(directions, 2)`` (remembered, read-only: every ring of a planner has the same few)."""
     angles = 2.0 * np.pi * np.arange(directions) / directions
     if turn:
         angles = angles + turn
     ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+    ring.setflags(write=False)
+    return ring
 
 
 def grid_spots(world: World, step: float = FINE_GRID) -> np.ndarray:

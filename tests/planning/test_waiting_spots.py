@@ -24,10 +24,17 @@ def every_way(graph, start, spots, count):
     return near, [ways[q] for q in near]
 
 
+def lazily(graph, start, spots, count, batch=4):
+    """Every way :func:`nearest_ways` gives, as the reference's ``(indices, ways)``."""
+    got = list(nearest_ways(graph, start, spots, count, batch))
+    return np.array([q for q, _ in got], dtype=int), [w for _, w in got]
+
+
 def same(got, want):
     """Indices, success, points (bitwise) and lengths (bitwise) of two answers."""
     (gi, gw), (wi, ww) = got, want
     assert gi.tolist() == wi.tolist()
+    assert len(gw) == len(ww)
     for g, w in zip(gw, ww):
         assert g.success == w.success
         assert g.points.tobytes() == w.points.tobytes()
@@ -56,9 +63,10 @@ def spot_sets(seed):
 def test_nearest_ways_are_those_of_sorting_every_way(seed):
     for start, spots in spot_sets(seed):
         for count in (1, 3, 24, len(spots) - 1, len(spots), len(spots) + 5):
-            for keep in (len(spots), 30, 5):  # many spots, a few (all kept), fewer than count
-                got = nearest_ways(GRAPH.with_own_memos(), start, spots[:keep], count)
-                same(got, every_way(GRAPH, start, spots[:keep], count))
+            for keep in (len(spots), 30, 5, 0):  # many spots, a few (all kept), fewer than count, none
+                for batch in (1, 4, 50):
+                    got = lazily(GRAPH.with_own_memos(), start, spots[:keep], count, batch)
+                    same(got, every_way(GRAPH, start, spots[:keep], count))
 
 
 def test_nearest_ways_skip_the_far_spots():
@@ -66,9 +74,13 @@ def test_nearest_ways_skip_the_far_spots():
     start = np.array([-4.5, 0.0])
     spots = np.vstack([ring_spots(start, (0.5,), 16), ring_spots(start, (3.0,), 100)])
     graph = GRAPH.with_own_memos()
-    got = nearest_ways(graph, start, spots, 8)
-    same(got, every_way(GRAPH, start, spots, 8))
+    same(lazily(graph, start, spots, 8), every_way(GRAPH, start, spots, 8))
     assert len(graph._plain) == 16
+    # Asked for the first way only, the ring's spots alone are computed (each could be it).
+    graph = GRAPH.with_own_memos()
+    q, way = next(nearest_ways(graph, start, spots, 8, batch=1))
+    assert len(graph._plain) == 16
+    assert q == int(every_way(GRAPH, start, spots, 1)[0][0])
 
 
 def test_a_way_is_the_same_in_any_batch():
@@ -86,11 +98,13 @@ def test_clear_first_is_a_stable_sort_by_clash_read_lazily():
     rng = np.random.default_rng(3)
     for _ in range(50):
         clash = rng.random(int(rng.integers(0, 30))) < rng.random()
-        assert list(clear_first(iter(clash.tolist()))) == np.argsort(clash, kind="stable").tolist()
-    read = []
-    clashes = (read.append(q) or c for q, c in enumerate([True, False, True, False]))
-    assert next(clear_first(clashes)) == 1
-    assert read == [0, 1]  # the ways after the first clear one are not checked
+        got = [q for q, _ in clear_first(enumerate(clash.tolist()), lambda item: item[1])]
+        assert got == np.argsort(clash, kind="stable").tolist()
+    read, checked = [], []
+    items = (read.append(q) or q for q in range(4))
+    first = next(clear_first(items, lambda q: checked.append(q) or q in (0, 2)))
+    assert first == 1
+    assert read == checked == [0, 1]  # the ways after the first clear one are neither read nor checked
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.3, -1.2])

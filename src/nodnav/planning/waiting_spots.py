@@ -35,6 +35,8 @@ robot waits in a bay at a time.
 
 from __future__ import annotations
 
+import heapq
+from collections.abc import Iterator
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -123,42 +125,39 @@ def bay_spots(world: World, radius: float, clearance: float) -> np.ndarray:
     return out
 
 
-def nearest_ways(graph: VisibilityGraph, start: np.ndarray, spots: np.ndarray,
-                 count: int) -> tuple[np.ndarray, list[GeometricPath]]:
+def nearest_ways(graph: VisibilityGraph, start: np.ndarray, spots: np.ndarray, count: int,
+                 batch: int = 4) -> Iterator[tuple[int, GeometricPath]]:
     """The ``count`` shortest of ``graph``'s ways among the walls from ``start`` to ``spots``
-    ``(M, 2)``, shortest first, equal ones (and the failed ways, of infinite length) in the spots'
-    order, with the indices of their spots: what a stable sort of all ``M`` ways by length gives.
+    ``(M, 2)``, each with the index of its spot, shortest first, equal ones (and the failed ways,
+    of infinite length) in the spots' order: what a stable sort of all ``M`` ways by length gives.
 
-    No way is shorter than the straight line to its spot, so the ways are computed nearest spot
-    (in a straight line) first, in batches: first the ``count`` nearest spots and any as near as
-    the last of them, then every spot whose straight line is no longer than the ``count``-th
-    shortest way so far (less :data:`ROUNDING`), until there is none. A spot never computed is
-    strictly farther by way than ``count`` ways computed. A way does not depend on the batch it is
+    Computed as they are asked for: no way is shorter than the straight line to its spot, so the
+    ways are computed nearest spot (in a straight line) first, ``batch`` spots at a time (and any
+    as near as the last of them: a ring's spots), and the shortest way computed is the next one
+    once no spot left is as near in a straight line as it is long (less :data:`ROUNDING`); if
+    one is, every such spot's way is computed first. A way does not depend on the batch it is
     computed in (:meth:`~nodnav.planning.visibility.VisibilityGraph.shortest_paths` answers each
     query on its own, and remembers the answers)."""
     start = np.asarray(start, dtype=float)
     n = len(spots)
-    if n <= count:  # every way is kept: nothing to leave out
-        every = graph.shortest_paths(np.repeat(start[None], n, 0), spots)
-        near = np.argsort([w.length for w in every], kind="stable")
-        return near, [every[q] for q in near]
     dx, dy = spots[:, 0] - start[0], spots[:, 1] - start[1]
     straight = np.sqrt(dx * dx + dy * dy)  # a straight way's length, exactly
     by_line = np.argsort(straight, kind="stable")
     line = straight[by_line]
-    lengths = np.empty(n)
     ways: dict[int, GeometricPath] = {}
-    done, limit = 0, float(line[count - 1])
-    while True:
+    known: list[tuple[float, int]] = []  # (length, index) of the ways computed, not yet given
+    done = given = 0
+    while given < min(count, n):
+        # The spots that could come before the shortest way known (or, knowing none, the next batch).
+        limit = known[0][0] if known else float(line[min(done + batch, n) - 1])
         upto = int(np.searchsorted(line, limit * (1.0 + ROUNDING) + ROUNDING, side="right"))
-        if upto <= done:
-            break
-        batch = by_line[done:upto]
-        for q, way in zip(batch.tolist(), graph.shortest_paths(np.repeat(start[None], len(batch), 0), spots[batch])):
-            ways[q] = way
-            lengths[q] = way.length
-        done = upto
-        limit = float(np.partition(lengths[by_line[:done]], count - 1)[count - 1])
-    computed = np.sort(by_line[:done])
-    near = computed[np.argsort(lengths[computed], kind="stable")[:count]]
-    return near, [ways[q] for q in near]
+        if upto > done:
+            more = by_line[done:upto]
+            for q, way in zip(more.tolist(), graph.shortest_paths(np.repeat(start[None], len(more), 0), spots[more])):
+                ways[q] = way
+                heapq.heappush(known, (way.length, q))
+            done = upto
+            continue
+        q = heapq.heappop(known)[1]
+        given += 1
+        yield q, ways[q]

@@ -23,6 +23,9 @@ may wait (rings, the fine grid, bays, door zones) is :mod:`nodnav.planning.waiti
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Iterable, Iterator
+from itertools import islice
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
@@ -32,10 +35,30 @@ from nodnav.planning.fast_state import Attempt, FastPlannerHooks, Layout, Route,
 from nodnav.planning.occupancy import Motion
 from nodnav.planning.polylines import polyline_point_distance
 from nodnav.planning.timing import dash_clashes
-from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, ring_spots
+from nodnav.planning.waiting_spots import FINE_GRID, bay_spots, grid_spots, in_door_zone, nearest_ways, ring_spots
 from nodnav.scenario.world import World
 
+if TYPE_CHECKING:
+    from nodnav.planning.visibility import GeometricPath
+
 logger = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+
+def clear_first(items: Iterable[T], clashes: Callable[[T], bool]) -> Iterator[T]:
+    """``items``, those for which ``clashes`` is false first, then the others, each in order (a
+    stable sort by clash), each item read and checked only when it is needed: the ways a robot
+    can dash along without meeting anyone, nearest first, then the others; the first one tried
+    is taken most of the time, so the later ways are never computed nor their dashes checked."""
+    clashing = []
+    for item in items:
+        if clashes(item):
+            clashing.append(item)
+        else:
+            yield item
+    yield from clashing
+
 
 class MakingWay(FastPlannerHooks):
     """The fast planner's ways of making room (a mixin of
@@ -79,7 +102,7 @@ class MakingWay(FastPlannerHooks):
         door = dirs[blocker] != 0 and any(dirs[before] == -dirs[blocker] for before in [*layout.plans, planned])
         clear = [(state.natural[other], state.required[blocker, other]) for other in others
                  if other not in layout.heads]
-        way = next((w for w in self._waiting_spots(world, state, blocker, layout, others, clear, door)[1]
+        way = next((w for _, w in self._waiting_spots(world, state, blocker, layout, others, clear, door)[1]
                     if w.success), None)
         if way is None:
             return {}
@@ -105,7 +128,7 @@ class MakingWay(FastPlannerHooks):
         stand = np.array([self._start(state, other, layout) for other in [*pinned, *movable]])
         need = state.required[mover, [*pinned, *movable]]
         gap = np.linalg.norm(stand - state.positions[mover], axis=1)
-        for way in self._waiting_spots(world, state, mover, layout, others, keep(layout), door)[1]:
+        for _, way in self._waiting_spots(world, state, mover, layout, others, keep(layout), door)[1]:
             if way.success:
                 crossed = disc_violations(way.points, stand, need, gap, np.linalg.norm(stand - way.points[-1], axis=1))
                 if not crossed[:len(pinned)].any():
@@ -143,14 +166,16 @@ class MakingWay(FastPlannerHooks):
         return Attempt(False, reason)
 
     def _waiting_spots(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,
-                       door: bool, fine: bool = False) -> tuple[np.ndarray, list]:
-        """Spots robot ``mover`` could get out of the way to, and its ways there among the walls
-        alone, nearest first: spots that keep the required distance from where the robots
-        ``others`` stand, the given distance from the polylines ``clear`` (``(polyline,
-        distance)`` pairs), the required distance from every known motion, and, with ``door``,
-        out of its door zone. With ``fine``, the candidates are a grid of :data:`FINE_GRID` over the
-        whole world instead of the rings (the rings' directions are far apart at large radii, and
-        miss the narrow bands a crowded room leaves clear of everybody's way)."""
+                       door: bool, fine: bool = False) -> tuple[np.ndarray, Iterator[tuple[int, GeometricPath]]]:
+        """Spots robot ``mover`` could get out of the way to, and its ways to the ``3 *
+        retreat_tries`` nearest among the walls alone, nearest first, each with its spot's index,
+        computed as they are asked for (:func:`~nodnav.planning.waiting_spots.nearest_ways`).
+        The spots keep the required distance from where the robots ``others`` stand, the given
+        distance from the polylines ``clear`` (``(polyline, distance)`` pairs), the required
+        distance from every known motion, and, with ``door``, out of its door zone. With
+        ``fine``, the candidates are a grid of :data:`FINE_GRID` over the whole world instead of
+        the rings (the rings' directions are far apart at large radii, and miss the narrow bands
+        a crowded room leaves clear of everybody's way)."""
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
         graph = self.graph(world, radius)
         if fine:
@@ -170,11 +195,7 @@ class MakingWay(FastPlannerHooks):
         for before, motion in layout.fixed(mover):
             ok &= polyline_point_distance(motion.samples, spots) >= req[before, mover] - TOL
         spots = spots[ok]
-        if not len(spots):
-            return spots, []
-        ways = graph.shortest_paths(np.repeat(pos[None], len(spots), 0), spots)
-        near = np.argsort([w.length for w in ways], kind="stable")[:3 * self.params.retreat_tries]
-        return spots[near], [ways[q] for q in near]
+        return spots, nearest_ways(graph, pos, spots, 3 * self.params.retreat_tries)
 
     def _escape_motions(self, world: World, state: State, mover: int, layout: Layout, others: list, clear: list,
                         door: bool):
@@ -192,7 +213,7 @@ class MakingWay(FastPlannerHooks):
     def _escape_motions_to(self, world: World, state: State, mover: int, layout: Layout, others: list,
                            clear: list, door: bool, fine: bool):
         """:meth:`_escape_motions` among the candidate spots of one kind (rings, or the fine grid)."""
-        spots, ways = self._waiting_spots(world, state, mover, layout, others, clear, door, fine)
+        spots, near = self._waiting_spots(world, state, mover, layout, others, clear, door, fine)
         if not len(spots):
             return
         pos, req, radius = state.positions[mover], state.required, state.radii[mover]
@@ -203,10 +224,14 @@ class MakingWay(FastPlannerHooks):
         others_at = (np.stack([motion.samples[np.minimum(np.arange(horizon + 1), motion.last_step)]
                                for _, motion in fixed], axis=1) if fixed else np.zeros((horizon + 1, 0, 2)))
         need = req[[before for before, _ in fixed], mover]
-        clash = np.array([dash_clashes(w.points, step, others_at, need) if w.success else True for w in ways])
         stand = np.array([self._start(state, other, layout) for other in others]).reshape(-1, 2)
-        starts_inside = bool(world.in_corridor(pos))
-        for q in np.argsort(clash, kind="stable")[:self.params.retreat_tries]:
+        starts_inside = mover in state.inside_robots  # world.in_corridor(pos), computed with the state
+
+        def clashes(near_way: tuple[int, GeometricPath]) -> bool:
+            w = near_way[1]
+            return not w.success or dash_clashes(w.points, step, others_at, need)
+
+        for q, _ in islice(clear_first(near, clashes), self.params.retreat_tries):
             way = graph.shortest_path(pos, spots[q], stand, req[mover, others])
             if not way.success:
                 continue

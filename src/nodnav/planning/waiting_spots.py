@@ -11,7 +11,9 @@ them with its own rules (clear of the walls, of the passage, of the others and t
 * :func:`bay_spots`: one spot per bay beside the passage (below);
 * :func:`in_door_zone`: the door zone of an entrance, the disc of the planner's
   ``door_clearance`` around it (open: a point at exactly that distance is out of it). Robots
-  waiting for their turn wait out of it, so that the robot coming out has room.
+  waiting for their turn wait out of it, so that the robot coming out has room;
+* :func:`nearest_ways`: the ways to the spots that are shortest, found without computing the
+  ways to the spots far off.
 
 Bays (issue 19) are places beside a single-file passage where one robot fits off the line.
 
@@ -33,12 +35,18 @@ robot waits in a bay at a time.
 
 from __future__ import annotations
 
+import heapq
+from collections.abc import Iterator
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nodnav.geometry import TOL
 from nodnav.scenario.world import World
+
+if TYPE_CHECKING:
+    from nodnav.planning.visibility import GeometricPath, VisibilityGraph
 
 #: Spacing of the fine grid of waiting spots tried when no spot of the rings will do (m).
 FINE_GRID = 0.25
@@ -46,17 +54,29 @@ FINE_GRID = 0.25
 BAY_STEP = 0.05
 #: How far beside the line a bay spot may lie (m): deeper than this is a room, not a bay.
 BAY_DEPTH = 1.5
+#: How much shorter than the straight line a way's length may read from rounding, relative and
+#: absolute (m): far more than the few units in the last place a sum of a few segments can lose.
+ROUNDING = 1e-9
 
 
 def ring_spots(centre: np.ndarray, radii: tuple[float, ...], directions: int, turn: float = 0.0) -> np.ndarray:
     """Candidate spots: rings of ``radii`` (m) around ``centre`` with ``directions`` spots each,
     nearest ring first, the first of each ring at angle ``turn`` (rad; the passage's,
     :attr:`Passage.angle`), ``(M, 2)``."""
+    ring = unit_ring(directions, turn)
+    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+
+
+@lru_cache(maxsize=16)
+def unit_ring(directions: int, turn: float = 0.0) -> np.ndarray:
+    """``directions`` unit vectors evenly around the circle, the first at angle ``turn`` (rad),
+    ``(directions, 2)`` (remembered, read-only: every ring of a planner has the same few)."""
     angles = 2.0 * np.pi * np.arange(directions) / directions
     if turn:
         angles = angles + turn
     ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return (np.asarray(centre, dtype=float)[None, None] + np.asarray(radii)[:, None, None] * ring[None]).reshape(-1, 2)
+    ring.setflags(write=False)
+    return ring
 
 
 def grid_spots(world: World, step: float = FINE_GRID) -> np.ndarray:
@@ -103,3 +123,41 @@ def bay_spots(world: World, radius: float, clearance: float) -> np.ndarray:
     out = np.array(spots).reshape(-1, 2)
     out.setflags(write=False)  # remembered: shared by every caller
     return out
+
+
+def nearest_ways(graph: VisibilityGraph, start: np.ndarray, spots: np.ndarray, count: int,
+                 batch: int = 4) -> Iterator[tuple[int, GeometricPath]]:
+    """The ``count`` shortest of ``graph``'s ways among the walls from ``start`` to ``spots``
+    ``(M, 2)``, each with the index of its spot, shortest first, equal ones (and the failed ways,
+    of infinite length) in the spots' order: what a stable sort of all ``M`` ways by length gives.
+
+    Computed as they are asked for: no way is shorter than the straight line to its spot, so the
+    ways are computed nearest spot (in a straight line) first, ``batch`` spots at a time (and any
+    as near as the last of them: a ring's spots), and the shortest way computed is the next one
+    once no spot left is as near in a straight line as it is long (less :data:`ROUNDING`); if
+    one is, every such spot's way is computed first. A way does not depend on the batch it is
+    computed in (:meth:`~nodnav.planning.visibility.VisibilityGraph.shortest_paths` answers each
+    query on its own, and remembers the answers)."""
+    start = np.asarray(start, dtype=float)
+    n = len(spots)
+    dx, dy = spots[:, 0] - start[0], spots[:, 1] - start[1]
+    straight = np.sqrt(dx * dx + dy * dy)  # a straight way's length, exactly
+    by_line = np.argsort(straight, kind="stable")
+    line = straight[by_line]
+    ways: dict[int, GeometricPath] = {}
+    known: list[tuple[float, int]] = []  # (length, index) of the ways computed, not yet given
+    done = given = 0
+    while given < min(count, n):
+        # The spots that could come before the shortest way known (or, knowing none, the next batch).
+        limit = known[0][0] if known else float(line[min(done + batch, n) - 1])
+        upto = int(np.searchsorted(line, limit * (1.0 + ROUNDING) + ROUNDING, side="right"))
+        if upto > done:
+            more = by_line[done:upto]
+            for q, way in zip(more.tolist(), graph.shortest_paths(np.repeat(start[None], len(more), 0), spots[more])):
+                ways[q] = way
+                heapq.heappush(known, (way.length, q))
+            done = upto
+            continue
+        q = heapq.heappop(known)[1]
+        given += 1
+        yield q, ways[q]

@@ -27,6 +27,7 @@ import importlib.metadata
 import logging
 
 import daqp
+import numba
 import numpy as np
 from llvmlite import ir
 from numba import types
@@ -83,7 +84,8 @@ def layout_verified(version: str) -> bool:
 @functools.cache
 def quadprog_address() -> int | None:
     """The address of the installed ``daqp`` extension's ``daqp_quadprog``, or None (logged
-    once) if its version's layouts are not verified or the symbol cannot be loaded."""
+    once) if its version's layouts are not verified, numba's JIT is disabled or the symbol cannot be
+    loaded."""
     try:
         version = importlib.metadata.version("daqp")
     except importlib.metadata.PackageNotFoundError:
@@ -91,6 +93,9 @@ def quadprog_address() -> int | None:
     if not layout_verified(version):
         _log.warning("DAQP %s is not %s, whose struct layouts daqp_native verified: using daqp.solve",
                      version, VERIFIED_VERSION)
+        return None
+    if numba.config.DISABLE_JIT:  # the kernel's call is LLVM code, which plain Python cannot run
+        _log.warning("numba's JIT is disabled: using daqp.solve")
         return None
     try:
         function = ctypes.CDLL(daqp.__file__).daqp_quadprog

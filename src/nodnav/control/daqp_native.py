@@ -94,7 +94,7 @@ def quadprog_address() -> int | None:
         _log.warning("DAQP %s is not %s, whose struct layouts daqp_native verified: using daqp.solve",
                      version, VERIFIED_VERSION)
         return None
-    if numba.config.DISABLE_JIT:  # the kernel's call is LLVM code, which plain Python cannot run
+    if getattr(numba.config, "DISABLE_JIT", False):  # the kernel's call is LLVM code, which plain Python cannot run
         _log.warning("numba's JIT is disabled: using daqp.solve")
         return None
     try:

@@ -25,6 +25,7 @@ import ctypes
 import functools
 import importlib.metadata
 import logging
+import sys
 
 import daqp
 import numba
@@ -84,8 +85,8 @@ def layout_verified(version: str) -> bool:
 @functools.cache
 def quadprog_address() -> int | None:
     """The address of the installed ``daqp`` extension's ``daqp_quadprog``, or None (logged
-    once) if its version's layouts are not verified, numba's JIT is disabled or the symbol cannot be
-    loaded."""
+    once) if its version's layouts are not verified, the platform is not 64-bit little-endian,
+    numba's JIT is disabled or the symbol cannot be loaded (a build that does not export it)."""
     try:
         version = importlib.metadata.version("daqp")
     except importlib.metadata.PackageNotFoundError:
@@ -93,6 +94,9 @@ def quadprog_address() -> int | None:
     if not layout_verified(version):
         _log.warning("DAQP %s is not %s, whose struct layouts daqp_native verified: using daqp.solve",
                      version, VERIFIED_VERSION)
+        return None
+    if ctypes.sizeof(ctypes.c_void_p) != 8 or sys.byteorder != "little":  # the kernel writes 64-bit little-endian words
+        _log.warning("daqp_native writes DAQP's structs as 64-bit little-endian words: using daqp.solve")
         return None
     if getattr(numba.config, "DISABLE_JIT", False):  # the kernel's call is LLVM code, which plain Python cannot run
         _log.warning("numba's JIT is disabled: using daqp.solve")

@@ -203,6 +203,7 @@ def test_infeasibility_certificate_without_daqp_falls_back_to_highs(monkeypatch)
         return np.zeros(3), 0.0, -4, {"lam": np.zeros(6), "iterations": 0}
 
     monkeypatch.setattr(qp.daqp, "solve", not_converged)
+    monkeypatch.setattr(qp, "NATIVE_DAQP", False)  # through daqp.solve, the one replaced
     rows = np.array([[0.0, 1.0], [1.0, 0.0], [-1.0, -1.0], [0.0, 1.0], [-1.0, 0.0]])
     lower = np.array([-5.0, 1.0, 0.0, 0.0, -np.inf])
     np.testing.assert_array_equal(qp.infeasibility_certificate(rows, lower), [1, 2, 3])

@@ -117,6 +117,7 @@ def test_least_relaxation_hands_daqp_the_plain_constructions_lp(monkeypatch):
             return solve(*args, **kw)
 
     monkeypatch.setattr(qp, "daqp", Recording)
+    monkeypatch.setattr(qp, "NATIVE_DAQP", False)  # through daqp.solve, to see what it is handed
     rng = np.random.default_rng(3)
     for trial in range(12):
         rows, lower = _random_system(rng, [0.0, 0.3][trial % 2])

@@ -28,6 +28,7 @@ import numpy as np
 from scipy.optimize import linprog
 
 from nodnav.compiled import compiled
+from nodnav.control import daqp_native
 
 _DAQP_REASONS = {-1: "infeasible", -2: "cycling", -3: "unbounded", -4: "iteration limit", -5: "not convex",
                  -6: "overdetermined start", -7: "time limit", -8: "unsupported"}
@@ -88,15 +89,39 @@ def solve_qp(hessian: np.ndarray, gradient: np.ndarray, rows: np.ndarray, lower:
     a = rows if _plain(rows) else np.ascontiguousarray(rows, dtype=float)
     # The cold flags only when they are used: without a start, or again after a failed warm one.
     sense = warm if warm is not None else cold_flags(start_active, len(lower))
-    x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, sense, primal_tol=tol)
-    iterations = int(info["iterations"])
+    x, flag, iterations, lam = _daqp(h, g, a, low, sense, primal_tol=tol)
     if warm is not None and flag not in (1, -1):
-        x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, cold_flags(start_active, len(lower)),
-                                      primal_tol=tol)
-        iterations += int(info["iterations"])
+        x, flag, more, lam = _daqp(h, g, a, low, cold_flags(start_active, len(lower)), primal_tol=tol)
+        iterations += more
     if flag == 1:
-        return QPSolution(True, "", x, iterations, info["lam"])
-    return QPSolution(False, _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"), x, iterations, info["lam"])
+        return QPSolution(True, "", x, iterations, lam)
+    return QPSolution(False, _DAQP_REASONS.get(flag, f"DAQP exit flag {flag}"), x, iterations, lam)
+
+
+#: Whether :func:`solve_qp` and :func:`least_relaxation` call DAQP's C solver directly
+#: (:mod:`nodnav.control.daqp_native`, where the installed DAQP's struct layouts are verified)
+#: rather than through ``daqp.solve``: the same solver, settings and data, so the same bits
+#: (tests/control/test_daqp_native.py), without the wrapper's Python around each call.
+NATIVE_DAQP = True
+
+
+def _daqp(h: np.ndarray, g: np.ndarray, a: np.ndarray, low: np.ndarray, sense: np.ndarray | None,
+          primal_tol: float | None = None, eps_prox: float | None = None) -> tuple[np.ndarray, int, int, np.ndarray]:
+    """DAQP on ``h, g, a`` (C-contiguous float64) with lower bounds ``low`` (simple bounds first),
+    no upper ones, the constraint flags ``sense`` (None: all 0) and the settings ``primal_tol`` and
+    ``eps_prox`` (None: DAQP's default): ``x``, the exit flag, the iterations and the multipliers,
+    as ``daqp.solve`` returns them (the multipliers unspecified unless the flag is 1: DAQP leaves
+    them unwritten)."""
+    address = daqp_native.quadprog_address() if NATIVE_DAQP else None
+    if address is None:
+        settings = {k: v for k, v in (("primal_tol", primal_tol), ("eps_prox", eps_prox)) if v is not None}
+        x, _, flag, info = daqp.solve(h, g, a, _no_upper(len(low)), low, sense, **settings)
+        return x, flag, int(info["iterations"]), info["lam"]
+    if sense is None:
+        sense = _zero_flags(len(low))
+    x, lam, _, flag, iterations, _, _, _ = daqp_native.quadprog_kernel(
+        address, h, g, a, _no_upper(len(low)), low, sense, daqp_native.settings_for(primal_tol, eps_prox))
+    return x, flag, iterations, lam
 
 
 def cold_flags(start_active: np.ndarray | None, n_rows: int) -> np.ndarray | None:
@@ -157,6 +182,18 @@ _UPPER: dict[int, np.ndarray] = {}
 
 #: How many kinds of QP a :class:`SolverEffort`'s ``starts`` remembers (the oldest goes first).
 MAX_STARTS = 16
+
+
+_ZERO_FLAGS: dict[int, np.ndarray] = {}
+
+
+def _zero_flags(n: int) -> np.ndarray:
+    """DAQP's flags of ``n`` inactive inequalities (what ``daqp.solve`` passes for no flags; one
+    array per size, never written: ``daqp_quadprog`` copies the flags into its workspace)."""
+    flags = _ZERO_FLAGS.get(n)
+    if flags is None:
+        flags = _ZERO_FLAGS[n] = np.zeros(n, dtype=np.intc)
+    return flags
 
 
 def _no_upper(n: int) -> np.ndarray:
@@ -233,12 +270,12 @@ def least_relaxation(rows: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, f
     m = relaxed_rows(rows, lower, relaxed, low, finite)
     relaxed, low, finite = relaxed[:m], low[:m + 1], finite[:m]
     hessian, cost = _lp_objective(n + 1)
-    tx, _, flag, info = daqp.solve(hessian, cost, relaxed, _no_upper(m + 1), low, None, eps_prox=1.0)
+    tx, flag, _, lam = _daqp(hessian, cost, relaxed, low, None, eps_prox=1.0)
     if flag == 1:
         if tx[0] <= 0.0:
             return np.zeros(0, dtype=int), 0.0
         # DAQP's multipliers of active lower bounds are negative.
-        return finite[-np.asarray(info["lam"])[1:] > 1e-12], float(tx[0])
+        return finite[-np.asarray(lam)[1:] > 1e-12], float(tx[0])
     a, b = rows[finite], lower[finite]
     res = linprog(-b, A_eq=np.vstack([a.T, np.ones(len(finite))]), b_eq=np.append(np.zeros(n), 1.0),
                   bounds=(0.0, None), method="highs")

@@ -161,17 +161,11 @@ def quadprog_kernel(address, h, f, a, bupper, blower, sense, settings):
     return x, lam, reals[2], exitflag, iterations, nodes, reals[6], reals[7]
 
 
-_SETTINGS: dict[tuple[float | None, float | None], np.ndarray] = {}
-
-
+@functools.cache
 def settings_for(primal_tol: float | None, eps_prox: float | None) -> np.ndarray:
-    """:func:`settings_block`, one per pair of values (None: the default; never written)."""
-    key = (primal_tol, eps_prox)
-    block = _SETTINGS.get(key)
-    if block is None:
-        block = _SETTINGS[key] = settings_block(DEFAULT_PRIMAL_TOL if primal_tol is None else primal_tol,
-                                                DEFAULT_EPS_PROX if eps_prox is None else eps_prox)
-    return block
+    """:func:`settings_block`, one per pair of values (None: the default; read-only, remembered)."""
+    return settings_block(DEFAULT_PRIMAL_TOL if primal_tol is None else primal_tol,
+                          DEFAULT_EPS_PROX if eps_prox is None else eps_prox)
 
 
 def quadprog(H: np.ndarray, f: np.ndarray, A: np.ndarray, bupper: np.ndarray, blower: np.ndarray | None = None,
